@@ -1,0 +1,113 @@
+#pragma once
+/// \file
+/// Refinement (§3): an operation's DAG as the policy sees it. Coarse: one unit per node
+/// (encoder + head run back to back). Fine: every inference node v becomes e_v (encoder on
+/// v's frame, always a source) and d_v (its head). Mono: the whole job as one unit.
+/// Also the static part of §4: heights, level costs and static intermediate deadlines,
+/// computed once per graph version and cached.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "red/core/time.hpp"
+#include "red/profile/profile.hpp"
+#include "red/scenario/scenario.hpp"
+
+namespace red {
+
+/// How an operation's nodes become schedulable units.
+enum class GraphMode : std::uint8_t { Coarse, Fine, Mono };
+
+/// How a job's end-to-end deadline becomes intermediate deadlines (§4, §7).
+enum class DeadlineMode : std::uint8_t {
+  None,          ///< no deadlines: release order (fifo)
+  EndToEnd,      ///< every unit gets the job's end-to-end deadline (coarse edf)
+  Proportional,  ///< D_h proportional to level cost L_h (the paper's rule)
+  Equal,         ///< D_h = D / (K + 1)
+};
+
+/// What a unit runs.
+enum class UnitKind : std::uint8_t {
+  Encoder,  ///< the shared encoder on one frame (fine graph)
+  Head,     ///< one head on encoder features (fine graph)
+  Coarse,   ///< encoder then head, one node (coarse graph)
+  Mono,     ///< the encoder once per sensor and every head the job needs, one unit
+  Plain,    ///< a plain compute node with its own cost
+};
+
+const char* to_string(UnitKind k) noexcept;
+const char* to_string(GraphMode m) noexcept;
+const char* to_string(DeadlineMode m) noexcept;
+
+/// One schedulable unit of a refined graph.
+struct RefinedUnit {
+  UnitKind kind = UnitKind::Plain;
+  int node = -1;    ///< the node it belongs to (-1 for Mono)
+  int head = -1;    ///< model head (Head, Coarse), else -1
+  int sensor = -1;  ///< sensor whose frame it reads (Encoder, Head, Coarse), else -1
+  std::vector<int> preds;
+  std::vector<int> succs;
+  int height = 0;
+  Duration estimate{0};       ///< c(x) under the scheduler's EstimateKind
+  std::vector<int> produces;  ///< nodes whose output this unit produces (empty: Encoder)
+};
+
+/// An operation's graph after refinement, with cached static deadline data.
+struct RefinedGraph {
+  GraphMode mode = GraphMode::Coarse;
+  std::shared_ptr<const OperationSpec> spec;
+  int operation = -1;
+  std::vector<RefinedUnit> units;    ///< topological order: preds before succs
+  int levels = 0;                    ///< K + 1
+  std::vector<Duration> level_cost;  ///< static L_h
+  /// Weight of height h in proportional (re-)assignment: L_h, or the per-node override
+  /// when a node at that height has one (§4 overrides).
+  std::vector<Duration> override_budget;  ///< per height; 0 = none
+  /// Static relative intermediate deadline of height h: Σ_{k ≤ h} D_k.
+  std::vector<Duration> static_offset;
+  Duration deadline{0};           ///< relative end-to-end deadline D (resolved)
+  Duration critical_path{0};      ///< longest estimated path through the units
+  std::vector<int> sources;       ///< units without predecessors
+  std::vector<int> head_sources;  ///< non-encoder units whose only preds are encoders
+  /// Number of distinct sensors read (for Mono cost).
+  std::vector<int> sensors;
+};
+
+/// Cost model used by refinement: unit estimates from a profile.
+struct CostModel {
+  const Profile* profile = nullptr;
+  const ModelSpec* model = nullptr;
+  EstimateKind estimate = EstimateKind::P99;
+
+  [[nodiscard]] Duration encoder() const;
+  [[nodiscard]] Duration head(int h) const;
+  [[nodiscard]] static Duration plain(const PlainCost& c, EstimateKind k);
+};
+
+/// Options of refinement and static assignment.
+struct RefineOptions {
+  GraphMode mode = GraphMode::Fine;
+  DeadlineMode deadlines = DeadlineMode::Proportional;
+  LevelCost level_cost = LevelCost::Max;
+};
+
+/// The coarse critical path of an operation under a cost model (used to resolve
+/// `deadline_ms: {critical_path_x: k}`).
+Duration coarse_critical_path(const OperationSpec& op, const CostModel& costs);
+
+/// Resolves an operation's relative end-to-end deadline.
+Duration resolve_deadline(const OperationSpec& op, const CostModel& costs);
+
+/// Refines one operation snapshot (§3) and computes heights and static deadlines (§4).
+std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> op, int operation,
+                                           const CostModel& costs, const RefineOptions& opt);
+
+/// Static proportional/equal split of `budget` over heights with weights `weights`
+/// (zero-weight heights get nothing under Proportional unless all are zero).
+/// Returns cumulative offsets (size = weights.size()).
+std::vector<Duration> split_budget(Duration budget, const std::vector<Duration>& weights,
+                                   DeadlineMode mode);
+
+}  // namespace red

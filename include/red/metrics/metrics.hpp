@@ -1,0 +1,109 @@
+#pragma once
+/// \file
+/// Metrics (§10), collected by an observer of the scheduler: per-job records, per-unit
+/// records, and the summary of one policy's run. The warm-up window is excluded.
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "red/scenario/scenario.hpp"
+#include "red/sched/observer.hpp"
+#include "red/sched/scheduler.hpp"
+
+namespace red {
+
+/// One row of jobs.csv.
+struct JobRow {
+  int operation = -1;
+  std::uint64_t seq = 0;
+  JobId id = 0;
+  TimePoint release{0};
+  TimePoint finish{0};
+  TimePoint deadline{0};
+  JobOutcome outcome = JobOutcome::Unfinished;
+  double qoe = 0.0;
+  Duration frame_age{0};
+  std::string reason;
+};
+
+/// One row of units.csv: a unit execution (merged or batched).
+struct UnitRow {
+  std::uint64_t dispatch = 0;
+  int lane = 0;
+  TimePoint decided{0};
+  TimePoint start{0};
+  TimePoint end{0};
+  UnitKind kind = UnitKind::Plain;
+  int head = -1;
+  int batch = 1;
+  int members = 1;
+  bool round_trip = true;
+  UnitStatus status = UnitStatus::Completed;
+  std::string jobs;  ///< "op#seq:node ..." of every member
+};
+
+/// Latency figures in milliseconds.
+struct LatencySummary {
+  double mean = 0, p50 = 0, p90 = 0, p99 = 0, max = 0;
+};
+
+/// The summary of one policy's run (one entry of summary.json).
+struct PolicyMetrics {
+  std::string name;
+  std::int64_t jobs = 0;  ///< released after warm-up
+  std::int64_t completed = 0, met = 0, missed = 0, dropped = 0, skipped = 0, failed = 0,
+               unfinished = 0;
+  double miss_rate = 0, drop_rate = 0, qoe = 0;
+  LatencySummary latency;
+  std::int64_t encoder_runs = 0, encoder_runs_saved = 0;
+  std::int64_t sync_round_trips = 0, dispatches = 0, merge_waits = 0;
+  std::map<int, std::int64_t> batch_sizes;  ///< batch size -> dispatches
+  std::vector<double> lane_utilization;
+  std::map<std::string, double> throughput_hz;  ///< outputs per second, per head
+  double frame_age_mean_ms = 0, frame_age_p99_ms = 0;
+  double measured_s = 0;  ///< length of the measured window (after warm-up)
+  /// Ratios vs the baseline (§12): miss_rate, latency_mean, qoe; absent without baseline.
+  std::optional<double> ratio_miss, ratio_latency, ratio_qoe;
+  /// Runtime only: measured scheduler decision time (μs): p50, p99.
+  std::optional<double> decision_p50_us, decision_p99_us;
+};
+
+/// QoE of one completed job (§10, the paper's Eq. 1): 1 / (1 + e^λ · max(0, R − D)), R and
+/// D in seconds.
+double qoe_score(Duration response, Duration deadline, double lambda);
+
+/// Collects job and unit records. Attach before the run; summarize after it.
+class MetricsCollector final : public Observer {
+ public:
+  MetricsCollector(const Scenario& s, double qoe_lambda, bool keep_units = true);
+
+  void on_job_end(const JobRecord& j) override;
+  void on_unit_start(const Dispatch& d) override;
+  void on_unit_end(const Dispatch& d, TimePoint end, UnitStatus s) override;
+
+  /// Summary of the run that ended at `end`.
+  [[nodiscard]] PolicyMetrics summarize(const std::string& name, TimePoint end,
+                                        const SchedulerStats& stats) const;
+  [[nodiscard]] const std::vector<JobRow>& jobs() const noexcept { return jobs_; }
+  [[nodiscard]] const std::vector<UnitRow>& units() const noexcept { return units_; }
+
+ private:
+  const Scenario& scenario_;
+  double lambda_;
+  bool keep_units_;
+  std::vector<JobRow> jobs_;
+  std::vector<UnitRow> units_;
+  std::vector<Duration> busy_;  // per lane, after warm-up
+  std::int64_t encoder_runs_ = 0, encoder_saved_ = 0, round_trips_ = 0, dispatches_ = 0;
+  std::map<int, std::int64_t> batches_;
+  std::vector<std::int64_t> head_outputs_;
+  std::vector<TimePoint> started_;  // per lane: start of the running unit
+};
+
+/// Fills ratio_* of every entry against the entry named `baseline` (if present).
+void apply_ratios(std::vector<PolicyMetrics>& all, const std::string& baseline);
+
+}  // namespace red

@@ -1,0 +1,87 @@
+#pragma once
+/// \file
+/// Execution-time profiles (§8): per unit and batch size, the measured latency
+/// distribution. The simulator samples from it; the scheduler's deadline arithmetic uses
+/// one statistic of it (EstimateKind). One JSON file with a schema version carries it.
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "red/core/expected.hpp"
+#include "red/core/time.hpp"
+#include "red/scenario/scenario.hpp"
+
+namespace red {
+
+/// Latency distribution of one unit at one batch size.
+struct LatencyStats {
+  Duration min{0};
+  Duration mean{0};
+  Duration p50{0};
+  Duration p95{0};
+  Duration p99{0};
+  Duration max{0};
+  int samples = 0;  ///< timed runs behind the figures (0 for the built-in default)
+
+  /// The statistic that stands for the cost.
+  [[nodiscard]] Duration estimate(EstimateKind k) const noexcept;
+  /// Inverse CDF through the knots (0: min, .5: p50, .95: p95, .99: p99, 1: max), linear
+  /// between knots; u in [0, 1). Deterministic for a given u.
+  [[nodiscard]] Duration quantile(double u) const noexcept;
+};
+
+/// All batch sizes of one unit; by_batch[b - 1] is batch size b.
+struct UnitProfile {
+  std::vector<LatencyStats> by_batch;
+
+  [[nodiscard]] int max_batch() const noexcept { return static_cast<int>(by_batch.size()); }
+  /// Stats at batch b, clamped to the largest measured size.
+  [[nodiscard]] const LatencyStats& at(int batch) const noexcept;
+};
+
+/// Memory figures of a model (bytes).
+struct MemoryStats {
+  std::int64_t parameter_bytes = 0;
+  std::int64_t peak_activation_bytes = 0;
+  std::int64_t resident_bytes = 0;
+};
+
+/// A profile: unit names are `encoder`, `head/<name>` (a head of the shared model),
+/// `coarse/<name>` (encoder + head run back to back) and `separate/<name>` (a full
+/// separate network, §9 separate mode).
+struct Profile {
+  static constexpr int kSchema = 1;
+
+  std::string source;  ///< "builtin-default" or "measured"
+  std::string device;  ///< e.g. "cpu (2 threads)"
+  std::string model;   ///< e.g. "mimonet [3,192,384]"
+  std::map<std::string, UnitProfile> units;
+  Duration sync_round_trip{std::chrono::microseconds{50}};  ///< one synchronizer round trip
+  std::optional<MemoryStats> shared_memory;                 ///< shared MIMONet
+  std::optional<MemoryStats> separate_memory;               ///< four separate networks
+  double profile_wall_s = 0.0;                              ///< how long `red profile` took
+
+  /// The unit named `name`, or nullptr.
+  [[nodiscard]] const UnitProfile* find(const std::string& name) const noexcept;
+};
+
+/// The profile used when a scenario names none and no measurement exists: the one place
+/// where the default unit costs live (see docs/SCENARIOS.md, "Default profile").
+Profile default_profile();
+
+/// Reads a profile JSON file; errors name the file and the problem.
+Expected<Profile> load_profile(const std::string& path);
+
+/// Parses profile JSON text; `file` labels messages.
+Expected<Profile> parse_profile(const std::string& text, const std::string& file);
+
+/// Serializes a profile as JSON (the same schema load_profile reads).
+std::string profile_to_json(const Profile& p);
+
+/// Checks that a profile covers what a scenario needs (encoder and every head it uses).
+std::optional<Error> check_profile_covers(const Profile& p, const Scenario& s);
+
+}  // namespace red

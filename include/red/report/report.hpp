@@ -1,0 +1,51 @@
+#pragma once
+/// \file
+/// Writing results: summary.json (schema of §12), jobs.csv, units.csv, and the
+/// paper-style comparison table for the terminal.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "red/core/expected.hpp"
+#include "red/metrics/metrics.hpp"
+#include "red/scenario/scenario.hpp"
+
+namespace red {
+
+/// What a summary file describes besides the policies.
+struct SummaryHeader {
+  std::string scenario;
+  std::string backend = "sim";  ///< "sim" or "torch"
+  std::string baseline = "edf";
+  std::uint64_t seed = 1;
+  std::string profile_source;  ///< "builtin-default", "measured" or a path
+};
+
+/// summary.json text: deterministic for the same inputs (byte-identical).
+std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics>& policies);
+
+/// Rows of one policy's run, for the CSV writers.
+template <typename Row>
+struct PolicyRows {
+  std::string policy;
+  const std::vector<Row>* rows = nullptr;
+};
+
+/// jobs.csv text: policy, operation, job, release_ms, finish_ms, deadline_ms, outcome,
+/// response_ms, qoe, frame_age_ms, reason (docs/REPORTS.md).
+std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& runs);
+
+/// units.csv text: one row per unit execution (docs/REPORTS.md).
+std::string units_csv(const Scenario& s, const std::vector<PolicyRows<UnitRow>>& runs);
+
+/// The comparison table: policy, jobs, miss rate, drop rate, mean and p99 latency, QoE,
+/// encoder runs, and ratios vs the baseline.
+std::string comparison_table(const std::vector<PolicyMetrics>& policies,
+                             const std::string& baseline);
+
+/// Writes `text` to `dir/name`, creating `dir`. Error names the path.
+std::optional<Error> write_file(const std::string& dir, const std::string& name,
+                                const std::string& text);
+
+}  // namespace red

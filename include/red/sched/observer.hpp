@@ -1,0 +1,101 @@
+#pragma once
+/// \file
+/// Observers of the scheduler (as taskflow's ObserverInterface): metrics, traces and tests
+/// watch what happens without living inside the scheduler. Callbacks run on the scheduler's
+/// thread, synchronously; they must not call back into the scheduler.
+
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include "red/core/time.hpp"
+#include "red/graph/refine.hpp"
+
+namespace red {
+
+using JobId = std::uint64_t;
+
+/// How a job ended (§5, §10).
+enum class JobOutcome : std::uint8_t {
+  Met,         ///< completed by its deadline
+  Missed,      ///< completed after its deadline
+  Dropped,     ///< aborted: deadline passed (strict) or hopeless
+  Skipped,     ///< never started: max_inflight reached at release (counted as dropped)
+  Failed,      ///< a unit failed (exception, out of memory); counted as dropped
+  Unfinished,  ///< still in flight when the run ended
+};
+
+const char* to_string(JobOutcome o) noexcept;
+
+/// How a unit execution ended (the handler's terminal states, §6).
+enum class UnitStatus : std::uint8_t { Completed, Failed, OutOfMemory, Cancelled };
+
+const char* to_string(UnitStatus s) noexcept;
+
+/// One job, as reported to observers.
+struct JobRecord {
+  JobId id = 0;
+  int operation = -1;
+  std::uint64_t seq = 0;  ///< release index within its operation
+  TimePoint release{0};
+  TimePoint deadline{0};  ///< absolute end-to-end deadline
+  TimePoint finish{0};    ///< completion or abort time (Unfinished: end of run)
+  JobOutcome outcome = JobOutcome::Unfinished;
+  bool counted = true;      ///< released after the warm-up window
+  Duration frame_age{0};    ///< finish − timestamp of the oldest frame its outputs used
+  std::string_view reason;  ///< for Failed: what failed
+  const RefinedGraph* graph = nullptr;
+};
+
+/// One (job, unit) covered by a dispatch.
+struct Member {
+  JobId job = 0;
+  int slot = -1;
+  int unit = -1;  ///< index into the job's RefinedGraph::units
+  int operation = -1;
+  int node = -1;
+  std::uint64_t job_seq = 0;
+  std::uint64_t frame = 0;  ///< frame id the unit reads (Encoder/Head/Coarse)
+  TimePoint frame_time{0};
+  TimePoint release{0};
+  const RefinedGraph* graph = nullptr;
+};
+
+/// A unit execution (possibly merged or batched) assigned to one lane.
+struct Dispatch {
+  std::uint64_t id = 0;
+  int lane = 0;
+  UnitKind kind = UnitKind::Plain;
+  int head = -1;
+  int sensor = -1;
+  int batch = 1;  ///< number of tasks run as one batch (distinct frames or jobs)
+  /// Members, task by task; task_begin[i]..task_begin[i+1] are task i's members.
+  std::vector<Member> members;
+  std::vector<int> task_begin;
+  TimePoint deadline{0};  ///< min deadline of the members (merged/batch deadline)
+  TimePoint decided_at{0};
+  bool round_trip = true;  ///< needed a round trip to the global synchronizer
+  TimePoint start{0};      ///< set by the executor (after the round trip)
+};
+
+/// Observer interface. Every callback has an empty default.
+class Observer {
+ public:
+  Observer() = default;
+  Observer(const Observer&) = default;
+  Observer& operator=(const Observer&) = default;
+  virtual ~Observer() = default;
+
+  virtual void on_job_release(const JobRecord& /*job*/) {}
+  virtual void on_job_end(const JobRecord& /*job*/) {}
+  /// A dispatch was decided; `d.start` is when its unit begins.
+  virtual void on_unit_start(const Dispatch& /*d*/) {}
+  virtual void on_unit_end(const Dispatch& /*d*/, TimePoint /*end*/, UnitStatus /*s*/) {}
+  /// An encoder run waits for a predicted member until `until` (DynamicMerge, §3).
+  virtual void on_merge_wait(int /*sensor*/, TimePoint /*now*/, TimePoint /*until*/) {}
+  virtual void on_workload_event(int /*index*/, TimePoint /*at*/) {}
+  /// After each dispatch round: ready tasks left, idle lanes left, tasks in a merge wait.
+  virtual void on_decision(TimePoint /*now*/, int /*ready*/, int /*idle_lanes*/, int /*waiting*/) {}
+};
+
+}  // namespace red

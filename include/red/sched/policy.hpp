@@ -1,0 +1,133 @@
+#pragma once
+/// \file
+/// Scheduling policies (§7). A policy is small: it names the combination of mechanisms it
+/// uses (PolicyOptions) and ranks ready tasks; the Scheduler does the bookkeeping. The
+/// same policy object drives the simulator and the real runtime, and never reads a clock.
+///
+///     auto p = make_policy("red");          // a preset
+///     Scheduler s(scenario, profile, std::move(p), {});
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "red/core/time.hpp"
+#include "red/graph/refine.hpp"
+
+namespace red {
+
+/// How handlers synchronize with the global synchronizer (§6).
+enum class SyncMode : std::uint8_t {
+  PerEdge,   ///< one round trip after every completed unit
+  OnDemand,  ///< back-to-back runs; a round trip only when the run breaks
+};
+
+/// What happens to late jobs (§5).
+enum class DropMode : std::uint8_t {
+  None,      ///< late jobs run to completion (soft real time)
+  Strict,    ///< abort a job once its end-to-end deadline has passed
+  Hopeless,  ///< also abort at dispatch when now + remaining critical path > deadline
+};
+
+const char* to_string(SyncMode m) noexcept;
+const char* to_string(DropMode m) noexcept;
+
+/// The mechanisms a policy combines; every column of §7's table is one field.
+struct PolicyOptions {
+  GraphMode graph = GraphMode::Fine;
+  DeadlineMode deadlines = DeadlineMode::Proportional;
+  bool reassign = false;  ///< §4 re-assignment at every scheduling point
+  bool merge = false;     ///< DynamicMerge(γ) of encoder runs (§3)
+  bool batching = false;  ///< inter-DAG batching (§3)
+  SyncMode sync = SyncMode::PerEdge;
+  DropMode drop = DropMode::Strict;
+};
+
+/// What a policy sees of a ready task when ranking it.
+struct TaskView {
+  TimePoint deadline{0};      ///< min intermediate deadline of its members (per options)
+  TimePoint release{0};       ///< earliest release among member jobs
+  TimePoint job_deadline{0};  ///< earliest end-to-end deadline among member jobs
+  Duration remaining{0};      ///< largest remaining critical-path estimate of member jobs
+  Duration cost{0};           ///< estimated cost of the task itself
+  int criticality = 0;        ///< highest criticality among member operations
+};
+
+/// A scheduling policy. Implementations must be deterministic and allocation-free in rank().
+class Policy {
+ public:
+  Policy() = default;
+  Policy(const Policy&) = delete;
+  Policy& operator=(const Policy&) = delete;
+  virtual ~Policy() = default;
+
+  /// Short name, e.g. "red".
+  [[nodiscard]] virtual std::string_view name() const noexcept = 0;
+  /// The mechanisms the scheduler applies for this policy.
+  [[nodiscard]] virtual const PolicyOptions& options() const noexcept = 0;
+  /// Rank of a ready task: the smallest runs first. Ties: earlier release, then operation
+  /// order, then node order (the scheduler breaks them).
+  [[nodiscard]] virtual std::int64_t rank(const TaskView& t, TimePoint now) const noexcept = 0;
+};
+
+/// Earliest deadline first over whatever deadlines the options assign.
+class EdfPolicy final : public Policy {
+ public:
+  EdfPolicy(std::string name, PolicyOptions o) : name_(std::move(name)), options_(o) {}
+  [[nodiscard]] std::string_view name() const noexcept override { return name_; }
+  [[nodiscard]] const PolicyOptions& options() const noexcept override { return options_; }
+  [[nodiscard]] std::int64_t rank(const TaskView& t, TimePoint) const noexcept override {
+    return t.deadline.count();
+  }
+
+ private:
+  std::string name_;
+  PolicyOptions options_;
+};
+
+/// Release order, like ROS 2's default executor.
+class FifoPolicy final : public Policy {
+ public:
+  explicit FifoPolicy(PolicyOptions o) : options_(o) {}
+  [[nodiscard]] std::string_view name() const noexcept override { return "fifo"; }
+  [[nodiscard]] const PolicyOptions& options() const noexcept override { return options_; }
+  [[nodiscard]] std::int64_t rank(const TaskView& t, TimePoint) const noexcept override {
+    return t.release.count();
+  }
+
+ private:
+  PolicyOptions options_;
+};
+
+/// Least slack first (as in Band): slack = job deadline − now − remaining critical path.
+class LeastSlackPolicy final : public Policy {
+ public:
+  explicit LeastSlackPolicy(PolicyOptions o) : options_(o) {}
+  [[nodiscard]] std::string_view name() const noexcept override { return "lst"; }
+  [[nodiscard]] const PolicyOptions& options() const noexcept override { return options_; }
+  [[nodiscard]] std::int64_t rank(const TaskView& t, TimePoint now) const noexcept override {
+    return (t.job_deadline - now - t.remaining).count();
+  }
+
+ private:
+  PolicyOptions options_;
+};
+
+/// The options of a preset (§7 table), or nullopt for an unknown name.
+std::optional<PolicyOptions> preset_options(std::string_view name);
+
+/// A preset policy by name: fifo, mono, edf, red-fg, red-ida, red, lst; nullptr if unknown.
+/// `overrides` (if given) replaces the preset's options (ablations).
+std::unique_ptr<Policy> make_policy(std::string_view name,
+                                    const std::optional<PolicyOptions>& overrides = std::nullopt);
+
+/// The presets `red compare` runs by default, in table order.
+const std::vector<std::string>& default_presets();
+
+/// Every name make_policy accepts.
+const std::vector<std::string>& known_policies();
+
+}  // namespace red

@@ -1,0 +1,123 @@
+#pragma once
+/// \file
+/// The scheduler core (the paper's global synchronizer logic, §3–§5): jobs, refinement,
+/// deadline (re-)assignment, DynamicMerge, batching, drops and dispatch. It reads no clock:
+/// the driver (simulator or real runtime) passes the time in. Same code, both backends.
+///
+/// Driving it, at every scheduling point `now` (non-decreasing):
+///
+///     s.apply_events(now);                 // workload events due by now (§2)
+///     s.on_complete(lane, now, status);    // units that finished at now
+///     s.on_frame(sensor, frame_id, now);   // frames that arrived at now
+///     s.advance(now);                      // own-rate releases, strict drops
+///     for (const Dispatch* d : s.dispatch(now)) executor.start(*d);
+///     wake up again at s.next_wakeup() or at the next external input.
+///
+/// Not thread-safe: one thread (the global synchronizer) owns it.
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "red/graph/refine.hpp"
+#include "red/profile/profile.hpp"
+#include "red/scenario/scenario.hpp"
+#include "red/sched/observer.hpp"
+#include "red/sched/policy.hpp"
+
+namespace red {
+
+/// Scheduler settings that come from the scenario (and CLI overrides).
+struct SchedulerConfig {
+  int lanes = 1;
+  Duration gamma = std::chrono::milliseconds{100};
+  int max_batch = 4;
+  EstimateKind estimate = EstimateKind::P99;
+  LevelCost level_cost = LevelCost::Max;
+  TimePoint warmup{0};
+
+  /// The settings a scenario gives.
+  static SchedulerConfig from(const Scenario& s);
+};
+
+/// Counters kept by the scheduler itself (everything else is an observer's business).
+struct SchedulerStats {
+  std::uint64_t decisions = 0;  ///< dispatch() calls that examined the ready set
+  std::uint64_t dispatches = 0;
+  std::uint64_t round_trips = 0;  ///< dispatches that needed a synchronizer round trip
+  std::uint64_t merge_waits = 0;
+  std::uint64_t releases = 0;
+};
+
+class Scheduler {
+ public:
+  /// `profile` and `scenario` must outlive the scheduler.
+  Scheduler(const Scenario& scenario, const Profile& profile, std::unique_ptr<Policy> policy,
+            SchedulerConfig config);
+  ~Scheduler();
+  Scheduler(const Scheduler&) = delete;
+  Scheduler& operator=(const Scheduler&) = delete;
+
+  /// Observers are called synchronously, in the order added; not owned.
+  void add_observer(Observer* o);
+
+  // ---- inputs -----------------------------------------------------------------------
+  /// Applies workload events with at ≤ now (§2): later releases use the new graphs.
+  void apply_events(TimePoint now);
+  /// A frame of `sensor` arrived (frame ids increase per sensor). Releases every operation
+  /// triggered by this sensor.
+  void on_frame(int sensor, std::uint64_t frame, TimePoint now);
+  /// The unit running on `lane` ended at `now`. `reason` is kept for failed jobs.
+  void on_complete(int lane, TimePoint now, UnitStatus status, std::string_view reason = {});
+  /// The executor starts the unit dispatched to `lane` at `start` (after any round trip).
+  /// Must be called once for every dispatch; observers see the start here.
+  void on_start(int lane, TimePoint start);
+  /// No more releases or workload events (end of the scenario); in-flight jobs go on.
+  void stop_releases();
+  /// Own-rate and count releases due by now; strict drops of jobs whose deadline ≤ now.
+  void advance(TimePoint now);
+
+  // ---- decisions ----------------------------------------------------------------------
+  /// Assigns work to idle lanes (§5). The returned dispatches stay valid until their lane
+  /// completes. Allocation-free in steady state.
+  std::span<Dispatch* const> dispatch(TimePoint now);
+  /// The earliest time the scheduler needs to run again without external input (releases,
+  /// events, deadlines, merge waits), or kNever.
+  [[nodiscard]] TimePoint next_wakeup() const;
+  /// Ends the run: reports jobs still in flight as Unfinished.
+  void finish(TimePoint end);
+
+  // ---- queries ------------------------------------------------------------------------
+  [[nodiscard]] const Policy& policy() const noexcept { return *policy_; }
+  [[nodiscard]] const SchedulerConfig& config() const noexcept { return config_; }
+  [[nodiscard]] const SchedulerStats& stats() const noexcept { return stats_; }
+  [[nodiscard]] const Scenario& scenario() const noexcept { return scenario_; }
+  [[nodiscard]] int jobs_in_flight() const noexcept { return in_flight_; }
+  [[nodiscard]] int ready_tasks() const noexcept;
+  /// True when no job is in flight and no release or event can happen any more.
+  [[nodiscard]] bool drained() const;
+  /// Current sensor rate (events may change it).
+  [[nodiscard]] double sensor_rate(int sensor) const;
+  /// The current refined graph of an operation (null when not active).
+  [[nodiscard]] const RefinedGraph* graph(int operation) const;
+  /// The dispatch running on a lane, or null.
+  [[nodiscard]] const Dispatch* running(int lane) const;
+  /// Absolute intermediate deadline of (job slot, unit) at `now` under the policy (for
+  /// reports and tests).
+  [[nodiscard]] TimePoint unit_deadline(int slot, int unit, TimePoint now);
+
+  struct Impl;
+
+ private:
+  const Scenario& scenario_;
+  std::unique_ptr<Policy> policy_;
+  SchedulerConfig config_;
+  SchedulerStats stats_;
+  int in_flight_ = 0;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace red

@@ -1,0 +1,37 @@
+#pragma once
+/// \file
+/// One simulated run of one policy, with metrics: what `red simulate`, `red compare`,
+/// `red sweep`, the tests and the benchmarks share.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "red/core/expected.hpp"
+#include "red/metrics/metrics.hpp"
+#include "red/profile/profile.hpp"
+#include "red/scenario/scenario.hpp"
+#include "red/sim/simulator.hpp"
+
+namespace red {
+
+/// Everything one simulated run produced.
+struct PolicyRun {
+  PolicyMetrics metrics;
+  std::vector<JobRow> jobs;
+  std::vector<UnitRow> units;
+  SimResult result;
+  double wall_s = 0.0;  ///< host time the simulation took (not in summary.json)
+};
+
+/// Simulates `policy` (a preset name) on the scenario. `extra` observers see the run too.
+/// Returns an Error for an unknown policy name.
+Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
+                                    std::uint64_t seed, const std::vector<Observer*>& extra = {},
+                                    bool keep_units = true);
+
+/// The profile a run uses: `cli_path` if given, else the scenario's `profile:`, else the
+/// built-in default. Checks that it covers every head the scenario uses.
+Expected<Profile> resolve_profile(const Scenario& s, const std::optional<std::string>& cli_path);
+
+}  // namespace red

@@ -1,0 +1,280 @@
+#include "red/graph/refine.hpp"
+
+#include <algorithm>
+#include <numeric>
+
+#include "red/core/assert.hpp"
+
+namespace red {
+
+const char* to_string(UnitKind k) noexcept {
+  switch (k) {
+    case UnitKind::Encoder:
+      return "encoder";
+    case UnitKind::Head:
+      return "head";
+    case UnitKind::Coarse:
+      return "coarse";
+    case UnitKind::Mono:
+      return "mono";
+    case UnitKind::Plain:
+      return "plain";
+  }
+  return "?";
+}
+
+const char* to_string(GraphMode m) noexcept {
+  switch (m) {
+    case GraphMode::Coarse:
+      return "coarse";
+    case GraphMode::Fine:
+      return "fine";
+    case GraphMode::Mono:
+      return "mono";
+  }
+  return "?";
+}
+
+const char* to_string(DeadlineMode m) noexcept {
+  switch (m) {
+    case DeadlineMode::None:
+      return "none";
+    case DeadlineMode::EndToEnd:
+      return "e2e";
+    case DeadlineMode::Proportional:
+      return "proportional";
+    case DeadlineMode::Equal:
+      return "equal";
+  }
+  return "?";
+}
+
+Duration CostModel::encoder() const {
+  if (profile == nullptr) return Duration{0};
+  const UnitProfile* u = profile->find("encoder");
+  return u != nullptr ? u->at(1).estimate(estimate) : Duration{0};
+}
+
+Duration CostModel::head(int h) const {
+  if (profile == nullptr || model == nullptr || h < 0) return Duration{0};
+  const UnitProfile* u = profile->find("head/" + model->heads[static_cast<std::size_t>(h)]);
+  return u != nullptr ? u->at(1).estimate(estimate) : Duration{0};
+}
+
+Duration CostModel::plain(const PlainCost& c, EstimateKind k) {
+  // A plain cost is given by its mean and p99; p95 is read between them, max as p99.
+  switch (k) {
+    case EstimateKind::Mean:
+      return c.mean;
+    case EstimateKind::P95:
+      return c.mean + (c.p99 - c.mean) * 6 / 10;
+    case EstimateKind::P99:
+    case EstimateKind::Max:
+      return c.p99;
+  }
+  return c.p99;
+}
+
+namespace {
+
+Duration node_cost_coarse(const NodeSpec& n, const CostModel& costs) {
+  if (n.is_plain()) return CostModel::plain(*n.cost, costs.estimate);
+  return costs.encoder() + costs.head(n.head);
+}
+
+// Topological order of the operation's nodes (the loader guarantees acyclicity); ties
+// keep file order, so refinement is deterministic.
+std::vector<int> topo_nodes(const OperationSpec& op) {
+  const std::size_t n = op.nodes.size();
+  std::vector<int> indeg(n, 0);
+  for (const EdgeSpec& e : op.edges) ++indeg[static_cast<std::size_t>(e.to)];
+  std::vector<int> order;
+  order.reserve(n);
+  std::vector<bool> done(n, false);
+  while (order.size() < n) {
+    bool progressed = false;
+    for (std::size_t v = 0; v < n; ++v) {
+      if (done[v] || indeg[v] != 0) continue;
+      done[v] = true;
+      progressed = true;
+      order.push_back(static_cast<int>(v));
+      for (const EdgeSpec& e : op.edges)
+        if (e.from == static_cast<int>(v)) --indeg[static_cast<std::size_t>(e.to)];
+    }
+    RED_ASSERT(progressed);  // the loader rejects cycles
+  }
+  return order;
+}
+
+}  // namespace
+
+Duration coarse_critical_path(const OperationSpec& op, const CostModel& costs) {
+  std::vector<Duration> finish(op.nodes.size(), Duration{0});
+  Duration best{0};
+  for (int v : topo_nodes(op)) {
+    Duration start{0};
+    for (const EdgeSpec& e : op.edges)
+      if (e.to == v) start = std::max(start, finish[static_cast<std::size_t>(e.from)]);
+    finish[static_cast<std::size_t>(v)] =
+        start + node_cost_coarse(op.nodes[static_cast<std::size_t>(v)], costs);
+    best = std::max(best, finish[static_cast<std::size_t>(v)]);
+  }
+  return best;
+}
+
+Duration resolve_deadline(const OperationSpec& op, const CostModel& costs) {
+  if (op.deadline.critical_path_x) {
+    const double cp = static_cast<double>(coarse_critical_path(op, costs).count());
+    return Duration{static_cast<std::int64_t>(cp * *op.deadline.critical_path_x)};
+  }
+  return op.deadline.fixed;
+}
+
+std::vector<Duration> split_budget(Duration budget, const std::vector<Duration>& weights,
+                                   DeadlineMode mode) {
+  std::vector<Duration> offset(weights.size(), Duration{0});
+  if (weights.empty()) return offset;
+  const std::int64_t total =
+      std::accumulate(weights.begin(), weights.end(), std::int64_t{0},
+                      [](std::int64_t a, Duration d) { return a + d.count(); });
+  const bool equal = mode == DeadlineMode::Equal || total <= 0;
+  // Cumulative shares in 128-bit arithmetic so the last offset is exactly the budget.
+  std::int64_t cum = 0;
+  for (std::size_t h = 0; h < weights.size(); ++h) {
+    cum += equal ? 1 : weights[h].count();
+    const std::int64_t denom = equal ? static_cast<std::int64_t>(weights.size()) : total;
+    offset[h] = Duration{mul_div(budget.count(), cum, denom)};
+  }
+  return offset;
+}
+
+std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> op_ptr,
+                                           int operation, const CostModel& costs,
+                                           const RefineOptions& opt) {
+  RED_ASSERT(op_ptr != nullptr);
+  const OperationSpec& op = *op_ptr;
+  auto g = std::make_shared<RefinedGraph>();
+  g->mode = opt.mode;
+  g->spec = op_ptr;
+  g->operation = operation;
+  g->deadline = resolve_deadline(op, costs);
+  const std::vector<int> order = topo_nodes(op);
+
+  for (const NodeSpec& n : op.nodes)
+    if (!n.is_plain() &&
+        std::find(g->sensors.begin(), g->sensors.end(), n.sensor) == g->sensors.end())
+      g->sensors.push_back(n.sensor);
+
+  auto add_edge = [&](int from, int to) {
+    g->units[static_cast<std::size_t>(from)].succs.push_back(to);
+    g->units[static_cast<std::size_t>(to)].preds.push_back(from);
+  };
+
+  if (opt.mode == GraphMode::Mono) {
+    RefinedUnit u;
+    u.kind = UnitKind::Mono;
+    Duration cost = costs.encoder() * static_cast<std::int64_t>(g->sensors.size());
+    for (const NodeSpec& n : op.nodes)
+      cost += n.is_plain() ? CostModel::plain(*n.cost, costs.estimate) : costs.head(n.head);
+    u.estimate = cost;
+    u.produces = order;
+    g->units.push_back(std::move(u));
+  } else {
+    // node -> the unit that produces its output; in the fine graph, its encoder unit too.
+    std::vector<int> out_unit(op.nodes.size(), -1);
+    std::vector<int> enc_unit(op.nodes.size(), -1);
+    if (opt.mode == GraphMode::Fine) {
+      // Encoders first: they are sources and read only their frame (§3).
+      for (int v : order) {
+        const NodeSpec& n = op.nodes[static_cast<std::size_t>(v)];
+        if (n.is_plain()) continue;
+        RefinedUnit e;
+        e.kind = UnitKind::Encoder;
+        e.node = v;
+        e.sensor = n.sensor;
+        e.estimate = costs.encoder();
+        enc_unit[static_cast<std::size_t>(v)] = static_cast<int>(g->units.size());
+        g->units.push_back(std::move(e));
+      }
+    }
+    for (int v : order) {
+      const NodeSpec& n = op.nodes[static_cast<std::size_t>(v)];
+      RefinedUnit u;
+      u.node = v;
+      u.produces = {v};
+      if (n.is_plain()) {
+        u.kind = UnitKind::Plain;
+        u.estimate = CostModel::plain(*n.cost, costs.estimate);
+      } else if (opt.mode == GraphMode::Fine) {
+        u.kind = UnitKind::Head;
+        u.head = n.head;
+        u.sensor = n.sensor;
+        u.estimate = costs.head(n.head);
+      } else {
+        u.kind = UnitKind::Coarse;
+        u.head = n.head;
+        u.sensor = n.sensor;
+        u.estimate = costs.encoder() + costs.head(n.head);
+      }
+      out_unit[static_cast<std::size_t>(v)] = static_cast<int>(g->units.size());
+      g->units.push_back(std::move(u));
+      if (enc_unit[static_cast<std::size_t>(v)] >= 0)
+        add_edge(enc_unit[static_cast<std::size_t>(v)], out_unit[static_cast<std::size_t>(v)]);
+    }
+    for (const EdgeSpec& e : op.edges)
+      add_edge(out_unit[static_cast<std::size_t>(e.from)],
+               out_unit[static_cast<std::size_t>(e.to)]);
+  }
+
+  // Heights and critical path; units are in topological order by construction.
+  std::vector<Duration> finish(g->units.size(), Duration{0});
+  for (std::size_t i = 0; i < g->units.size(); ++i) {
+    RefinedUnit& u = g->units[i];
+    Duration start{0};
+    for (int p : u.preds) {
+      u.height = std::max(u.height, g->units[static_cast<std::size_t>(p)].height + 1);
+      start = std::max(start, finish[static_cast<std::size_t>(p)]);
+    }
+    finish[i] = start + u.estimate;
+    g->critical_path = std::max(g->critical_path, finish[i]);
+    g->levels = std::max(g->levels, u.height + 1);
+    if (u.preds.empty()) g->sources.push_back(static_cast<int>(i));
+    bool only_encoders = u.kind != UnitKind::Encoder;
+    for (int p : u.preds)
+      only_encoders =
+          only_encoders && g->units[static_cast<std::size_t>(p)].kind == UnitKind::Encoder;
+    if (only_encoders) g->head_sources.push_back(static_cast<int>(i));
+  }
+
+  g->level_cost.assign(static_cast<std::size_t>(g->levels), Duration{0});
+  g->override_budget.assign(static_cast<std::size_t>(g->levels), Duration{0});
+  for (const RefinedUnit& u : g->units) {
+    Duration& l = g->level_cost[static_cast<std::size_t>(u.height)];
+    l = opt.level_cost == LevelCost::Max ? std::max(l, u.estimate) : l + u.estimate;
+    if (u.node >= 0 && u.kind != UnitKind::Encoder) {
+      const auto& over = op.nodes[static_cast<std::size_t>(u.node)].deadline;
+      if (over) {
+        Duration& o = g->override_budget[static_cast<std::size_t>(u.height)];
+        o = std::max(o, *over);
+      }
+    }
+  }
+
+  switch (opt.deadlines) {
+    case DeadlineMode::None:
+    case DeadlineMode::EndToEnd:
+      g->static_offset.assign(static_cast<std::size_t>(g->levels), g->deadline);
+      break;
+    case DeadlineMode::Proportional:
+    case DeadlineMode::Equal: {
+      std::vector<Duration> w = g->level_cost;
+      for (std::size_t h = 0; h < w.size(); ++h)
+        if (g->override_budget[h] > Duration{0}) w[h] = g->override_budget[h];
+      g->static_offset = split_budget(g->deadline, w, opt.deadlines);
+      break;
+    }
+  }
+  return g;
+}
+
+}  // namespace red

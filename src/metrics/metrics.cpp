@@ -1,0 +1,214 @@
+#include "red/metrics/metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace red {
+
+double qoe_score(Duration response, Duration deadline, double lambda) {
+  const double late = std::max(0.0, to_s(response) - to_s(deadline));
+  return 1.0 / (1.0 + std::exp(lambda) * late);
+}
+
+MetricsCollector::MetricsCollector(const Scenario& s, double qoe_lambda, bool keep_units)
+    : scenario_(s), lambda_(qoe_lambda), keep_units_(keep_units) {
+  busy_.assign(static_cast<std::size_t>(s.device.lanes), Duration{0});
+  started_.assign(static_cast<std::size_t>(s.device.lanes), TimePoint{0});
+  head_outputs_.assign(s.model.heads.size(), 0);
+}
+
+void MetricsCollector::on_job_end(const JobRecord& j) {
+  if (!j.counted) return;
+  JobRow r;
+  r.operation = j.operation;
+  r.seq = j.seq;
+  r.id = j.id;
+  r.release = j.release;
+  r.finish = j.finish;
+  r.deadline = j.deadline;
+  r.outcome = j.outcome;
+  r.frame_age = j.frame_age;
+  r.reason = std::string(j.reason);
+  if (j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed)
+    r.qoe = qoe_score(j.finish - j.release, j.deadline - j.release, lambda_);
+  jobs_.push_back(std::move(r));
+}
+
+void MetricsCollector::on_unit_start(const Dispatch& d) {
+  started_[static_cast<std::size_t>(d.lane)] = d.start;
+}
+
+void MetricsCollector::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus s) {
+  const TimePoint start = started_[static_cast<std::size_t>(d.lane)];
+  const TimePoint from = std::max(start, scenario_.warmup);
+  if (end > from) busy_[static_cast<std::size_t>(d.lane)] += end - from;
+  if (start < scenario_.warmup) return;
+  ++dispatches_;
+  if (d.round_trip) ++round_trips_;
+  ++batches_[d.batch];
+  const std::int64_t members = static_cast<std::int64_t>(d.members.size());
+  const RefinedGraph& g = *d.members.front().graph;
+  switch (d.kind) {
+    case UnitKind::Encoder:
+      encoder_runs_ += d.batch;
+      encoder_saved_ += members - d.batch;
+      break;
+    case UnitKind::Coarse:
+      encoder_runs_ += 1;
+      break;
+    case UnitKind::Mono: {
+      std::int64_t inference = 0;
+      for (const NodeSpec& n : g.spec->nodes) inference += n.is_plain() ? 0 : 1;
+      encoder_runs_ += static_cast<std::int64_t>(g.sensors.size());
+      encoder_saved_ += inference - static_cast<std::int64_t>(g.sensors.size());
+      break;
+    }
+    case UnitKind::Head:
+    case UnitKind::Plain:
+      break;
+  }
+  if (s == UnitStatus::Completed) {
+    for (const Member& m : d.members) {
+      const RefinedUnit& ru = m.graph->units[static_cast<std::size_t>(m.unit)];
+      for (int n : ru.produces) {
+        const int h = m.graph->spec->nodes[static_cast<std::size_t>(n)].head;
+        if (h >= 0 && ru.kind != UnitKind::Encoder) ++head_outputs_[static_cast<std::size_t>(h)];
+      }
+    }
+  }
+  if (!keep_units_) return;
+  UnitRow r;
+  r.dispatch = d.id;
+  r.lane = d.lane;
+  r.decided = d.decided_at;
+  r.start = start;
+  r.end = end;
+  r.kind = d.kind;
+  r.head = d.head;
+  r.batch = d.batch;
+  r.members = static_cast<int>(members);
+  r.round_trip = d.round_trip;
+  r.status = s;
+  for (const Member& m : d.members) {
+    if (!r.jobs.empty()) r.jobs += ' ';
+    r.jobs += scenario_.operation_name(m.operation);
+    r.jobs += '#';
+    r.jobs += std::to_string(m.job_seq);
+    if (m.node >= 0) {
+      r.jobs += ':';
+      r.jobs += m.graph->spec->nodes[static_cast<std::size_t>(m.node)].name;
+    }
+  }
+  units_.push_back(std::move(r));
+}
+
+namespace {
+
+double percentile(std::vector<double>& v, double p) {
+  if (v.empty()) return 0.0;
+  // Nearest-rank percentile on sorted data.
+  const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, rank == 0 ? 0 : rank - 1)];
+}
+
+double round6(double x) {
+  return std::round(x * 1e6) / 1e6;
+}
+
+}  // namespace
+
+PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end,
+                                          const SchedulerStats& stats) const {
+  PolicyMetrics m;
+  m.name = name;
+  std::vector<double> lat;
+  std::vector<double> age;
+  double qoe_sum = 0;
+  for (const JobRow& j : jobs_) {
+    ++m.jobs;
+    switch (j.outcome) {
+      case JobOutcome::Met:
+        ++m.completed;
+        ++m.met;
+        break;
+      case JobOutcome::Missed:
+        ++m.completed;
+        ++m.missed;
+        break;
+      case JobOutcome::Dropped:
+        ++m.dropped;
+        break;
+      case JobOutcome::Skipped:
+        ++m.dropped;
+        ++m.skipped;
+        break;
+      case JobOutcome::Failed:
+        ++m.dropped;
+        ++m.failed;
+        break;
+      case JobOutcome::Unfinished:
+        ++m.unfinished;
+        break;
+    }
+    if (j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed) {
+      lat.push_back(to_ms(j.finish - j.release));
+      age.push_back(to_ms(j.frame_age));
+      qoe_sum += j.qoe;
+    }
+  }
+  const auto decided = static_cast<double>(m.completed + m.dropped);
+  // A job misses if it finishes late or is dropped (§10).
+  m.missed += m.dropped;
+  if (decided > 0) {
+    m.miss_rate = round6(static_cast<double>(m.missed) / decided);
+    m.drop_rate = round6(static_cast<double>(m.dropped) / decided);
+    m.qoe = round6(qoe_sum / decided);
+  }
+  if (!lat.empty()) {
+    double sum = 0;
+    for (double x : lat) sum += x;
+    m.latency.mean = round6(sum / static_cast<double>(lat.size()));
+    std::sort(lat.begin(), lat.end());
+    m.latency.p50 = round6(percentile(lat, 0.50));
+    m.latency.p90 = round6(percentile(lat, 0.90));
+    m.latency.p99 = round6(percentile(lat, 0.99));
+    m.latency.max = round6(lat.back());
+    double asum = 0;
+    for (double x : age) asum += x;
+    m.frame_age_mean_ms = round6(asum / static_cast<double>(age.size()));
+    std::sort(age.begin(), age.end());
+    m.frame_age_p99_ms = round6(percentile(age, 0.99));
+  }
+  m.encoder_runs = encoder_runs_;
+  m.encoder_runs_saved = encoder_saved_;
+  m.sync_round_trips = round_trips_;
+  m.dispatches = dispatches_;
+  m.merge_waits = static_cast<std::int64_t>(stats.merge_waits);
+  m.batch_sizes = batches_;
+  const double window = std::max(1e-9, to_s(end - scenario_.warmup));
+  m.measured_s = round6(window);
+  for (Duration b : busy_) m.lane_utilization.push_back(round6(std::min(1.0, to_s(b) / window)));
+  for (std::size_t h = 0; h < head_outputs_.size(); ++h)
+    m.throughput_hz[scenario_.model.heads[h]] =
+        round6(static_cast<double>(head_outputs_[h]) / window);
+  return m;
+}
+
+void apply_ratios(std::vector<PolicyMetrics>& all, const std::string& baseline) {
+  const PolicyMetrics* base = nullptr;
+  for (const PolicyMetrics& m : all)
+    if (m.name == baseline) base = &m;
+  if (base == nullptr) return;
+  auto ratio = [](double a, double b) -> std::optional<double> {
+    if (b == 0.0) return a == 0.0 ? std::optional<double>(1.0) : std::nullopt;
+    return std::round(a / b * 1e4) / 1e4;
+  };
+  const PolicyMetrics b = *base;
+  for (PolicyMetrics& m : all) {
+    m.ratio_miss = ratio(m.miss_rate, b.miss_rate);
+    m.ratio_latency = ratio(m.latency.mean, b.latency.mean);
+    m.ratio_qoe = ratio(m.qoe, b.qoe);
+  }
+}
+
+}  // namespace red

@@ -1,0 +1,136 @@
+#include "red/report/report.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include <fmt/format.h>
+
+namespace red {
+
+namespace {
+
+nlohmann::json opt(const std::optional<double>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics>& policies) {
+  nlohmann::ordered_json j;
+  j["schema"] = 1;
+  j["scenario"] = h.scenario;
+  j["backend"] = h.backend;
+  j["baseline"] = h.baseline;
+  j["seed"] = h.seed;
+  j["profile"] = h.profile_source;
+  j["policies"] = nlohmann::ordered_json::array();
+  for (const PolicyMetrics& m : policies) {
+    nlohmann::ordered_json p;
+    p["name"] = m.name;
+    p["jobs"] = m.jobs;
+    p["completed"] = m.completed;
+    p["missed"] = m.missed;
+    p["dropped"] = m.dropped;
+    p["skipped"] = m.skipped;
+    p["failed"] = m.failed;
+    p["unfinished"] = m.unfinished;
+    p["miss_rate"] = m.miss_rate;
+    p["drop_rate"] = m.drop_rate;
+    p["qoe"] = m.qoe;
+    p["latency_ms"] = {{"mean", m.latency.mean},
+                       {"p50", m.latency.p50},
+                       {"p90", m.latency.p90},
+                       {"p99", m.latency.p99},
+                       {"max", m.latency.max}};
+    p["encoder_runs"] = m.encoder_runs;
+    p["encoder_runs_saved"] = m.encoder_runs_saved;
+    p["sync_round_trips"] = m.sync_round_trips;
+    p["dispatches"] = m.dispatches;
+    p["merge_waits"] = m.merge_waits;
+    nlohmann::ordered_json b = nlohmann::ordered_json::object();
+    for (const auto& [size, n] : m.batch_sizes) b[std::to_string(size)] = n;
+    p["batch_sizes"] = b;
+    p["lane_utilization"] = m.lane_utilization;
+    nlohmann::ordered_json t = nlohmann::ordered_json::object();
+    for (const auto& [head, hz] : m.throughput_hz) t[head] = hz;
+    p["throughput_hz"] = t;
+    p["frame_age_ms"] = {{"mean", m.frame_age_mean_ms}, {"p99", m.frame_age_p99_ms}};
+    p["measured_s"] = m.measured_s;
+    if (m.decision_p50_us)
+      p["decision_us"] = {{"p50", *m.decision_p50_us}, {"p99", opt(m.decision_p99_us)}};
+    p["ratios"] = {{"miss_rate", opt(m.ratio_miss)},
+                   {"latency_mean", opt(m.ratio_latency)},
+                   {"qoe", opt(m.ratio_qoe)}};
+    j["policies"].push_back(std::move(p));
+  }
+  return j.dump(2) + "\n";
+}
+
+std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& runs) {
+  std::string out =
+      "policy,operation,job,release_ms,finish_ms,deadline_ms,outcome,response_ms,qoe,frame_age_ms,"
+      "reason\n";
+  for (const auto& run : runs)
+    for (const JobRow& j : *run.rows) {
+      const bool done = j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed;
+      out += fmt::format("{},{},{},{:.6f},{},{:.6f},{},{},{},{},{}\n", run.policy,
+                         s.operation_name(j.operation), j.seq, to_ms(j.release),
+                         done ? fmt::format("{:.6f}", to_ms(j.finish)) : "", to_ms(j.deadline),
+                         to_string(j.outcome),
+                         done ? fmt::format("{:.6f}", to_ms(j.finish - j.release)) : "",
+                         done ? fmt::format("{:.6f}", j.qoe) : "0",
+                         done ? fmt::format("{:.6f}", to_ms(j.frame_age)) : "", j.reason);
+    }
+  return out;
+}
+
+std::string units_csv(const Scenario& s, const std::vector<PolicyRows<UnitRow>>& runs) {
+  std::string out =
+      "policy,dispatch,lane,decided_ms,start_ms,end_ms,kind,head,batch,members,round_trip,status,"
+      "jobs\n";
+  for (const auto& run : runs)
+    for (const UnitRow& u : *run.rows) {
+      out += fmt::format("{},{},{},{:.6f},{:.6f},{:.6f},{},{},{},{},{},{},{}\n", run.policy,
+                         u.dispatch, u.lane, to_ms(u.decided), to_ms(u.start), to_ms(u.end),
+                         to_string(u.kind),
+                         u.head >= 0 ? s.model.heads[static_cast<std::size_t>(u.head)] : "",
+                         u.batch, u.members, u.round_trip ? 1 : 0, to_string(u.status), u.jobs);
+    }
+  return out;
+}
+
+std::string comparison_table(const std::vector<PolicyMetrics>& policies,
+                             const std::string& baseline) {
+  auto r = [](const std::optional<double>& v) {
+    return v ? fmt::format("{:.3f}", *v) : std::string("-");
+  };
+  std::string out = fmt::format(
+      "{:<8} {:>6} {:>7} {:>7} {:>9} {:>9} {:>6} {:>8}  {:>6} {:>6} {:>6}\n", "policy", "jobs",
+      "miss%", "drop%", "mean ms", "p99 ms", "QoE", "enc runs", "miss/", "lat/", "QoE/");
+  out += fmt::format("{:<8} {:>6} {:>7} {:>7} {:>9} {:>9} {:>6} {:>8}  {:>6} {:>6} {:>6}\n", "", "",
+                     "", "", "", "", "", "", baseline, baseline, baseline);
+  for (const PolicyMetrics& m : policies) {
+    out += fmt::format(
+        "{:<8} {:>6} {:>7.2f} {:>7.2f} {:>9.2f} {:>9.2f} {:>6.3f} {:>8}  {:>6} {:>6} {:>6}\n",
+        m.name, m.jobs, 100.0 * m.miss_rate, 100.0 * m.drop_rate, m.latency.mean, m.latency.p99,
+        m.qoe, m.encoder_runs, r(m.ratio_miss), r(m.ratio_latency), r(m.ratio_qoe));
+  }
+  return out;
+}
+
+std::optional<Error> write_file(const std::string& dir, const std::string& name,
+                                const std::string& text) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return Error{dir, 0, "cannot create directory: " + ec.message()};
+  const std::string path = (std::filesystem::path(dir) / name).string();
+  std::ofstream f(path, std::ios::binary);
+  if (!f) return Error{path, 0, "cannot open for writing"};
+  f << text;
+  f.close();
+  if (!f) return Error{path, 0, "write failed"};
+  return std::nullopt;
+}
+
+}  // namespace red

@@ -1,0 +1,1006 @@
+#include "red/sched/scheduler.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <string>
+
+#include "red/core/assert.hpp"
+
+namespace red {
+
+const char* to_string(JobOutcome o) noexcept {
+  switch (o) {
+    case JobOutcome::Met:
+      return "met";
+    case JobOutcome::Missed:
+      return "missed";
+    case JobOutcome::Dropped:
+      return "dropped";
+    case JobOutcome::Skipped:
+      return "skipped";
+    case JobOutcome::Failed:
+      return "failed";
+    case JobOutcome::Unfinished:
+      return "unfinished";
+  }
+  return "?";
+}
+
+const char* to_string(UnitStatus s) noexcept {
+  switch (s) {
+    case UnitStatus::Completed:
+      return "completed";
+    case UnitStatus::Failed:
+      return "failed";
+    case UnitStatus::OutOfMemory:
+      return "out-of-memory";
+    case UnitStatus::Cancelled:
+      return "cancelled";
+  }
+  return "?";
+}
+
+SchedulerConfig SchedulerConfig::from(const Scenario& s) {
+  SchedulerConfig c;
+  c.lanes = s.device.lanes;
+  c.gamma = s.scheduler.gamma;
+  c.max_batch = s.scheduler.max_batch;
+  c.estimate = s.scheduler.estimate;
+  c.level_cost = s.scheduler.level_cost;
+  c.warmup = s.warmup;
+  return c;
+}
+
+namespace {
+
+enum class UState : std::uint8_t { Blocked, Queued, Running, Done, Cancelled };
+
+struct UnitRt {
+  UState state = UState::Blocked;
+  int pending = 0;
+  int task = -1;
+  TimePoint start{0};
+};
+
+struct Job {
+  JobId id = 0;
+  bool live = false;   // slot in use (until its running units have returned)
+  bool ended = false;  // outcome decided
+  int op = -1;
+  std::uint64_t seq = 0;
+  const RefinedGraph* g = nullptr;
+  TimePoint release{0};
+  TimePoint deadline{0};
+  bool counted = true;
+  bool samples_newest = false;
+  std::vector<UnitRt> u;
+  int unfinished = 0;
+  int running = 0;
+  std::vector<std::uint64_t> frame;   // by sensor index: the frame its units read
+  std::vector<TimePoint> frame_time;  // by sensor index
+  TimePoint oldest_frame = kNever;    // oldest frame any of its outputs used
+  std::vector<int> dependents;        // slots of jobs waiting for this one (depends_on)
+  std::vector<JobId> dependent_ids;
+  std::string reason;
+  // §4 re-assignment cache, valid for one decision stamp.
+  std::uint64_t stamp = 0;
+  std::vector<TimePoint> hd;  // absolute deadline of each height
+  std::vector<Duration> lvl;
+  std::vector<std::uint8_t> has;
+  Duration remaining{0};  // Σ remaining level costs (critical-path estimate)
+};
+
+struct Task {
+  bool live = false;
+  UnitKind kind = UnitKind::Plain;
+  int head = -1;
+  int sensor = -1;
+  bool gamma = false;  // members sample the newest frame: γ-mergeable, newest frame at start
+  std::uint64_t frame = 0;
+  TimePoint frame_time{0};
+  std::vector<std::pair<int, int>> members;  // (job slot, unit)
+  TimePoint min_release{0};
+  TimePoint wait_until{0};
+  int ready_pos = -1;
+  Duration cost{0};
+};
+
+struct OpState {
+  const RefinedGraph* g = nullptr;  // current version; null while not in the workload
+  bool own_rate = false;
+  bool all_at_once = false;  // release: {count} without trigger or rate
+  double rate_hz = 0.0;
+  int trigger = -1;
+  TimePoint next_tick = kNever;
+  std::uint64_t released = 0;
+  std::int64_t remaining = -1;  // -1: unlimited
+  int inflight = 0;
+  int max_inflight = 2;
+  int depends_on = -1;
+  int criticality = 0;
+  int last_slot = -1;
+  JobId last_job = 0;
+  std::vector<int> sensors_read;  // sensors of its inference nodes
+};
+
+struct SensorState {
+  double rate_hz = 0.0;
+  bool has_frame = false;
+  std::uint64_t frame = 0;
+  TimePoint time{0};
+};
+
+struct Lane {
+  bool busy = false;
+  Dispatch d;
+  TimePoint completed_at = kNever;
+  int last_slot = -1;
+  JobId last_job = 0;
+  std::vector<int> last_units;
+};
+
+struct Key {
+  std::int64_t rank;
+  TimePoint release;
+  int op;
+  std::uint64_t seq;
+  int unit;
+  bool operator<(const Key& o) const noexcept {
+    if (rank != o.rank) return rank < o.rank;
+    if (release != o.release) return release < o.release;
+    if (op != o.op) return op < o.op;
+    if (seq != o.seq) return seq < o.seq;
+    return unit < o.unit;
+  }
+};
+
+Duration period_of(double hz) {
+  return Duration{static_cast<std::int64_t>(std::llround(1e9 / hz))};
+}
+
+}  // namespace
+
+struct Scheduler::Impl {
+  Scheduler& s;
+  const Profile& profile;
+  PolicyOptions opt;
+  CostModel costs;
+  RefineOptions ropt;
+  std::vector<std::shared_ptr<const RefinedGraph>> graphs;  // every version ever used
+  std::vector<OpState> ops;
+  std::vector<SensorState> sensors;
+  std::size_t next_event = 0;
+  std::vector<Job> jobs;
+  std::vector<int> free_jobs;
+  JobId next_job_id = 1;
+  std::vector<Task> tasks;
+  std::vector<int> free_tasks;
+  std::vector<int> ready;
+  std::vector<std::vector<int>> open_enc;  // per sensor: queued encoder tasks
+  std::vector<Lane> lanes;
+  std::vector<Dispatch*> out;
+  std::vector<std::pair<TimePoint, std::pair<int, JobId>>> deadlines;  // min-heap
+  std::vector<Observer*> observers;
+  std::uint64_t stamp = 1;
+  std::uint64_t dispatch_seq = 0;
+  TimePoint min_wait = kNever;
+  // scratch for batching
+  std::vector<std::pair<Key, int>> cand;
+  std::vector<int> batch;
+  Duration enc_single{0};
+  int enc_max_batch = 1;
+  std::vector<Duration> head_single;
+  std::vector<const UnitProfile*> head_prof;
+  const UnitProfile* enc_prof = nullptr;
+
+  Impl(Scheduler& owner, const Profile& p) : s(owner), profile(p), opt(owner.policy_->options()) {
+    const Scenario& sc = s.scenario_;
+    costs = CostModel{&profile, &sc.model, s.config_.estimate};
+    ropt = RefineOptions{opt.graph, opt.deadlines, s.config_.level_cost};
+    enc_prof = profile.find("encoder");
+    enc_single = costs.encoder();
+    enc_max_batch = enc_prof != nullptr ? enc_prof->max_batch() : 1;
+    for (std::size_t h = 0; h < sc.model.heads.size(); ++h) {
+      head_single.push_back(costs.head(static_cast<int>(h)));
+      head_prof.push_back(profile.find("head/" + sc.model.heads[h]));
+    }
+    sensors.resize(sc.sensors.size());
+    for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
+    open_enc.resize(sc.sensors.size());
+    lanes.resize(static_cast<std::size_t>(s.config_.lanes));
+    ops.resize(static_cast<std::size_t>(sc.operation_count()));
+    for (int i = 0; i < sc.operation_count(); ++i)
+      if (sc.initial[static_cast<std::size_t>(i)])
+        install(i, sc.initial[static_cast<std::size_t>(i)], TimePoint{0}, true);
+  }
+
+  void notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event) {
+    if (observers.empty()) return;
+    JobRecord r;
+    r.id = j.id;
+    r.operation = j.op;
+    r.seq = j.seq;
+    r.release = j.release;
+    r.deadline = j.deadline;
+    r.finish = finish;
+    r.outcome = o;
+    r.counted = j.counted;
+    r.frame_age = j.oldest_frame == kNever ? Duration{0} : finish - j.oldest_frame;
+    r.reason = j.reason;
+    r.graph = j.g;
+    for (Observer* ob : observers) release_event ? ob->on_job_release(r) : ob->on_job_end(r);
+  }
+
+  // Makes snapshot `spec` the current definition of operation `i` (§4: one refinement per
+  // graph version, shared by every job released with it).
+  void install(int i, const std::shared_ptr<const OperationSpec>& spec, TimePoint at,
+               bool initial) {
+    OpState& o = ops[static_cast<std::size_t>(i)];
+    if (!spec) {
+      o.g = nullptr;
+      o.next_tick = kNever;
+      return;
+    }
+    const bool was_active = o.g != nullptr;
+    graphs.push_back(refine(spec, i, costs, ropt));
+    o.g = graphs.back().get();
+    const double old_rate = o.rate_hz;
+    o.trigger = spec->trigger_sensor;
+    o.own_rate = spec->trigger_sensor < 0 && spec->rate_hz > 0.0;
+    o.all_at_once = spec->trigger_sensor < 0 && spec->rate_hz <= 0.0;
+    o.rate_hz = spec->rate_hz;
+    o.max_inflight = spec->max_inflight;
+    o.depends_on = spec->depends_on;
+    o.criticality = spec->criticality;
+    if (!was_active) o.remaining = spec->release_count ? *spec->release_count : -1;
+    o.sensors_read = o.g->sensors;
+    if (o.own_rate || o.all_at_once) {
+      if (!was_active || initial) {
+        o.next_tick = at + spec->phase;
+      } else if (o.own_rate && old_rate != o.rate_hz) {
+        // A rate change takes effect from the next release: one new period from now.
+        o.next_tick = at + period_of(o.rate_hz);
+      }
+    } else {
+      o.next_tick = kNever;
+    }
+  }
+
+  Job& job(int slot) { return jobs[static_cast<std::size_t>(slot)]; }
+  Task& task(int t) { return tasks[static_cast<std::size_t>(t)]; }
+
+  // ---- jobs ---------------------------------------------------------------------------
+
+  int alloc_job() {
+    if (!free_jobs.empty()) {
+      const int slot = free_jobs.back();
+      free_jobs.pop_back();
+      return slot;
+    }
+    jobs.emplace_back();
+    return static_cast<int>(jobs.size() - 1);
+  }
+
+  void release(int op_index, TimePoint now, int trigger_sensor, std::uint64_t trigger_frame) {
+    OpState& o = ops[static_cast<std::size_t>(op_index)];
+    if (o.g == nullptr || o.remaining == 0) return;
+    if (o.remaining > 0) --o.remaining;
+    const std::uint64_t seq = o.released++;
+    ++s.stats_.releases;
+    const RefinedGraph& g = *o.g;
+    if (o.inflight >= o.max_inflight) {
+      // §5 overload: the frame is skipped and counted as a drop.
+      Job tmp;
+      tmp.id = next_job_id++;
+      tmp.op = op_index;
+      tmp.seq = seq;
+      tmp.g = &g;
+      tmp.release = now;
+      tmp.deadline = now + g.deadline;
+      tmp.counted = now >= s.config_.warmup;
+      tmp.reason = "max_inflight";
+      notify_job(tmp, JobOutcome::Skipped, now, true);
+      notify_job(tmp, JobOutcome::Skipped, now, false);
+      return;
+    }
+    const int slot = alloc_job();
+    Job& j = job(slot);
+    j.id = next_job_id++;
+    j.live = true;
+    j.ended = false;
+    j.op = op_index;
+    j.seq = seq;
+    j.g = &g;
+    j.release = now;
+    j.deadline = now + g.deadline;
+    j.counted = now >= s.config_.warmup;
+    j.samples_newest = trigger_sensor < 0;
+    j.unfinished = static_cast<int>(g.units.size());
+    j.running = 0;
+    j.oldest_frame = kNever;
+    j.reason.clear();
+    j.dependents.clear();
+    j.dependent_ids.clear();
+    j.stamp = 0;
+    j.frame.assign(sensors.size(), 0);
+    j.frame_time.assign(sensors.size(), now);
+    for (int sn : g.sensors) {
+      const auto si = static_cast<std::size_t>(sn);
+      if (sn == trigger_sensor) {
+        j.frame[si] = trigger_frame;
+        j.frame_time[si] = sensors[si].time;
+      } else if (sensors[si].has_frame) {
+        j.frame[si] = sensors[si].frame;
+        j.frame_time[si] = sensors[si].time;
+      }
+    }
+    j.u.assign(g.units.size(), UnitRt{});
+    for (std::size_t i = 0; i < g.units.size(); ++i)
+      j.u[i].pending = static_cast<int>(g.units[i].preds.size());
+    // depends_on {use: latest}: the newest job of that operation must end first (§11).
+    if (o.depends_on >= 0) {
+      OpState& dep = ops[static_cast<std::size_t>(o.depends_on)];
+      if (dep.last_slot >= 0) {
+        Job& d = job(dep.last_slot);
+        if (d.live && !d.ended && d.id == dep.last_job) {
+          d.dependents.push_back(slot);
+          d.dependent_ids.push_back(j.id);
+          for (int u : g.head_sources) ++j.u[static_cast<std::size_t>(u)].pending;
+        }
+      }
+    }
+    o.last_slot = slot;
+    o.last_job = j.id;
+    ++o.inflight;
+    ++s.in_flight_;
+    if (opt.drop != DropMode::None) {
+      deadlines.push_back({j.deadline, {slot, j.id}});
+      std::push_heap(deadlines.begin(), deadlines.end(), std::greater<>{});
+    }
+    notify_job(j, JobOutcome::Unfinished, now, true);
+    for (std::size_t i = 0; i < g.units.size(); ++i)
+      if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
+  }
+
+  void end_job(int slot, JobOutcome outcome, TimePoint now) {
+    Job& j = job(slot);
+    if (j.ended) return;
+    j.ended = true;
+    --s.in_flight_;
+    --ops[static_cast<std::size_t>(j.op)].inflight;
+    if (outcome != JobOutcome::Met && outcome != JobOutcome::Missed) {
+      // Abort (§5 strict): queued units leave their tasks; running ones finish and their
+      // output is discarded when they return.
+      for (std::size_t i = 0; i < j.u.size(); ++i) {
+        UnitRt& u = j.u[i];
+        if (u.state == UState::Queued) remove_member(u.task, slot, static_cast<int>(i));
+        if (u.state == UState::Queued || u.state == UState::Blocked) u.state = UState::Cancelled;
+      }
+    }
+    notify_job(j, outcome, now, false);
+    // Dependents may go on: they use the newest output there is.
+    for (std::size_t k = 0; k < j.dependents.size(); ++k) {
+      const int ds = j.dependents[k];
+      Job& d = job(ds);
+      if (!d.live || d.ended || d.id != j.dependent_ids[k]) continue;
+      for (int u : d.g->head_sources) {
+        UnitRt& ur = d.u[static_cast<std::size_t>(u)];
+        if (ur.state == UState::Blocked && --ur.pending == 0) make_ready(ds, u);
+      }
+    }
+    if (j.running == 0) free_job(slot);
+  }
+
+  void free_job(int slot) {
+    Job& j = job(slot);
+    j.live = false;
+    free_jobs.push_back(slot);
+  }
+
+  // §4: remaining level costs and (re-)assigned height deadlines of a job at `now`.
+  void eval(Job& j, TimePoint now) {
+    if (j.stamp == stamp) return;
+    j.stamp = stamp;
+    const RefinedGraph& g = *j.g;
+    const auto levels = static_cast<std::size_t>(g.levels);
+    j.lvl.assign(levels, Duration{0});
+    j.has.assign(levels, 0);
+    j.hd.resize(levels);
+    const bool sum = s.config_.level_cost == LevelCost::Sum;
+    for (std::size_t i = 0; i < g.units.size(); ++i) {
+      const UnitRt& u = j.u[i];
+      if (u.state == UState::Done || u.state == UState::Cancelled) continue;
+      Duration c = g.units[i].estimate;
+      if (u.state == UState::Running && now > u.start)
+        c = std::max(Duration{0}, c - (now - u.start));
+      const auto h = static_cast<std::size_t>(g.units[i].height);
+      j.has[h] = 1;
+      j.lvl[h] = sum ? j.lvl[h] + c : std::max(j.lvl[h], c);
+    }
+    j.remaining = Duration{0};
+    for (std::size_t h = 0; h < levels; ++h) j.remaining += j.lvl[h];
+    switch (opt.deadlines) {
+      case DeadlineMode::None:
+        std::fill(j.hd.begin(), j.hd.end(), j.release);
+        return;
+      case DeadlineMode::EndToEnd:
+        std::fill(j.hd.begin(), j.hd.end(), j.deadline);
+        return;
+      case DeadlineMode::Proportional:
+      case DeadlineMode::Equal:
+        break;
+    }
+    if (!opt.reassign) {
+      for (std::size_t h = 0; h < levels; ++h) j.hd[h] = j.release + g.static_offset[h];
+      return;
+    }
+    // Re-assignment: spread the budget left over the heights left, in proportion to their
+    // remaining level costs (or their per-node overrides), from now.
+    const Duration budget = j.deadline - now;
+    if (budget <= Duration{0}) {
+      std::fill(j.hd.begin(), j.hd.end(), j.deadline);
+      return;
+    }
+    std::int64_t total = 0;
+    std::int64_t n = 0;
+    for (std::size_t h = 0; h < levels; ++h) {
+      if (j.has[h] == 0) continue;
+      ++n;
+      total += (g.override_budget[h] > Duration{0} ? g.override_budget[h] : j.lvl[h]).count();
+    }
+    const bool equal = opt.deadlines == DeadlineMode::Equal || total <= 0;
+    std::int64_t cum = 0;
+    TimePoint last = now;
+    for (std::size_t h = 0; h < levels; ++h) {
+      if (j.has[h] != 0) {
+        cum += equal
+                   ? 1
+                   : (g.override_budget[h] > Duration{0} ? g.override_budget[h] : j.lvl[h]).count();
+        last = now + Duration{mul_div(budget.count(), cum, equal ? n : total)};
+      }
+      j.hd[h] = last;
+    }
+  }
+
+  // ---- tasks --------------------------------------------------------------------------
+
+  int alloc_task() {
+    int t;
+    if (!free_tasks.empty()) {
+      t = free_tasks.back();
+      free_tasks.pop_back();
+    } else {
+      tasks.emplace_back();
+      t = static_cast<int>(tasks.size() - 1);
+    }
+    Task& k = task(t);
+    k.live = true;
+    k.members.clear();
+    k.wait_until = TimePoint{0};
+    k.ready_pos = -1;
+    return t;
+  }
+
+  void push_ready(int t) {
+    task(t).ready_pos = static_cast<int>(ready.size());
+    ready.push_back(t);
+  }
+
+  void pop_ready(int t) {
+    Task& k = task(t);
+    if (k.ready_pos < 0) return;
+    const int last = ready.back();
+    ready[static_cast<std::size_t>(k.ready_pos)] = last;
+    task(last).ready_pos = k.ready_pos;
+    ready.pop_back();
+    k.ready_pos = -1;
+  }
+
+  void drop_open(int t) {
+    Task& k = task(t);
+    if (k.kind != UnitKind::Encoder) return;
+    auto& v = open_enc[static_cast<std::size_t>(k.sensor)];
+    v.erase(std::remove(v.begin(), v.end(), t), v.end());
+  }
+
+  void free_task(int t) {
+    pop_ready(t);
+    drop_open(t);
+    task(t).live = false;
+    free_tasks.push_back(t);
+  }
+
+  void remove_member(int t, int slot, int unit) {
+    Task& k = task(t);
+    auto& m = k.members;
+    m.erase(std::remove(m.begin(), m.end(), std::pair<int, int>{slot, unit}), m.end());
+    if (m.empty()) {
+      free_task(t);
+      return;
+    }
+    k.min_release = kNever;
+    for (auto [js, ju] : m) k.min_release = std::min(k.min_release, job(js).release);
+  }
+
+  void make_ready(int slot, int unit) {
+    Job& j = job(slot);
+    const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
+    UnitRt& u = j.u[static_cast<std::size_t>(unit)];
+    u.state = UState::Queued;
+    if (ru.kind == UnitKind::Encoder && opt.merge) {
+      const auto si = static_cast<std::size_t>(ru.sensor);
+      const std::uint64_t frame = j.frame[si];
+      // DynamicMerge (§3): 1. same frame, unconditionally; 2. a γ-cluster of releases
+      // that sample the newest frame, while max(release) − min(release) ≤ γ.
+      for (int t : open_enc[si]) {
+        Task& k = task(t);
+        const bool same = k.frame == frame && (!k.gamma || j.samples_newest);
+        const bool gamma =
+            k.gamma && j.samples_newest && j.release - k.min_release <= s.config_.gamma;
+        if (!same && !gamma) continue;
+        k.members.emplace_back(slot, unit);
+        if (gamma && frame > k.frame) {
+          k.frame = frame;
+          k.frame_time = j.frame_time[si];
+        }
+        k.wait_until = TimePoint{0};  // the member it may have waited for has come
+        u.task = t;
+        return;
+      }
+    }
+    const int t = alloc_task();
+    Task& k = task(t);
+    k.kind = ru.kind;
+    k.head = ru.head;
+    k.sensor = ru.sensor;
+    k.gamma = ru.kind == UnitKind::Encoder && j.samples_newest;
+    k.frame = ru.sensor >= 0 ? j.frame[static_cast<std::size_t>(ru.sensor)] : 0;
+    k.frame_time = ru.sensor >= 0 ? j.frame_time[static_cast<std::size_t>(ru.sensor)] : j.release;
+    k.members.emplace_back(slot, unit);
+    k.min_release = j.release;
+    k.cost = ru.estimate;
+    u.task = t;
+    push_ready(t);
+    if (ru.kind == UnitKind::Encoder && opt.merge)
+      open_enc[static_cast<std::size_t>(ru.sensor)].push_back(t);
+  }
+
+  // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
+  Key key(int t, TimePoint now, TaskView& v) {
+    Task& k = task(t);
+    v = TaskView{};
+    v.deadline = kNever;
+    v.release = kNever;
+    v.job_deadline = kNever;
+    v.cost = k.cost;
+    Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0};
+    for (auto [slot, unit] : k.members) {
+      Job& j = job(slot);
+      eval(j, now);
+      const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
+      v.deadline = std::min(v.deadline, j.hd[static_cast<std::size_t>(ru.height)]);
+      v.release = std::min(v.release, j.release);
+      v.job_deadline = std::min(v.job_deadline, j.deadline);
+      v.remaining = std::max(v.remaining, j.remaining);
+      v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
+      const Key mk{0, j.release, j.op, j.seq, unit};
+      if (mk < best) best = mk;
+    }
+    best.rank = s.policy_->rank(v, now);
+    return best;
+  }
+
+  // The predicted release, within γ of the task's first member, of another operation that
+  // samples the same sensor (§3 rule 2); kNever if none.
+  TimePoint predicted_member(const Task& k, TimePoint now) const {
+    TimePoint best = kNever;
+    for (std::size_t i = 0; i < ops.size(); ++i) {
+      const OpState& o = ops[i];
+      if (o.g == nullptr || !o.own_rate || o.remaining == 0) continue;
+      if (o.next_tick <= now || o.next_tick - k.min_release > s.config_.gamma) continue;
+      if (std::find(o.sensors_read.begin(), o.sensors_read.end(), k.sensor) == o.sensors_read.end())
+        continue;
+      bool member = false;
+      for (auto [slot, unit] : k.members)
+        member = member || jobs[static_cast<std::size_t>(slot)].op == static_cast<int>(i);
+      if (!member) best = std::min(best, o.next_tick);
+    }
+    return best;
+  }
+
+  bool slack_covers(Task& k, TimePoint now, TimePoint until) {
+    for (auto [slot, unit] : k.members) {
+      Job& j = job(slot);
+      eval(j, now);
+      if (j.deadline - now - j.remaining < until - now) return false;
+    }
+    return true;
+  }
+
+  Duration batch_estimate(const Task& k, int b) const {
+    const UnitProfile* p =
+        k.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(k.head)];
+    return p != nullptr ? p->at(b).estimate(s.config_.estimate) : k.cost * b;
+  }
+
+  int batch_limit(const Task& k) const {
+    const UnitProfile* p =
+        k.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(k.head)];
+    return std::min(s.config_.max_batch, p != nullptr ? p->max_batch() : 1);
+  }
+
+  bool on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const {
+    if (opt.sync != SyncMode::OnDemand || lane.completed_at != now || lane.last_slot < 0)
+      return false;
+    for (auto [slot, unit] : k.members) {
+      const Job& j = jobs[static_cast<std::size_t>(slot)];
+      if (slot != lane.last_slot || j.id != lane.last_job) continue;
+      for (int p : j.g->units[static_cast<std::size_t>(unit)].preds)
+        if (std::find(lane.last_units.begin(), lane.last_units.end(), p) != lane.last_units.end())
+          return true;
+    }
+    return false;
+  }
+
+  void start_dispatch(int lane_index, TimePoint now, TimePoint deadline) {
+    Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
+    Dispatch& d = lane.d;
+    const Task& first = task(batch.front());
+    d.id = ++dispatch_seq;
+    d.lane = lane_index;
+    d.kind = first.kind;
+    d.head = first.head;
+    d.sensor = first.sensor;
+    d.batch = static_cast<int>(batch.size());
+    d.members.clear();
+    d.task_begin.clear();
+    d.deadline = deadline;
+    d.decided_at = now;
+    d.start = now;
+    d.round_trip = !on_demand_continuation(lane, first, now);
+    for (int t : batch) {
+      Task& k = task(t);
+      d.task_begin.push_back(static_cast<int>(d.members.size()));
+      if (k.kind == UnitKind::Encoder && k.gamma) {
+        // A γ-merged run uses the newest frame available when it starts (§3).
+        const SensorState& sn = sensors[static_cast<std::size_t>(k.sensor)];
+        if (sn.has_frame && sn.frame > k.frame) {
+          k.frame = sn.frame;
+          k.frame_time = sn.time;
+        }
+      }
+      for (auto [slot, unit] : k.members) {
+        Job& j = job(slot);
+        UnitRt& u = j.u[static_cast<std::size_t>(unit)];
+        u.state = UState::Running;
+        u.task = -1;
+        u.start = now;
+        ++j.running;
+        const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
+        Member m;
+        m.job = j.id;
+        m.slot = slot;
+        m.unit = unit;
+        m.operation = j.op;
+        m.node = ru.node;
+        m.job_seq = j.seq;
+        m.release = j.release;
+        m.graph = j.g;
+        if (ru.sensor >= 0) {
+          const auto si = static_cast<std::size_t>(ru.sensor);
+          if (ru.kind == UnitKind::Encoder) {
+            j.frame[si] = k.frame;  // its head reads the features of this frame
+            j.frame_time[si] = k.frame_time;
+          }
+          m.frame = j.frame[si];
+          m.frame_time = j.frame_time[si];
+          j.oldest_frame = std::min(j.oldest_frame, m.frame_time);
+        } else if (ru.kind == UnitKind::Mono && !j.g->sensors.empty()) {
+          const auto si = static_cast<std::size_t>(j.g->sensors.front());
+          m.frame = j.frame[si];
+          m.frame_time = j.frame_time[si];
+          for (int sn : j.g->sensors)
+            j.oldest_frame = std::min(j.oldest_frame, j.frame_time[static_cast<std::size_t>(sn)]);
+        }
+        d.members.push_back(m);
+      }
+      free_task(t);
+    }
+    d.task_begin.push_back(static_cast<int>(d.members.size()));
+    lane.busy = true;
+    ++s.stats_.dispatches;
+    if (d.round_trip) ++s.stats_.round_trips;
+    out.push_back(&d);
+  }
+
+  // Picks work for one idle lane; false when nothing can start now.
+  bool pick(int lane_index, TimePoint now) {
+    for (;;) {
+      int best = -1;
+      Key best_key{};
+      TaskView best_view{};
+      for (int t : ready) {
+        if (task(t).wait_until > now) continue;
+        TaskView v;
+        const Key k = key(t, now, v);
+        if (best < 0 || k < best_key) {
+          best = t;
+          best_key = k;
+          best_view = v;
+        }
+      }
+      if (best < 0) return false;
+      Task& k = task(best);
+      if (opt.drop == DropMode::Hopeless) {
+        bool aborted = false;
+        for (std::size_t m = 0; m < k.members.size();) {
+          const int slot = k.members[m].first;
+          Job& j = job(slot);
+          if (now + j.remaining > j.deadline) {
+            end_job(slot, JobOutcome::Dropped, now);  // may free this task
+            aborted = true;
+            break;
+          }
+          ++m;
+        }
+        if (aborted) continue;
+      }
+      if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
+        const TimePoint until = predicted_member(k, now);
+        if (until != kNever && slack_covers(k, now, until)) {
+          k.wait_until = until;
+          min_wait = std::min(min_wait, until);
+          ++s.stats_.merge_waits;
+          for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);
+          continue;
+        }
+      }
+      batch.clear();
+      batch.push_back(best);
+      TimePoint deadline = best_view.deadline;
+      if (opt.batching && (k.kind == UnitKind::Encoder || k.kind == UnitKind::Head)) {
+        const int limit = batch_limit(k);
+        cand.clear();
+        for (int t : ready) {
+          const Task& o = task(t);
+          if (t == best || o.kind != k.kind || o.head != k.head || o.wait_until > now) continue;
+          TaskView v;
+          Key kk = key(t, now, v);
+          kk.rank = v.deadline.count();  // the batch keeps members by deadline
+          cand.emplace_back(kk, t);
+        }
+        std::sort(cand.begin(), cand.end(),
+                  [](const auto& a, const auto& b) { return a.first < b.first; });
+        const Duration single = k.kind == UnitKind::Encoder
+                                    ? enc_single
+                                    : head_single[static_cast<std::size_t>(k.head)];
+        for (const auto& [kk, t] : cand) {
+          const int b = static_cast<int>(batch.size()) + 1;
+          if (b > limit) break;
+          // Batch only when it is cheaper than running one by one and, by estimate, still
+          // meets the earliest member deadline (§3 inter-DAG batching).
+          const Duration cb = batch_estimate(k, b);
+          const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
+          if (cb >= single * b || now + cb > dl) break;
+          batch.push_back(t);
+          deadline = dl;
+        }
+      }
+      start_dispatch(lane_index, now, deadline);
+      return true;
+    }
+  }
+};
+
+Scheduler::Scheduler(const Scenario& scenario, const Profile& profile,
+                     std::unique_ptr<Policy> policy, SchedulerConfig config)
+    : scenario_(scenario), policy_(std::move(policy)), config_(config) {
+  RED_ASSERT(policy_ != nullptr);
+  RED_ASSERT(config_.lanes >= 1);
+  impl_ = std::make_unique<Impl>(*this, profile);
+}
+
+Scheduler::~Scheduler() = default;
+
+void Scheduler::add_observer(Observer* o) {
+  impl_->observers.push_back(o);
+}
+
+void Scheduler::apply_events(TimePoint now) {
+  Impl& m = *impl_;
+  while (m.next_event < scenario_.events.size() && scenario_.events[m.next_event].at <= now) {
+    const EventSpec& e = scenario_.events[m.next_event];
+    for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
+    for (const auto& [sensor, rate] : e.sensor_rates)
+      m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
+    for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
+    ++m.next_event;
+  }
+}
+
+void Scheduler::on_frame(int sensor, std::uint64_t frame, TimePoint now) {
+  Impl& m = *impl_;
+  SensorState& sn = m.sensors[static_cast<std::size_t>(sensor)];
+  sn.has_frame = true;
+  sn.frame = frame;
+  sn.time = now;
+  for (std::size_t i = 0; i < m.ops.size(); ++i)
+    if (m.ops[i].g != nullptr && m.ops[i].trigger == sensor)
+      m.release(static_cast<int>(i), now, sensor, frame);
+}
+
+void Scheduler::on_start(int lane, TimePoint start) {
+  Impl& m = *impl_;
+  Dispatch& d = m.lanes[static_cast<std::size_t>(lane)].d;
+  d.start = start;
+  for (const Member& mb : d.members) {
+    Job& j = m.job(mb.slot);
+    if (j.live && j.id == mb.job) j.u[static_cast<std::size_t>(mb.unit)].start = start;
+  }
+  for (Observer* ob : m.observers) ob->on_unit_start(d);
+}
+
+void Scheduler::stop_releases() {
+  for (OpState& o : impl_->ops) {
+    o.remaining = 0;
+    o.next_tick = kNever;
+  }
+  impl_->next_event = scenario_.events.size();
+}
+
+void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
+                            std::string_view reason) {
+  Impl& m = *impl_;
+  Lane& lane = m.lanes[static_cast<std::size_t>(lane_index)];
+  RED_ASSERT(lane.busy);
+  lane.busy = false;
+  lane.completed_at = now;
+  lane.last_slot = -1;
+  lane.last_units.clear();
+  const Dispatch& d = lane.d;
+  for (Observer* ob : m.observers) ob->on_unit_end(d, now, status);
+  for (const Member& mb : d.members) {
+    Job& j = m.job(mb.slot);
+    if (!j.live || j.id != mb.job) continue;
+    UnitRt& u = j.u[static_cast<std::size_t>(mb.unit)];
+    --j.running;
+    if (j.ended) {
+      u.state = UState::Cancelled;  // output discarded: the job was aborted meanwhile
+      if (j.running == 0) m.free_job(mb.slot);
+      continue;
+    }
+    if (status != UnitStatus::Completed) {
+      u.state = UState::Cancelled;
+      j.reason = reason.empty() ? std::string(to_string(status)) : std::string(reason);
+      m.end_job(mb.slot, JobOutcome::Failed, now);
+      continue;
+    }
+    u.state = UState::Done;
+    --j.unfinished;
+    lane.last_slot = mb.slot;
+    lane.last_job = j.id;
+    lane.last_units.push_back(mb.unit);
+    for (int sx : j.g->units[static_cast<std::size_t>(mb.unit)].succs) {
+      UnitRt& su = j.u[static_cast<std::size_t>(sx)];
+      if (--su.pending == 0 && su.state == UState::Blocked) m.make_ready(mb.slot, sx);
+    }
+    if (j.unfinished == 0)
+      m.end_job(mb.slot, now <= j.deadline ? JobOutcome::Met : JobOutcome::Missed, now);
+  }
+}
+
+void Scheduler::advance(TimePoint now) {
+  Impl& m = *impl_;
+  // Own-rate and count releases due by now, in time order (ties: operation order).
+  for (;;) {
+    int due = -1;
+    for (std::size_t i = 0; i < m.ops.size(); ++i) {
+      const OpState& o = m.ops[i];
+      if (o.g == nullptr || o.next_tick > now || o.remaining == 0) continue;
+      if (due < 0 || o.next_tick < m.ops[static_cast<std::size_t>(due)].next_tick)
+        due = static_cast<int>(i);
+    }
+    if (due < 0) break;
+    OpState& o = m.ops[static_cast<std::size_t>(due)];
+    const TimePoint t = o.next_tick;
+    if (o.all_at_once) {
+      while (o.remaining != 0) m.release(due, t, -1, 0);
+      o.next_tick = kNever;
+    } else {
+      o.next_tick = t + period_of(o.rate_hz);
+      m.release(due, t, -1, 0);
+    }
+  }
+  // Strict drops (§5): a job whose end-to-end deadline has come is aborted.
+  auto& h = m.deadlines;
+  while (!h.empty() && h.front().first <= now) {
+    const auto [slot, id] = h.front().second;
+    std::pop_heap(h.begin(), h.end(), std::greater<>{});
+    h.pop_back();
+    Job& j = m.job(slot);
+    if (j.live && !j.ended && j.id == id) m.end_job(slot, JobOutcome::Dropped, now);
+  }
+}
+
+std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
+  Impl& m = *impl_;
+  m.out.clear();
+  int idle = 0;
+  for (const Lane& l : m.lanes) idle += l.busy ? 0 : 1;
+  if (idle > 0 && !m.ready.empty()) {
+    ++m.stamp;  // one scheduling point: deadlines are re-assigned from now
+    ++stats_.decisions;
+    m.min_wait = kNever;
+    for (std::size_t i = 0; i < m.lanes.size(); ++i) {
+      if (m.lanes[i].busy) continue;
+      if (!m.pick(static_cast<int>(i), now)) break;
+      --idle;
+    }
+  }
+  if (!m.observers.empty()) {
+    int waiting = 0;
+    for (int t : m.ready) waiting += m.task(t).wait_until > now ? 1 : 0;
+    for (Observer* ob : m.observers)
+      ob->on_decision(now, static_cast<int>(m.ready.size()), idle, waiting);
+  }
+  return {m.out.data(), m.out.size()};
+}
+
+TimePoint Scheduler::next_wakeup() const {
+  const Impl& m = *impl_;
+  TimePoint t = kNever;
+  if (m.next_event < scenario_.events.size()) t = std::min(t, scenario_.events[m.next_event].at);
+  for (const OpState& o : m.ops)
+    if (o.g != nullptr && o.remaining != 0) t = std::min(t, o.next_tick);
+  if (!m.deadlines.empty()) t = std::min(t, m.deadlines.front().first);
+  if (!m.ready.empty()) t = std::min(t, m.min_wait);
+  return t;
+}
+
+void Scheduler::finish(TimePoint end) {
+  Impl& m = *impl_;
+  for (std::size_t i = 0; i < m.jobs.size(); ++i) {
+    Job& j = m.jobs[i];
+    if (!j.live || j.ended) continue;
+    j.ended = true;
+    --in_flight_;
+    m.notify_job(j, JobOutcome::Unfinished, end, false);
+  }
+}
+
+int Scheduler::ready_tasks() const noexcept {
+  return static_cast<int>(impl_->ready.size());
+}
+
+bool Scheduler::drained() const {
+  const Impl& m = *impl_;
+  if (in_flight_ > 0 || m.next_event < scenario_.events.size()) return false;
+  for (const OpState& o : m.ops) {
+    if (o.g == nullptr || o.remaining == 0) continue;
+    return false;  // it can still release (periodically, on frames or at its phase)
+  }
+  return true;
+}
+
+double Scheduler::sensor_rate(int sensor) const {
+  return impl_->sensors[static_cast<std::size_t>(sensor)].rate_hz;
+}
+
+const RefinedGraph* Scheduler::graph(int operation) const {
+  return impl_->ops[static_cast<std::size_t>(operation)].g;
+}
+
+const Dispatch* Scheduler::running(int lane) const {
+  const auto& l = impl_->lanes[static_cast<std::size_t>(lane)];
+  return l.busy ? &l.d : nullptr;
+}
+
+TimePoint Scheduler::unit_deadline(int slot, int unit, TimePoint now) {
+  Impl& m = *impl_;
+  ++m.stamp;
+  Job& j = m.job(slot);
+  m.eval(j, now);
+  return j.hd[static_cast<std::size_t>(j.g->units[static_cast<std::size_t>(unit)].height)];
+}
+
+}  // namespace red

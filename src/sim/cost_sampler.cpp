@@ -1,0 +1,105 @@
+#include "red/sim/cost_sampler.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "red/core/assert.hpp"
+#include "red/core/rng.hpp"
+
+namespace red {
+
+namespace {
+constexpr std::uint64_t kEncoderTag = 0x454e43;  // "ENC"
+constexpr std::uint64_t kHeadTag = 0x484541;     // "HEA"
+constexpr std::uint64_t kPlainTag = 0x504c41;    // "PLA"
+}  // namespace
+
+LatencyStats plain_stats(const PlainCost& c) {
+  LatencyStats s;
+  const Duration spread = c.p99 - c.mean;
+  s.mean = c.mean;
+  s.p50 = c.mean;
+  s.p95 = c.mean + spread * 6 / 10;
+  s.p99 = c.p99;
+  s.max = c.p99 + spread * 15 / 100;
+  s.min = std::max(Duration{0}, c.mean - spread / 2);
+  return s;
+}
+
+CostSampler::CostSampler(const Scenario& s, const Profile& p, std::uint64_t seed, double slowdown)
+    : scenario_(s), seed_(seed), slowdown_(slowdown) {
+  encoder_ = p.find("encoder");
+  for (const std::string& h : s.model.heads) heads_.push_back(p.find("head/" + h));
+}
+
+Duration CostSampler::scaled(Duration d) const {
+  if (slowdown_ == 1.0) return d;
+  return Duration{
+      static_cast<std::int64_t>(std::llround(static_cast<double>(d.count()) * slowdown_))};
+}
+
+Duration CostSampler::encoder(int sensor, std::uint64_t frame, int batch) const {
+  RED_ASSERT(encoder_ != nullptr);
+  const double u = unit_uniform(hash_combine(
+      hash_combine(hash_combine(seed_, kEncoderTag), static_cast<std::uint64_t>(sensor)), frame));
+  return scaled(encoder_->at(batch).quantile(u));
+}
+
+Duration CostSampler::head(int h, int op, std::uint64_t seq, int node, int batch) const {
+  const UnitProfile* p = heads_[static_cast<std::size_t>(h)];
+  RED_ASSERT(p != nullptr);
+  std::uint64_t k = hash_combine(seed_, kHeadTag);
+  k = hash_combine(k, static_cast<std::uint64_t>(op));
+  k = hash_combine(k, seq);
+  k = hash_combine(k, static_cast<std::uint64_t>(node));
+  return scaled(p->at(batch).quantile(unit_uniform(k)));
+}
+
+Duration CostSampler::plain(const PlainCost& c, int op, std::uint64_t seq, int node) const {
+  if (c.p99 == c.mean) return scaled(c.mean);
+  std::uint64_t k = hash_combine(seed_, kPlainTag);
+  k = hash_combine(k, static_cast<std::uint64_t>(op));
+  k = hash_combine(k, seq);
+  k = hash_combine(k, static_cast<std::uint64_t>(node));
+  return scaled(plain_stats(c).quantile(unit_uniform(k)));
+}
+
+Duration CostSampler::sample(const Dispatch& d) const {
+  RED_ASSERT(!d.members.empty());
+  const Member& m = d.members.front();
+  const RefinedGraph& g = *m.graph;
+  const RefinedUnit& ru = g.units[static_cast<std::size_t>(m.unit)];
+  switch (d.kind) {
+    case UnitKind::Encoder:
+      // One run encodes `batch` frames; the first frame's draw picks the quantile.
+      return encoder(d.sensor, m.frame, d.batch);
+    case UnitKind::Head:
+      return head(d.head, m.operation, m.job_seq, m.node, d.batch);
+    case UnitKind::Coarse:
+      return encoder(ru.sensor, m.frame) + head(ru.head, m.operation, m.job_seq, m.node);
+    case UnitKind::Plain:
+      return plain(*g.spec->nodes[static_cast<std::size_t>(m.node)].cost, m.operation, m.job_seq,
+                   m.node);
+    case UnitKind::Mono: {
+      // The encoder once per sensor (CRN key: the job's frame of the first sensor, else
+      // the job), then every head and plain node of the job.
+      Duration t{0};
+      bool first = true;
+      for (int sensor : g.sensors) {
+        t += first ? encoder(sensor, m.frame)
+                   : encoder(sensor, m.job_seq * 131 + static_cast<std::uint64_t>(sensor));
+        first = false;
+      }
+      for (std::size_t n = 0; n < g.spec->nodes.size(); ++n) {
+        const NodeSpec& ns = g.spec->nodes[n];
+        const int node = static_cast<int>(n);
+        t += ns.is_plain() ? plain(*ns.cost, m.operation, m.job_seq, node)
+                           : head(ns.head, m.operation, m.job_seq, node);
+      }
+      return t;
+    }
+  }
+  return Duration{0};
+}
+
+}  // namespace red

@@ -1,0 +1,47 @@
+#include "red/sim/run.hpp"
+
+#include <chrono>
+
+namespace red {
+
+Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
+                                    std::uint64_t seed, const std::vector<Observer*>& extra,
+                                    bool keep_units) {
+  auto pol = make_policy(policy);
+  if (!pol) {
+    std::string known;
+    for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;
+    return Error{"", 0, "unknown policy '" + policy + "' (known: " + known + ")"};
+  }
+  PolicyRun run;
+  MetricsCollector metrics(s, s.scheduler.qoe_lambda, keep_units);
+  Simulator sim(s, p, std::move(pol), SimOptions{seed, std::chrono::seconds{60}});
+  sim.add_observer(&metrics);
+  for (Observer* o : extra) sim.add_observer(o);
+  const auto t0 = std::chrono::steady_clock::now();
+  run.result = sim.run();
+  run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  run.metrics = metrics.summarize(policy, run.result.end, run.result.stats);
+  run.jobs = metrics.jobs();
+  run.units = metrics.units();
+  return run;
+}
+
+Expected<Profile> resolve_profile(const Scenario& s, const std::optional<std::string>& cli_path) {
+  Profile p;
+  if (cli_path) {
+    auto loaded = load_profile(*cli_path);
+    if (!loaded) return loaded.error();
+    p = std::move(loaded.value());
+  } else if (!s.profile.empty()) {
+    auto loaded = load_profile(s.profile);
+    if (!loaded) return loaded.error();
+    p = std::move(loaded.value());
+  } else {
+    p = default_profile();
+  }
+  if (auto err = check_profile_covers(p, s)) return *err;
+  return p;
+}
+
+}  // namespace red

@@ -1,0 +1,118 @@
+#include "red/sim/simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <queue>
+#include <vector>
+
+#include "red/core/rng.hpp"
+
+namespace red {
+
+namespace {
+
+enum class EvKind : std::uint8_t { Complete, Frame };
+
+struct Ev {
+  TimePoint t;
+  std::uint64_t seq;
+  EvKind kind;
+  int index;            // lane or sensor
+  std::uint64_t value;  // dispatch id or frame number
+  bool operator>(const Ev& o) const noexcept { return t != o.t ? t > o.t : seq > o.seq; }
+};
+
+Duration period_of(double hz) {
+  return Duration{static_cast<std::int64_t>(std::llround(1e9 / hz))};
+}
+
+// Interference in the simulator is a slowdown of every unit: 1 + intensity.
+double slowdown_of(const Scenario& s) {
+  return s.interference ? 1.0 + s.interference->intensity : 1.0;
+}
+
+}  // namespace
+
+Simulator::Simulator(const Scenario& scenario, const Profile& profile,
+                     std::unique_ptr<Policy> policy, SimOptions options)
+    : scenario_(scenario),
+      options_(options),
+      scheduler_(scenario, profile, std::move(policy), SchedulerConfig::from(scenario)),
+      sampler_(scenario, profile, options.seed, slowdown_of(scenario)),
+      sync_cost_(scenario.device.sync_cost ? *scenario.device.sync_cost : profile.sync_round_trip) {
+}
+
+SimResult Simulator::run() {
+  SimResult r;
+  std::priority_queue<Ev, std::vector<Ev>, std::greater<>> q;
+  std::uint64_t seq = 0;
+  const std::size_t nsensors = scenario_.sensors.size();
+  std::vector<TimePoint> base(nsensors);  // un-jittered time of each sensor's next frame
+  auto jitter = [&](std::size_t s, std::uint64_t k) {
+    const SensorSpec& sp = scenario_.sensors[s];
+    if (sp.jitter <= Duration{0}) return Duration{0};
+    // Jitter stays below one period so frames of a sensor arrive in order.
+    const Duration cap =
+        std::min(sp.jitter, period_of(scheduler_.sensor_rate(static_cast<int>(s))) - Duration{1});
+    const double u = unit_uniform(hash_combine(hash_combine(options_.seed ^ 0x4a4954ULL, s), k));
+    return Duration{static_cast<std::int64_t>(u * static_cast<double>(cap.count()))};
+  };
+  for (std::size_t s = 0; s < nsensors; ++s) {
+    base[s] = scenario_.sensors[s].phase;
+    q.push({base[s] + jitter(s, 0), seq++, EvKind::Frame, static_cast<int>(s), 0});
+  }
+  std::vector<std::uint64_t> running(static_cast<std::size_t>(scenario_.device.lanes), 0);
+
+  const TimePoint stop_releases = scenario_.duration;
+  const TimePoint hard_stop = scenario_.duration + options_.drain_limit;
+  bool releasing = true;
+  TimePoint now{0};
+  for (;;) {
+    const TimePoint t_ext = q.empty() ? kNever : q.top().t;
+    const TimePoint t_int = scheduler_.next_wakeup();
+    TimePoint t = std::min(t_ext, t_int);
+    if (releasing && t >= stop_releases) {
+      // The scenario is over: nothing new is released; in-flight jobs may still finish.
+      releasing = false;
+      scheduler_.apply_events(stop_releases - Duration{1});
+      scheduler_.stop_releases();
+      continue;
+    }
+    if (t == kNever || t > hard_stop || (!releasing && scheduler_.jobs_in_flight() == 0)) break;
+    now = t;
+    scheduler_.apply_events(now);
+    while (!q.empty() && q.top().t == now) {
+      const Ev e = q.top();
+      q.pop();
+      ++r.events;
+      if (e.kind == EvKind::Complete) {
+        if (running[static_cast<std::size_t>(e.index)] != e.value) continue;
+        running[static_cast<std::size_t>(e.index)] = 0;
+        ++r.unit_events;
+        scheduler_.on_complete(e.index, now, UnitStatus::Completed);
+      } else {
+        if (!releasing) continue;
+        const auto s = static_cast<std::size_t>(e.index);
+        scheduler_.on_frame(e.index, e.value, now);
+        base[s] += period_of(scheduler_.sensor_rate(e.index));
+        q.push({base[s] + jitter(s, e.value + 1), seq++, EvKind::Frame, e.index, e.value + 1});
+      }
+    }
+    scheduler_.advance(now);
+    for (Dispatch* d : scheduler_.dispatch(now)) {
+      const TimePoint start = now + (d->round_trip ? sync_cost_ : Duration{0});
+      scheduler_.on_start(d->lane, start);
+      const TimePoint end = start + sampler_.sample(*d);
+      running[static_cast<std::size_t>(d->lane)] = d->id;
+      q.push({end, seq++, EvKind::Complete, d->lane, d->id});
+      ++r.unit_events;
+    }
+    ++r.events;
+  }
+  r.end = releasing ? std::min(now, stop_releases) : std::max(now, stop_releases);
+  scheduler_.finish(r.end);
+  r.stats = scheduler_.stats();
+  return r;
+}
+
+}  // namespace red

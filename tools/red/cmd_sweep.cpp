@@ -1,0 +1,184 @@
+/// \file
+/// `red sweep S.yaml --set key=a:b:step | key=v1,v2,...`: the paper's Tables 4 and 5.
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "red/report/report.hpp"
+#include "red/scenario/loader.hpp"
+
+namespace red::cli {
+
+namespace {
+
+struct SweepArgs {
+  ScenarioArgs scenario;
+  std::string sweep;
+  std::string policies;
+  std::optional<std::uint64_t> seed;
+  std::optional<std::string> out;
+};
+
+// Parses "key=a:b:step" or "key=v1,v2,..." into key and values.
+Expected<std::pair<std::string, std::vector<double>>> parse_sweep(const std::string& spec) {
+  const auto eq = spec.find('=');
+  if (eq == std::string::npos || eq == 0)
+    return Error{"", 0, "--set '" + spec + "': expected key=a:b:step or key=v1,v2"};
+  const std::string key = spec.substr(0, eq);
+  const std::string rest = spec.substr(eq + 1);
+  std::vector<double> values;
+  auto number = [&](const std::string& t, double& v) {
+    char* end = nullptr;
+    v = std::strtod(t.c_str(), &end);
+    return !t.empty() && end != nullptr && *end == '\0';
+  };
+  if (rest.find(':') != std::string::npos) {
+    std::vector<std::string> parts;
+    std::size_t from = 0;
+    for (std::size_t i = 0; i <= rest.size(); ++i)
+      if (i == rest.size() || rest[i] == ':') {
+        parts.push_back(rest.substr(from, i - from));
+        from = i + 1;
+      }
+    double a = 0, b = 0, step = 0;
+    if (parts.size() != 3 || !number(parts[0], a) || !number(parts[1], b) ||
+        !number(parts[2], step) || step <= 0 || b < a)
+      return Error{"", 0, "--set " + key + ": expected a:b:step with a <= b and step > 0"};
+    for (int i = 0;; ++i) {
+      const double v = a + step * i;
+      if (v > b + step * 1e-9) break;
+      values.push_back(std::round(v * 1e9) / 1e9);
+    }
+  } else {
+    for (const std::string& t : split_list(rest)) {
+      double v = 0;
+      if (!number(t, v)) return Error{"", 0, "--set " + key + ": '" + t + "' is not a number"};
+      values.push_back(v);
+    }
+  }
+  if (values.empty()) return Error{"", 0, "--set " + key + ": no values"};
+  return std::pair{key, values};
+}
+
+}  // namespace
+
+void register_sweep(CLI::App& app, int& exit_code) {
+  auto a = std::make_shared<SweepArgs>();
+  CLI::App* cmd =
+      app.add_subcommand("sweep", "Run policies over a range of one parameter (paper Tables 4, 5)");
+  cmd->add_option("scenario", a->scenario.path, "Scenario file (YAML)")->required();
+  cmd->add_option("--set", a->sweep,
+                  "key=a:b:step or key=v1,v2,... (deadline_scale, qoe_lambda, rate_scale, ...)")
+      ->required();
+  cmd->add_option("--policies", a->policies, "Comma-separated presets (default: all)");
+  cmd->add_option("--profile", a->scenario.profile, "Profile JSON");
+  cmd->add_option("--seed", a->seed, "Random seed (default: the scenario's)");
+  cmd->add_option("--out", a->out, "Directory for sweep.json and sweep.csv");
+  cmd->callback([a, &exit_code] {
+    auto sw = parse_sweep(a->sweep);
+    if (!sw) {
+      print_error(sw.error());
+      exit_code = kBadInput;
+      return;
+    }
+    auto base = load(a->scenario);
+    if (!base) {
+      print_error(base.error());
+      exit_code = kBadInput;
+      return;
+    }
+    auto p = resolve_profile(*base, a->scenario.profile);
+    if (!p) {
+      print_error(p.error());
+      exit_code = kBadInput;
+      return;
+    }
+    const auto names = a->policies.empty() ? default_presets() : split_list(a->policies);
+    for (const std::string& n : names)
+      if (!make_policy(n)) {
+        print_error(Error{"", 0, "unknown policy '" + n + "'"});
+        exit_code = kBadInput;
+        return;
+      }
+    const auto& [key, values] = sw.value();
+    const std::uint64_t seed = a->seed ? *a->seed : base->seed;
+    // results[policy][value]
+    std::vector<std::vector<PolicyMetrics>> results(names.size());
+    for (double v : values) {
+      Scenario s = *base;
+      if (auto e = apply_override(s, key, v)) {
+        print_error(*e);
+        exit_code = kBadInput;
+        return;
+      }
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        auto r = simulate_policy(s, *p, names[i], seed, {}, false);
+        if (!r) {
+          print_error(r.error());
+          exit_code = kBadInput;
+          return;
+        }
+        results[i].push_back(r->metrics);
+      }
+    }
+    auto table = [&](const char* title, auto get) {
+      std::string out = fmt::format("{} by {}\n{:<8}", title, key, "policy");
+      for (double v : values) out += fmt::format(" {:>9g}", v);
+      out += '\n';
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        out += fmt::format("{:<8}", names[i]);
+        for (const PolicyMetrics& m : results[i]) out += fmt::format(" {:>9.3f}", get(m));
+        out += '\n';
+      }
+      return out;
+    };
+    std::string text = table("miss rate", [](const PolicyMetrics& m) { return m.miss_rate; });
+    text += table("mean latency (ms)", [](const PolicyMetrics& m) { return m.latency.mean; });
+    text += table("QoE", [](const PolicyMetrics& m) { return m.qoe; });
+    fmt::print("scenario {} (backend sim, seed {})\n{}", base->name, seed, text);
+    if (a->out) {
+      nlohmann::ordered_json j;
+      j["schema"] = 1;
+      j["scenario"] = base->name;
+      j["parameter"] = key;
+      j["values"] = values;
+      j["seed"] = seed;
+      std::string csv =
+          "policy," + key + ",jobs,miss_rate,drop_rate,latency_mean_ms,latency_p99_ms,qoe\n";
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        nlohmann::ordered_json row;
+        row["name"] = names[i];
+        for (std::size_t k = 0; k < values.size(); ++k) {
+          const PolicyMetrics& m = results[i][k];
+          row["miss_rate"].push_back(m.miss_rate);
+          row["drop_rate"].push_back(m.drop_rate);
+          row["latency_mean_ms"].push_back(m.latency.mean);
+          row["latency_p99_ms"].push_back(m.latency.p99);
+          row["qoe"].push_back(m.qoe);
+          csv += fmt::format("{},{:g},{},{},{},{},{},{}\n", names[i], values[k], m.jobs,
+                             m.miss_rate, m.drop_rate, m.latency.mean, m.latency.p99, m.qoe);
+        }
+        j["policies"].push_back(row);
+      }
+      if (auto e = write_file(*a->out, "sweep.json", j.dump(2) + "\n")) {
+        print_error(*e);
+        exit_code = kRunFailure;
+        return;
+      }
+      if (auto e = write_file(*a->out, "sweep.csv", csv)) {
+        print_error(*e);
+        exit_code = kRunFailure;
+        return;
+      }
+      fmt::print("wrote {}/sweep.json, sweep.csv\n", *a->out);
+    }
+    exit_code = kOk;
+  });
+}
+
+}  // namespace red::cli

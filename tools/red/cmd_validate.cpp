@@ -1,0 +1,131 @@
+/// \file
+/// `red validate S.yaml`: checks a scenario and prints the resolved workload.
+
+#include <fmt/format.h>
+
+#include <iostream>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "red/graph/refine.hpp"
+
+namespace red::cli {
+
+namespace {
+
+std::string describe_node(const Scenario& s, const NodeSpec& n) {
+  if (n.is_plain())
+    return n.cost->p99 == n.cost->mean ? fmt::format("plain {:.3f} ms", to_ms(n.cost->mean))
+                                       : fmt::format("plain mean {:.3f} / p99 {:.3f} ms",
+                                                     to_ms(n.cost->mean), to_ms(n.cost->p99));
+  return fmt::format("{} on {}", s.model.heads[static_cast<std::size_t>(n.head)],
+                     s.sensors[static_cast<std::size_t>(n.sensor)].name);
+}
+
+void print_operation(const Scenario& s, const OperationSpec& op, int index,
+                     const CostModel& costs) {
+  const auto coarse =
+      refine(std::make_shared<OperationSpec>(op), index, costs,
+             {GraphMode::Coarse, DeadlineMode::Proportional, s.scheduler.level_cost});
+  const auto fine = refine(std::make_shared<OperationSpec>(op), index, costs,
+                           {GraphMode::Fine, DeadlineMode::Proportional, s.scheduler.level_cost});
+  std::string trigger;
+  if (op.trigger_sensor >= 0)
+    trigger = "every frame of " + s.sensors[static_cast<std::size_t>(op.trigger_sensor)].name;
+  else if (op.rate_hz > 0)
+    trigger = fmt::format("{:g} Hz, newest frames", op.rate_hz);
+  else
+    trigger = "at start";
+  if (op.release_count) trigger += fmt::format(", {} release(s)", *op.release_count);
+  fmt::print(
+      "  operation {}: {}; deadline {:.3f} ms; coarse critical path {:.3f} ms; max_inflight {}\n",
+      op.name, trigger, to_ms(coarse->deadline), to_ms(coarse->critical_path), op.max_inflight);
+  if (op.depends_on >= 0)
+    fmt::print("    depends on the newest job of {}\n", s.operation_name(op.depends_on));
+  fmt::print("    {:<10} {:<24} {:>7} {:>12} {:>7} {:>12}\n", "node", "runs", "coarse H",
+             "coarse d ms", "fine H", "fine d ms");
+  for (std::size_t v = 0; v < op.nodes.size(); ++v) {
+    int ch = 0, fh = 0;
+    for (const RefinedUnit& u : coarse->units)
+      if (u.node == static_cast<int>(v)) ch = u.height;
+    for (const RefinedUnit& u : fine->units)
+      if (u.node == static_cast<int>(v) && u.kind != UnitKind::Encoder) fh = u.height;
+    fmt::print("    {:<10} {:<24} {:>7} {:>12.3f} {:>7} {:>12.3f}{}\n", op.nodes[v].name,
+               describe_node(s, op.nodes[v]), ch,
+               to_ms(coarse->static_offset[static_cast<std::size_t>(ch)]), fh,
+               to_ms(fine->static_offset[static_cast<std::size_t>(fh)]),
+               op.nodes[v].deadline
+                   ? fmt::format("  (override {:.3f} ms)", to_ms(*op.nodes[v].deadline))
+                   : "");
+  }
+  for (const EdgeSpec& e : op.edges)
+    fmt::print("    edge {} -> {}\n", op.nodes[static_cast<std::size_t>(e.from)].name,
+               op.nodes[static_cast<std::size_t>(e.to)].name);
+}
+
+}  // namespace
+
+void register_validate(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<ScenarioArgs>();
+  CLI::App* cmd =
+      app.add_subcommand("validate", "Check a scenario and print the resolved workload");
+  cmd->add_option("scenario", args->path, "Scenario file (YAML)")->required();
+  cmd->add_option("--profile", args->profile,
+                  "Profile JSON (default: the scenario's, else built-in)");
+  cmd->add_option("--set", args->sets, "Override key=value (deadline_scale, rate_scale, ...)");
+  cmd->callback([args, &exit_code] {
+    auto s = load(*args);
+    if (!s) {
+      print_error(s.error());
+      exit_code = kBadInput;
+      return;
+    }
+    auto p = resolve_profile(*s, args->profile);
+    if (!p) {
+      print_error(p.error());
+      exit_code = kBadInput;
+      return;
+    }
+    const CostModel costs{&p.value(), &s->model, s->scheduler.estimate};
+    fmt::print("scenario {} ({}): {:g} s, warm-up {:g} s, seed {}, {} lane(s)\n", s->name, s->file,
+               to_s(s->duration), to_s(s->warmup), s->seed, s->device.lanes);
+    fmt::print("profile: {} ({}); estimate {}; gamma {:.1f} ms; max batch {}\n", p->source,
+               p->device,
+               s->scheduler.estimate == EstimateKind::Mean  ? "mean"
+               : s->scheduler.estimate == EstimateKind::P95 ? "p95"
+               : s->scheduler.estimate == EstimateKind::P99 ? "p99"
+                                                            : "max",
+               to_ms(s->scheduler.gamma), s->scheduler.max_batch);
+    if (!s->model.heads.empty()) {
+      std::string heads;
+      for (const std::string& h : s->model.heads) heads += (heads.empty() ? "" : ", ") + h;
+      fmt::print("model: {} heads [{}]; encoder {:.3f} ms\n",
+                 s->model.manifest.empty() ? s->model.builtin : s->model.manifest, heads,
+                 to_ms(costs.encoder()));
+    }
+    for (const SensorSpec& sn : s->sensors)
+      fmt::print("sensor {}: {:g} Hz, phase {:.3f} ms, jitter {:.3f} ms\n", sn.name, sn.rate_hz,
+                 to_ms(sn.phase), to_ms(sn.jitter));
+    fmt::print("operations at t = 0:\n");
+    for (int i = 0; i < s->operation_count(); ++i)
+      if (s->initial[static_cast<std::size_t>(i)])
+        print_operation(*s, *s->initial[static_cast<std::size_t>(i)], i, costs);
+    for (std::size_t e = 0; e < s->events.size(); ++e) {
+      const EventSpec& ev = s->events[e];
+      fmt::print("event {} at {:g} s: {}\n", e, to_s(ev.at), ev.kind);
+      for (const auto& [op, spec] : ev.changes) {
+        if (spec)
+          print_operation(*s, *spec, op, costs);
+        else
+          fmt::print("  operation {} leaves the workload\n", s->operation_name(op));
+      }
+      for (const auto& [sensor, rate] : ev.sensor_rates)
+        fmt::print("  sensor {} now at {:g} Hz\n",
+                   s->sensors[static_cast<std::size_t>(sensor)].name, rate);
+    }
+    fmt::print("ok\n");
+    exit_code = kOk;
+  });
+}
+
+}  // namespace red::cli

@@ -1,0 +1,23 @@
+#pragma once
+/// \file
+/// The `red` subcommands. Each lives in its own file and registers itself on the app;
+/// its callback stores the exit code (0 ok, 1 failure while running, 2 bad input) in
+/// `exit_code`. Messages for bad input name the file, the line and the problem.
+
+#include <CLI/CLI.hpp>
+
+namespace red::cli {
+
+/// Exit codes of §12.
+inline constexpr int kOk = 0;
+inline constexpr int kRunFailure = 1;
+inline constexpr int kBadInput = 2;
+
+void register_validate(CLI::App& app, int& exit_code);
+void register_simulate(CLI::App& app, int& exit_code);
+void register_compare(CLI::App& app, int& exit_code);
+void register_sweep(CLI::App& app, int& exit_code);
+/// `red profile` (cmd_profile.cpp; needs the LibTorch backend).
+void register_profile(CLI::App& app, int& exit_code);
+
+}  // namespace red::cli

@@ -1,0 +1,32 @@
+/// \file
+/// `red`: validate, simulate, compare, sweep, profile (§12).
+
+#include <iostream>
+
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"RED: real-time scheduling of multi-task DNN inference for robots"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "red 0.1.0");
+  int exit_code = red::cli::kOk;
+  red::cli::register_validate(app, exit_code);
+  red::cli::register_simulate(app, exit_code);
+  red::cli::register_compare(app, exit_code);
+  red::cli::register_sweep(app, exit_code);
+  red::cli::register_profile(app, exit_code);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    // Bad usage: CLI11 explains; RED's exit code for bad input is 2 (§12).
+    app.exit(e);
+    return red::cli::kBadInput;
+  }
+  return exit_code;
+}
