@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds, and runs every test: the full suite (core, CLI and
+# the LibTorch backend), then the core and runtime suites again under
+# AddressSanitizer + UndefinedBehaviorSanitizer, and the runtime under ThreadSanitizer.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/deps.sh
+JOBS=$(nproc)
+
+echo "== build and test (Release, all targets)"
+scripts/build.sh
+ctest --test-dir build --output-on-failure -j"$JOBS"
+
+echo "== build and test under address,undefined sanitizers (core, no LibTorch)"
+cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF \
+  -DRED_SANITIZE=address,undefined >/dev/null
+cmake --build build-asan -j"$JOBS"
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan --output-on-failure -j"$JOBS"
+
+echo "== build and test the real-time runtime under the thread sanitizer"
+cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF \
+  -DRED_SANITIZE=thread >/dev/null
+cmake --build build-tsan -j"$JOBS" --target red_tests
+TSAN_OPTIONS=halt_on_error=1 build-tsan/tests/red_tests --gtest_filter='*Runtime*'

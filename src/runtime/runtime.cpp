@@ -1,0 +1,449 @@
+#include "red/runtime/runtime.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include "red/core/assert.hpp"
+#include "red/core/clock.hpp"
+
+namespace red {
+
+const char* to_string(HandlerState s) noexcept {
+  switch (s) {
+    case HandlerState::Idle:
+      return "idle";
+    case HandlerState::Assigned:
+      return "assigned";
+    case HandlerState::Running:
+      return "running";
+    case HandlerState::Completed:
+      return "completed";
+    case HandlerState::Failed:
+      return "failed";
+    case HandlerState::OutOfMemory:
+      return "out-of-memory";
+    case HandlerState::Cancelled:
+      return "cancelled";
+  }
+  return "?";
+}
+
+std::int64_t resident_bytes() {
+  std::ifstream f("/proc/self/statm");
+  std::int64_t size = 0, resident = 0;
+  if (!(f >> size >> resident)) return 0;
+  return resident * static_cast<std::int64_t>(sysconf(_SC_PAGESIZE));
+}
+
+namespace {
+
+Duration period_of(double hz) {
+  return Duration{static_cast<std::int64_t>(std::llround(1e9 / hz))};
+}
+
+// Spin for `spin`, then park on the condition variable until `pred` or `until`.
+template <typename Pred>
+void spin_then_park(std::mutex& m, std::condition_variable& cv, const Clock& clock, Duration spin,
+                    TimePoint until, Pred pred) {
+  const TimePoint spin_end = clock.now() + spin;
+  while (clock.now() < spin_end) {
+    if (pred()) return;
+    std::this_thread::yield();
+  }
+  std::unique_lock lock(m);
+  if (until == kNever) {
+    cv.wait(lock, pred);
+  } else {
+    const auto wall = std::chrono::steady_clock::now() + (until - clock.now());
+    cv.wait_until(lock, wall, pred);
+  }
+}
+
+struct InEvent {
+  enum Kind : std::uint8_t { Frame, Complete } kind;
+  int index;  // sensor or lane
+  std::uint64_t frame;
+  TimePoint t;
+  UnitStatus status;
+  std::string reason;
+};
+
+}  // namespace
+
+struct Runtime::Impl {
+  const Scenario& scenario;
+  Backend& backend;
+  RuntimeOptions options;
+  SteadyClock clock;
+  Scheduler sched;
+  SyncMode sync;
+
+  std::mutex sched_mu;  // the scheduler is driven by one thread at a time
+  TimePoint last_now{0};
+
+  // Global synchronizer's inbox (frames, completions), spin-then-park.
+  std::mutex inbox_mu;
+  std::condition_variable inbox_cv;
+  std::vector<InEvent> inbox;
+  std::atomic<std::uint64_t> inbox_seq{0};
+  std::atomic<bool> poke{false};
+
+  struct Handler {
+    std::thread thread;
+    std::mutex mu;
+    std::condition_variable cv;
+    std::atomic<std::uint64_t> assigned{0};  // bumped on every assignment
+    const Dispatch* work = nullptr;
+    TimePoint prev_end = kNever;  // end of the unit this assignment follows, if immediate
+    std::atomic<HandlerState> state{HandlerState::Idle};
+  };
+  std::vector<std::unique_ptr<Handler>> handlers;
+  std::atomic<bool> stopping{false};
+  std::atomic<bool> cameras_on{true};
+
+  RuntimeReport report;
+  std::mutex report_mu;
+
+  Impl(const Scenario& s, const Profile& p, std::unique_ptr<Policy> policy, Backend& b,
+       RuntimeOptions o)
+      : scenario(s),
+        backend(b),
+        options(o),
+        sched(s, p, std::move(policy), SchedulerConfig::from(s)),
+        sync(sched.policy().options().sync) {
+    report.decision_us.reserve(1U << 16U);
+    report.handoff_us.reserve(1U << 16U);
+  }
+
+  TimePoint advance_now(TimePoint t) {
+    last_now = std::max(last_now, t);
+    return last_now;
+  }
+
+  void post(InEvent e) {
+    {
+      std::lock_guard lock(inbox_mu);
+      inbox.push_back(std::move(e));
+      inbox_seq.fetch_add(1, std::memory_order_release);
+    }
+    inbox_cv.notify_one();
+  }
+
+  void wake_global() {
+    {
+      std::lock_guard lock(inbox_mu);
+      poke.store(true, std::memory_order_release);
+    }
+    inbox_cv.notify_one();
+  }
+
+  // Hands a dispatch to its lane's handler (Idle -> Assigned). Caller holds sched_mu.
+  void assign(const Dispatch* d, TimePoint now, TimePoint prev_end) {
+    sched.on_start(d->lane, now);
+    Handler& h = *handlers[static_cast<std::size_t>(d->lane)];
+    {
+      std::lock_guard lock(h.mu);
+      h.work = d;
+      h.prev_end = prev_end;
+      h.state.store(HandlerState::Assigned, std::memory_order_release);
+      h.assigned.fetch_add(1, std::memory_order_release);
+    }
+    h.cv.notify_one();
+  }
+
+  // One scheduling decision round. Caller holds sched_mu. Returns the dispatch for
+  // `own_lane` (taken by the calling handler itself) if any.
+  const Dispatch* decide(TimePoint now, int own_lane, const std::vector<int>& completed_lanes,
+                         TimePoint completed_at) {
+    const TimePoint t0 = clock.now();
+    const auto ds = sched.dispatch(now);
+    const TimePoint t1 = clock.now();
+    const Dispatch* own = nullptr;
+    if (!ds.empty()) {
+      std::lock_guard lock(report_mu);
+      report.decision_us.push_back(to_us(t1 - t0));
+    }
+    for (const Dispatch* d : ds) {
+      const bool follows = std::find(completed_lanes.begin(), completed_lanes.end(), d->lane) !=
+                           completed_lanes.end();
+      if (d->lane == own_lane) {
+        sched.on_start(d->lane, now);
+        own = d;
+        continue;
+      }
+      assign(d, now, follows ? completed_at : kNever);
+    }
+    return own;
+  }
+
+  void handler_main(int lane) {
+    Handler& h = *handlers[static_cast<std::size_t>(lane)];
+    backend.init_lane(lane);
+    std::uint64_t seen = 0;
+    const Dispatch* next = nullptr;
+    TimePoint prev_end = kNever;
+    for (;;) {
+      if (next == nullptr) {
+        h.state.store(HandlerState::Idle, std::memory_order_release);
+        spin_then_park(h.mu, h.cv, clock, options.spin, kNever, [&] {
+          return h.assigned.load(std::memory_order_acquire) != seen ||
+                 stopping.load(std::memory_order_acquire);
+        });
+        if (h.assigned.load(std::memory_order_acquire) == seen) return;  // stopping
+        seen = h.assigned.load(std::memory_order_acquire);
+        std::lock_guard lock(h.mu);
+        next = h.work;
+        prev_end = h.prev_end;
+      }
+      const Dispatch& d = *next;
+      next = nullptr;
+      h.state.store(HandlerState::Running, std::memory_order_release);
+      const TimePoint start = clock.now();
+      if (prev_end != kNever) {
+        std::lock_guard lock(report_mu);
+        report.handoff_us.push_back(to_us(start - prev_end));
+      }
+      UnitStatus status = UnitStatus::Completed;
+      std::string reason;
+      try {
+        backend.run(lane, d);
+      } catch (const OutOfMemoryError& e) {
+        status = UnitStatus::OutOfMemory;
+        reason = std::string("out of memory: ") + e.what();
+      } catch (const std::exception& e) {
+        status = UnitStatus::Failed;
+        reason = e.what();
+      } catch (...) {
+        status = UnitStatus::Failed;
+        reason = "unknown exception";
+      }
+      const TimePoint end = clock.now();
+      h.state.store(status == UnitStatus::Completed   ? HandlerState::Completed
+                    : status == UnitStatus::Failed    ? HandlerState::Failed
+                    : status == UnitStatus::Cancelled ? HandlerState::Cancelled
+                                                      : HandlerState::OutOfMemory,
+                    std::memory_order_release);
+      if (sync == SyncMode::OnDemand && status == UnitStatus::Completed && !stopping.load()) {
+        // On-demand: the local synchronizer takes the decision at this unit boundary
+        // and goes on without a round trip to the global synchronizer.
+        std::lock_guard lock(sched_mu);
+        const TimePoint now = advance_now(end);
+        sched.on_complete(lane, now, status);
+        sched.advance(now);
+        next = decide(now, lane, {lane}, end);
+        prev_end = next != nullptr ? end : kNever;
+        {
+          std::lock_guard rl(report_mu);
+          ++report.local_decisions;
+        }
+        wake_global();  // its timers may have moved; it does not need to answer
+        continue;
+      }
+      if (status != UnitStatus::Completed) {
+        std::lock_guard rl(report_mu);
+        ++report.failures;
+      }
+      // Per-edge (and every non-Completed transition): report to the global synchronizer
+      // and wait for it.
+      post({InEvent::Complete, lane, 0, end, status, std::move(reason)});
+      prev_end = kNever;
+    }
+  }
+
+  void camera_main() {
+    const std::size_t n = scenario.sensors.size();
+    std::vector<TimePoint> next(n);
+    std::vector<std::uint64_t> frame(n, 0);
+    for (std::size_t s = 0; s < n; ++s) next[s] = scenario.sensors[s].phase;
+    while (cameras_on.load(std::memory_order_acquire)) {
+      std::size_t s = 0;
+      for (std::size_t i = 1; i < n; ++i)
+        if (next[i] < next[s]) s = i;
+      if (n == 0) return;
+      std::this_thread::sleep_until(std::chrono::steady_clock::time_point(
+          std::chrono::duration_cast<std::chrono::steady_clock::duration>(clock.origin() +
+                                                                          next[s])));
+      if (!cameras_on.load(std::memory_order_acquire)) return;
+      backend.on_frame(static_cast<int>(s), frame[s]);
+      post({InEvent::Frame, static_cast<int>(s), frame[s], clock.now(), UnitStatus::Completed, {}});
+      ++frame[s];
+      double rate = 0;
+      {
+        std::lock_guard lock(sched_mu);
+        rate = sched.sensor_rate(static_cast<int>(s));
+      }
+      next[s] += period_of(rate);
+    }
+  }
+
+  void interference_main(double intensity, std::atomic<bool>& on) {
+    // Background CPU load: busy for `intensity` of every 10 ms, asleep for the rest.
+    const Duration slice = std::chrono::milliseconds{10};
+    volatile double sink = 0;
+    while (on.load(std::memory_order_acquire)) {
+      const TimePoint busy_until =
+          clock.now() +
+          Duration{static_cast<std::int64_t>(intensity * static_cast<double>(slice.count()))};
+      while (clock.now() < busy_until) sink = sink + std::sqrt(sink + 1.0);
+      std::this_thread::sleep_for(slice - Duration{static_cast<std::int64_t>(
+                                              intensity * static_cast<double>(slice.count()))});
+    }
+  }
+
+  void apply_realtime() {
+    if (!options.realtime) {
+      report.realtime.push_back("real-time knobs: off (--no-realtime)");
+      return;
+    }
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
+      report.realtime.push_back("mlockall: applied");
+    } else {
+      report.realtime.push_back(std::string("mlockall: not applied (") + std::strerror(errno) +
+                                ")");
+    }
+    sched_param sp{};
+    sp.sched_priority = options.rt_priority;
+    int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    int applied = err == 0 ? 1 : 0;
+    for (auto& h : handlers) {
+      if (pthread_setschedparam(h->thread.native_handle(), SCHED_FIFO, &sp) == 0)
+        ++applied;
+      else
+        err = errno;
+    }
+    report.realtime.push_back(applied == static_cast<int>(handlers.size()) + 1
+                                  ? "SCHED_FIFO priority " + std::to_string(options.rt_priority) +
+                                        ": applied"
+                                  : "SCHED_FIFO: not applied (" +
+                                        std::string(std::strerror(err == 0 ? EPERM : err)) + ")");
+    const long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    int pinned = 0;
+    for (std::size_t i = 0; i < handlers.size(); ++i) {
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      CPU_SET(static_cast<int>(i % static_cast<std::size_t>(std::max(1L, cores))), &set);
+      if (pthread_setaffinity_np(handlers[i]->thread.native_handle(), sizeof(set), &set) == 0)
+        ++pinned;
+    }
+    report.realtime.push_back(
+        "CPU affinity: " + std::to_string(pinned) + " of " + std::to_string(handlers.size()) +
+        " handler(s) pinned (lane i -> core i mod " + std::to_string(cores) + ")");
+  }
+
+  RuntimeReport run() {
+    report.resident_bytes_before = resident_bytes();
+    for (int l = 0; l < scenario.device.lanes; ++l) handlers.push_back(std::make_unique<Handler>());
+    for (int l = 0; l < scenario.device.lanes; ++l)
+      handlers[static_cast<std::size_t>(l)]->thread = std::thread([this, l] { handler_main(l); });
+    apply_realtime();
+    std::atomic<bool> load_on{true};
+    std::vector<std::thread> load;
+    if (options.interference && scenario.interference && scenario.interference->intensity > 0) {
+      const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+      for (long i = 0; i < cores; ++i)
+        load.emplace_back(
+            [this, &load_on] { interference_main(scenario.interference->intensity, load_on); });
+    }
+    clock.reset();
+    std::thread camera([this] { camera_main(); });
+
+    std::vector<InEvent> batch;
+    std::vector<int> completed;
+    bool releasing = true;
+    const TimePoint hard_stop = scenario.duration + options.drain_limit;
+    for (;;) {
+      TimePoint wake;
+      {
+        std::lock_guard lock(sched_mu);
+        TimePoint now = advance_now(clock.now());
+        if (releasing && now >= scenario.duration) {
+          releasing = false;
+          cameras_on.store(false, std::memory_order_release);
+          sched.apply_events(scenario.duration - Duration{1});
+          sched.stop_releases();
+        }
+        {
+          std::lock_guard il(inbox_mu);
+          batch.swap(inbox);
+          poke.store(false, std::memory_order_relaxed);
+        }
+        if (!releasing && sched.jobs_in_flight() == 0 && batch.empty()) break;
+        if (now >= hard_stop) break;
+        sched.apply_events(now);
+        completed.clear();
+        TimePoint completed_at = kNever;
+        for (InEvent& e : batch) {
+          if (e.kind == InEvent::Complete) {
+            sched.on_complete(e.index, now, e.status, e.reason);
+            completed.push_back(e.index);
+            completed_at = std::min(completed_at, e.t);
+          } else if (releasing) {
+            sched.on_frame(e.index, e.frame, now);
+          }
+        }
+        batch.clear();
+        sched.advance(now);
+        // Per-edge: a handler that completed waits here for its next unit (a round trip).
+        const Dispatch* none = decide(now, -1, completed, completed_at);
+        RED_ASSERT(none == nullptr);
+        wake = sched.next_wakeup();
+        if (releasing) wake = std::min(wake, scenario.duration);
+        wake = std::min(wake, hard_stop);
+        ++report.wakeups;
+      }
+      const std::uint64_t seen = inbox_seq.load(std::memory_order_acquire);
+      spin_then_park(inbox_mu, inbox_cv, clock, options.spin, wake, [&] {
+        return inbox_seq.load(std::memory_order_acquire) != seen ||
+               poke.load(std::memory_order_acquire);
+      });
+    }
+    cameras_on.store(false, std::memory_order_release);
+    camera.join();
+    stopping.store(true, std::memory_order_release);
+    for (auto& h : handlers) {
+      { std::lock_guard lock(h->mu); }
+      h->cv.notify_all();
+    }
+    for (auto& h : handlers) h->thread.join();
+    load_on.store(false, std::memory_order_release);
+    for (std::thread& t : load) t.join();
+    {
+      std::lock_guard lock(sched_mu);
+      const TimePoint end = advance_now(clock.now());
+      sched.finish(end);
+      report.end = end;
+      report.stats = sched.stats();
+    }
+    if (options.realtime) munlockall();
+    report.resident_bytes_after = resident_bytes();
+    return std::move(report);
+  }
+};
+
+Runtime::Runtime(const Scenario& scenario, const Profile& profile, std::unique_ptr<Policy> policy,
+                 Backend& backend, RuntimeOptions options)
+    : impl_(std::make_unique<Impl>(scenario, profile, std::move(policy), backend, options)) {}
+
+Runtime::~Runtime() = default;
+
+void Runtime::add_observer(Observer* o) {
+  impl_->sched.add_observer(o);
+}
+
+RuntimeReport Runtime::run() {
+  return impl_->run();
+}
+
+}  // namespace red

@@ -1,0 +1,142 @@
+// The real-time runtime (§6) with the synthetic backend: real threads and a real clock,
+// scaled-down unit times. Assertions are structural (accounting, failures, who decided),
+// never about timing.
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <set>
+#include <string>
+
+#include "red/metrics/metrics.hpp"
+#include "red/runtime/runtime.hpp"
+#include "red/runtime/synthetic_backend.hpp"
+#include "red/scenario/loader.hpp"
+
+namespace red {
+namespace {
+
+constexpr const char* kScenario = R"(
+name: rt
+duration_s: 0.6
+seed: 3
+device: {lanes: 2}
+model: {builtin: mimonet, heads: [lane, seg, steer, det], input: [3, 192, 384]}
+sensors:
+  camera: {rate_hz: 40}
+operations:
+  - name: cruise
+    trigger: camera
+    deadline_ms: 60
+    nodes:
+      L: {head: lane, sensor: camera}
+      S: {head: seg, sensor: camera}
+      C: {head: steer, sensor: camera}
+    edges: [[L, S], [S, C]]
+  - name: detect
+    rate_hz: 25
+    deadline_ms: 50
+    nodes:
+      O: {head: det, sensor: camera}
+)";
+
+struct Accounting final : Observer {
+  std::set<JobId> released;
+  std::map<JobId, JobOutcome> ended;
+  std::map<JobId, std::string> reasons;
+  int duplicate_ends = 0;
+  void on_job_release(const JobRecord& j) override { released.insert(j.id); }
+  void on_job_end(const JobRecord& j) override {
+    if (!ended.emplace(j.id, j.outcome).second) ++duplicate_ends;
+    if (!j.reason.empty()) reasons[j.id] = std::string(j.reason);
+  }
+};
+
+struct RunResult {
+  RuntimeReport report;
+  Accounting acc;
+  PolicyMetrics metrics;
+};
+
+RunResult run_runtime(const std::string& policy, SyntheticBackend::Options o) {
+  auto s = parse_scenario(kScenario, "rt.yaml");
+  EXPECT_TRUE(s.has_value()) << (s ? "" : s.error().to_string());
+  const Profile p = default_profile();
+  SyntheticBackend backend(*s, p, 1, std::move(o));
+  RuntimeOptions ro;
+  ro.realtime = false;
+  Runtime rt(*s, p, make_policy(policy), backend, ro);
+  RunResult r;
+  MetricsCollector metrics(*s, 1.0);
+  rt.add_observer(&r.acc);
+  rt.add_observer(&metrics);
+  r.report = rt.run();
+  r.metrics = metrics.summarize(policy, r.report.end, r.report.stats);
+  return r;
+}
+
+class RuntimeTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(RuntimeTest, EveryReleasedJobEndsExactlyOnce) {
+  SyntheticBackend::Options o;
+  o.time_scale = 0.3;
+  RunResult r = run_runtime(GetParam(), o);
+  ASSERT_FALSE(r.acc.released.empty());
+  EXPECT_EQ(r.acc.duplicate_ends, 0);
+  EXPECT_EQ(r.acc.ended.size(), r.acc.released.size());
+  for (JobId id : r.acc.released) EXPECT_TRUE(r.acc.ended.count(id) == 1) << "job " << id;
+  EXPECT_EQ(r.metrics.completed + r.metrics.dropped + r.metrics.unfinished, r.metrics.jobs);
+  EXPECT_GT(r.metrics.completed, 0);
+  EXPECT_EQ(r.report.failures, 0U);
+  EXPECT_FALSE(r.report.decision_us.empty());
+}
+
+INSTANTIATE_TEST_SUITE_P(Presets, RuntimeTest,
+                         ::testing::Values("fifo", "mono", "edf", "red-fg", "red-ida", "red"));
+
+TEST(Runtime, FailingUnitsFailTheirJobsAndTheRuntimeGoesOn) {
+  std::atomic<int> n{0};
+  SyntheticBackend::Options o;
+  o.time_scale = 0.2;
+  // Every fifth encoder run throws; every seventh head runs out of memory.
+  o.inject = [&n](const Dispatch& d) {
+    const int k = n.fetch_add(1);
+    if (d.kind == UnitKind::Encoder && k % 5 == 0) return 1;
+    if (d.kind == UnitKind::Head && k % 7 == 0) return 2;
+    return 0;
+  };
+  RunResult r = run_runtime("red", o);
+  EXPECT_GT(r.report.failures, 0U);
+  EXPECT_GT(r.metrics.failed, 0);
+  EXPECT_GT(r.metrics.completed, 0) << "the runtime must keep going after failures";
+  bool saw_injected = false, saw_oom = false;
+  for (const auto& [id, reason] : r.acc.reasons) {
+    saw_injected = saw_injected || reason == "injected failure";
+    saw_oom = saw_oom || reason.find("out of memory") != std::string::npos;
+  }
+  EXPECT_TRUE(saw_injected);
+  EXPECT_TRUE(saw_oom);
+  for (const auto& [id, outcome] : r.acc.ended)
+    if (r.acc.reasons.count(id) != 0 && outcome == JobOutcome::Failed) SUCCEED();
+  EXPECT_EQ(r.acc.ended.size(), r.acc.released.size());
+}
+
+TEST(Runtime, OnDemandDecidesAtUnitBoundariesPerEdgeDoesNot) {
+  SyntheticBackend::Options o;
+  o.time_scale = 0.3;
+  RunResult red = run_runtime("red", o);      // on-demand
+  RunResult ida = run_runtime("red-ida", o);  // per-edge
+  EXPECT_GT(red.report.local_decisions, 0U);
+  EXPECT_EQ(ida.report.local_decisions, 0U);
+  EXPECT_LT(red.report.stats.round_trips, red.report.stats.dispatches);
+  EXPECT_EQ(ida.report.stats.round_trips, ida.report.stats.dispatches);
+}
+
+TEST(Runtime, HandlerStatesHaveNames) {
+  EXPECT_STREQ(to_string(HandlerState::Idle), "idle");
+  EXPECT_STREQ(to_string(HandlerState::OutOfMemory), "out-of-memory");
+  EXPECT_STREQ(to_string(HandlerState::Cancelled), "cancelled");
+}
+
+}  // namespace
+}  // namespace red
