@@ -17,6 +17,8 @@ void register_validate(CLI::App& app, int& exit_code);
 void register_simulate(CLI::App& app, int& exit_code);
 void register_compare(CLI::App& app, int& exit_code);
 void register_sweep(CLI::App& app, int& exit_code);
+/// `red run` (cmd_run.cpp): the real-time runtime on a real backend.
+void register_run(CLI::App& app, int& exit_code);
 /// `red profile` (cmd_profile.cpp; needs the LibTorch backend).
 void register_profile(CLI::App& app, int& exit_code);
 

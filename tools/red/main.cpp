@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   red::cli::register_simulate(app, exit_code);
   red::cli::register_compare(app, exit_code);
   red::cli::register_sweep(app, exit_code);
+  red::cli::register_run(app, exit_code);
   red::cli::register_profile(app, exit_code);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,419 @@
+/// \file
+/// Profiles (§8): the built-in default costs, JSON reading and writing, and the check that
+/// a profile covers a scenario. Times are microseconds in the file, nanoseconds inside.
+
+#include "red/profile/profile.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <tuple>
+#include <utility>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "red/core/assert.hpp"
+
+namespace red {
+
+Duration LatencyStats::estimate(EstimateKind k) const noexcept {
+  switch (k) {
+    case EstimateKind::Mean:
+      return mean;
+    case EstimateKind::P95:
+      return p95;
+    case EstimateKind::P99:
+      return p99;
+    case EstimateKind::Max:
+      return max;
+  }
+  return p99;
+}
+
+Duration LatencyStats::quantile(double u) const noexcept {
+  // Piecewise-linear inverse CDF through the measured knots.
+  const std::array<std::pair<double, Duration>, 5> knots{
+      {{0.0, min}, {0.5, p50}, {0.95, p95}, {0.99, p99}, {1.0, max}}};
+  if (!(u > 0.0)) return min;  // also catches NaN
+  if (u >= 1.0) return max;
+  for (std::size_t i = 1; i < knots.size(); ++i) {
+    const auto& [u1, d1] = knots[i];
+    if (u > u1) continue;
+    const auto& [u0, d0] = knots[i - 1];
+    const double f = (u - u0) / (u1 - u0);
+    const double ns = static_cast<double>(d0.count()) + f * static_cast<double>((d1 - d0).count());
+    return Duration{static_cast<std::int64_t>(std::llround(ns))};
+  }
+  return max;
+}
+
+const LatencyStats& UnitProfile::at(int batch) const noexcept {
+  RED_ASSERT(!by_batch.empty());
+  const int b = std::clamp(batch, 1, max_batch());
+  return by_batch[static_cast<std::size_t>(b - 1)];
+}
+
+const UnitProfile* Profile::find(const std::string& name) const noexcept {
+  const auto it = units.find(name);
+  return it == units.end() ? nullptr : &it->second;
+}
+
+// ---- the built-in default -----------------------------------------------------------------
+
+// Default profile: the ONE place where built-in unit costs live.
+//
+// These are illustrative CPU-scale costs for the built-in MIMONet at input 3x192x384,
+// chosen so that the shared encoder dominates every head (as in the paper), so that the
+// simulator can run with no measurement. They are not measurements of any machine:
+// `red profile` measures real ones and a scenario's `profile:` key selects them.
+//
+// Per unit, batch size 1 (milliseconds):      mean    p99
+//   encoder                                   12.0   14.0
+//   head/lane                                  3.0    3.6
+//   head/seg                                   4.0    4.8
+//   head/steer                                 0.6    0.75
+//   head/det                                   4.5    5.4
+// The other statistics follow from mean and p99: min = 0.9 mean, p50 = mean,
+// p95 = mean + 0.6 (p99 - mean), max = 1.15 p99.
+// Batch b in 1..4 costs (1 + 0.55 (b - 1)) times the single run, statistic by statistic.
+// coarse/<h> = encoder + head/<h> statistic by statistic; separate/<h> = coarse/<h>.
+// One synchronizer round trip: 50 us.
+namespace {
+
+constexpr int kDefaultMaxBatch = 4;
+constexpr double kBatchGrowth = 0.55;
+
+LatencyStats default_stats(double mean_ms, double p99_ms, int batch) {
+  const double k = 1.0 + kBatchGrowth * static_cast<double>(batch - 1);
+  LatencyStats s;
+  s.min = from_ms(0.9 * mean_ms * k);
+  s.mean = from_ms(mean_ms * k);
+  s.p50 = from_ms(mean_ms * k);
+  s.p95 = from_ms((mean_ms + 0.6 * (p99_ms - mean_ms)) * k);
+  s.p99 = from_ms(p99_ms * k);
+  s.max = from_ms(p99_ms * 1.15 * k);
+  s.samples = 0;
+  return s;
+}
+
+UnitProfile default_unit(double mean_ms, double p99_ms) {
+  UnitProfile u;
+  for (int b = 1; b <= kDefaultMaxBatch; ++b)
+    u.by_batch.push_back(default_stats(mean_ms, p99_ms, b));
+  return u;
+}
+
+LatencyStats sum(const LatencyStats& a, const LatencyStats& b) {
+  LatencyStats s;
+  s.min = a.min + b.min;
+  s.mean = a.mean + b.mean;
+  s.p50 = a.p50 + b.p50;
+  s.p95 = a.p95 + b.p95;
+  s.p99 = a.p99 + b.p99;
+  s.max = a.max + b.max;
+  s.samples = std::min(a.samples, b.samples);
+  return s;
+}
+
+}  // namespace
+
+Profile default_profile() {
+  Profile p;
+  p.source = "builtin-default";
+  p.device = "reference CPU (illustrative)";
+  p.model = "mimonet [3,192,384]";
+  p.sync_round_trip = std::chrono::microseconds{50};
+  const UnitProfile encoder = default_unit(12.0, 14.0);
+  p.units["encoder"] = encoder;
+  const std::array<std::tuple<const char*, double, double>, 4> heads{{
+      {"lane", 3.0, 3.6},
+      {"seg", 4.0, 4.8},
+      {"steer", 0.6, 0.75},
+      {"det", 4.5, 5.4},
+  }};
+  for (const auto& [name, mean_ms, p99_ms] : heads) {
+    const UnitProfile head = default_unit(mean_ms, p99_ms);
+    UnitProfile coarse;
+    for (int b = 1; b <= kDefaultMaxBatch; ++b)
+      coarse.by_batch.push_back(sum(encoder.at(b), head.at(b)));
+    p.units[std::string("head/") + name] = head;
+    p.units[std::string("coarse/") + name] = coarse;
+    p.units[std::string("separate/") + name] = coarse;
+  }
+  return p;
+}
+
+// ---- JSON ---------------------------------------------------------------------------------
+
+namespace {
+
+using nlohmann::json;
+
+/// Thrown inside parse_profile only.
+struct Bad {
+  std::string message;
+};
+
+[[noreturn]] void bad(std::string message) {
+  throw Bad{std::move(message)};
+}
+
+const json& need(const json& obj, const char* key, const std::string& where) {
+  const auto it = obj.find(key);
+  if (it == obj.end()) bad(fmt::format("{}: missing key '{}'", where, key));
+  return *it;
+}
+
+void only_keys(const json& obj, std::initializer_list<const char*> allowed,
+               const std::string& where) {
+  for (const auto& [key, value] : obj.items()) {
+    bool known = false;
+    for (const char* a : allowed) known = known || key == a;
+    if (known) continue;
+    std::string list;
+    for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+    bad(fmt::format("{}: unknown key '{}' (allowed: {})", where, key, list));
+  }
+}
+
+double num(const json& v, const std::string& where) {
+  if (!v.is_number()) bad(where + ": must be a number, got " + v.dump());
+  const double x = v.get<double>();
+  if (!std::isfinite(x) || x < 0.0) bad(where + ": must be a finite number >= 0, got " + v.dump());
+  return x;
+}
+
+std::int64_t whole(const json& v, const std::string& where) {
+  if (!v.is_number_integer()) bad(where + ": must be an integer, got " + v.dump());
+  return v.get<std::int64_t>();
+}
+
+std::string str(const json& v, const std::string& where) {
+  if (!v.is_string()) bad(where + ": must be a string, got " + v.dump());
+  return v.get<std::string>();
+}
+
+Duration micros(const json& v, const std::string& where) {
+  const double us = num(v, where);
+  if (us > 1e15) bad(where + ": is too large");
+  return from_us(us);
+}
+
+UnitProfile parse_unit(const json& arr, const std::string& where) {
+  if (!arr.is_array() || arr.empty()) bad(where + ": must be a non-empty list of batch sizes");
+  UnitProfile u;
+  for (std::size_t i = 0; i < arr.size(); ++i) {
+    const json& e = arr[i];
+    const std::string at = fmt::format("{}[{}]", where, i);
+    if (!e.is_object()) bad(at + ": must be an object");
+    only_keys(e, {"batch", "samples", "min_us", "mean_us", "p50_us", "p95_us", "p99_us", "max_us"},
+              at);
+    const std::int64_t batch = whole(need(e, "batch", at), at + ".batch");
+    if (batch != static_cast<std::int64_t>(i) + 1)
+      bad(
+          fmt::format("{}: batch sizes must run 1, 2, ... without gaps; entry {} has batch {} "
+                      "(expected {})",
+                      where, i, batch, i + 1));
+    LatencyStats s;
+    if (e.contains("samples")) {
+      const std::int64_t n = whole(e["samples"], at + ".samples");
+      if (n < 0 || n > 1'000'000'000) bad(at + ".samples: must be in [0, 1e9]");
+      s.samples = static_cast<int>(n);
+    }
+    s.min = micros(need(e, "min_us", at), at + ".min_us");
+    s.mean = micros(need(e, "mean_us", at), at + ".mean_us");
+    s.p50 = micros(need(e, "p50_us", at), at + ".p50_us");
+    s.p95 = micros(need(e, "p95_us", at), at + ".p95_us");
+    s.p99 = micros(need(e, "p99_us", at), at + ".p99_us");
+    s.max = micros(need(e, "max_us", at), at + ".max_us");
+    if (!(s.min <= s.p50 && s.p50 <= s.p95 && s.p95 <= s.p99 && s.p99 <= s.max))
+      bad(at + ": statistics must satisfy min <= p50 <= p95 <= p99 <= max");
+    if (!(s.min <= s.mean && s.mean <= s.max))
+      bad(at + ": statistics must satisfy min <= mean <= max");
+    u.by_batch.push_back(s);
+  }
+  return u;
+}
+
+MemoryStats parse_memory(const json& m, const std::string& where) {
+  if (!m.is_object()) bad(where + ": must be an object");
+  only_keys(m, {"parameter_bytes", "peak_activation_bytes", "resident_bytes"}, where);
+  MemoryStats s;
+  auto field = [&](const char* key, std::int64_t& out) {
+    if (!m.contains(key)) return;
+    out = whole(m[key], where + "." + key);
+    if (out < 0) bad(where + "." + key + ": must be >= 0");
+  };
+  field("parameter_bytes", s.parameter_bytes);
+  field("peak_activation_bytes", s.peak_activation_bytes);
+  field("resident_bytes", s.resident_bytes);
+  return s;
+}
+
+// Written with keys in reading order (ordered_json); read back with any order.
+using ordered = nlohmann::ordered_json;
+
+ordered stats_json(const LatencyStats& s, int batch) {
+  return ordered{{"batch", batch},           {"samples", s.samples},   {"min_us", to_us(s.min)},
+                 {"mean_us", to_us(s.mean)}, {"p50_us", to_us(s.p50)}, {"p95_us", to_us(s.p95)},
+                 {"p99_us", to_us(s.p99)},   {"max_us", to_us(s.max)}};
+}
+
+ordered memory_json(const MemoryStats& m) {
+  return ordered{{"parameter_bytes", m.parameter_bytes},
+                 {"peak_activation_bytes", m.peak_activation_bytes},
+                 {"resident_bytes", m.resident_bytes}};
+}
+
+/// 1-based line of a byte offset in `text` (nlohmann reports the offset just past the
+/// offending character).
+int line_of_byte(const std::string& text, std::size_t byte) {
+  const std::size_t end = std::min(byte == 0 ? 0 : byte - 1, text.size());
+  return 1 + static_cast<int>(
+                 std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(end), '\n'));
+}
+
+}  // namespace
+
+Expected<Profile> parse_profile(const std::string& text, const std::string& file) {
+  json doc;
+  try {
+    doc = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // nlohmann's message is "[json.exception.parse_error.101] parse error at line L, column
+    // C: what"; the Error carries the line itself, so only "what" is kept.
+    std::string what = e.what();
+    if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    if (what.rfind("parse error", 0) == 0)
+      if (const auto p = what.find(": "); p != std::string::npos) what = what.substr(p + 2);
+    return Error{file, line_of_byte(text, e.byte), "JSON syntax error: " + what};
+  } catch (const std::exception& e) {
+    return Error{file, 0, std::string("cannot parse the profile: ") + e.what()};
+  }
+  try {
+    if (!doc.is_object()) bad("a profile must be a JSON object");
+    only_keys(doc,
+              {"schema", "source", "device", "model", "sync_round_trip_us", "profile_wall_s",
+               "units", "memory"},
+              "profile");
+    const json& schema = need(doc, "schema", "profile");
+    if (!schema.is_number_integer() || schema.get<std::int64_t>() != Profile::kSchema)
+      bad(fmt::format("unsupported profile schema {} (this build reads schema {})", schema.dump(),
+                      Profile::kSchema));
+    Profile p;
+    if (doc.contains("source")) p.source = str(doc["source"], "source");
+    if (doc.contains("device")) p.device = str(doc["device"], "device");
+    if (doc.contains("model")) p.model = str(doc["model"], "model");
+    if (doc.contains("sync_round_trip_us"))
+      p.sync_round_trip = micros(doc["sync_round_trip_us"], "sync_round_trip_us");
+    if (doc.contains("profile_wall_s"))
+      p.profile_wall_s = num(doc["profile_wall_s"], "profile_wall_s");
+    const json& units = need(doc, "units", "profile");
+    if (!units.is_object() || units.empty()) bad("units: must be a non-empty object");
+    for (const auto& [name, arr] : units.items()) p.units[name] = parse_unit(arr, "units." + name);
+    if (doc.contains("memory")) {
+      const json& m = doc["memory"];
+      if (!m.is_object()) bad("memory: must be an object");
+      only_keys(m, {"shared", "separate"}, "memory");
+      if (m.contains("shared")) p.shared_memory = parse_memory(m["shared"], "memory.shared");
+      if (m.contains("separate"))
+        p.separate_memory = parse_memory(m["separate"], "memory.separate");
+    }
+    return p;
+  } catch (const Bad& b) {
+    return Error{file, 0, b.message};
+  } catch (const std::exception& e) {
+    return Error{file, 0, std::string("cannot read the profile: ") + e.what()};
+  }
+}
+
+Expected<Profile> load_profile(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    return Error{path, 0, "cannot open: it is a directory"};
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{path, 0, std::string("cannot open: ") + std::strerror(errno)};
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return Error{path, 0, "cannot read the file"};
+  return parse_profile(text.str(), path);
+}
+
+namespace {
+
+/// Units in reading order: encoder, heads, coarse units, separate networks, then others.
+int unit_rank(const std::string& name) {
+  if (name == "encoder") return 0;
+  if (name.rfind("head/", 0) == 0) return 1;
+  if (name.rfind("coarse/", 0) == 0) return 2;
+  if (name.rfind("separate/", 0) == 0) return 3;
+  return 4;
+}
+
+}  // namespace
+
+std::string profile_to_json(const Profile& p) {
+  ordered doc;
+  doc["schema"] = Profile::kSchema;
+  doc["source"] = p.source;
+  doc["device"] = p.device;
+  doc["model"] = p.model;
+  doc["sync_round_trip_us"] = to_us(p.sync_round_trip);
+  doc["profile_wall_s"] = p.profile_wall_s;
+  std::vector<std::pair<int, std::string>> names;
+  for (const auto& [name, unit] : p.units) names.emplace_back(unit_rank(name), name);
+  std::sort(names.begin(), names.end());
+  ordered units = ordered::object();
+  for (const auto& [rank, name] : names) {
+    const UnitProfile& unit = p.units.at(name);
+    ordered arr = ordered::array();
+    for (std::size_t i = 0; i < unit.by_batch.size(); ++i)
+      arr.push_back(stats_json(unit.by_batch[i], static_cast<int>(i) + 1));
+    units[name] = std::move(arr);
+  }
+  doc["units"] = std::move(units);
+  if (p.shared_memory || p.separate_memory) {
+    ordered mem = ordered::object();
+    if (p.shared_memory) mem["shared"] = memory_json(*p.shared_memory);
+    if (p.separate_memory) mem["separate"] = memory_json(*p.separate_memory);
+    doc["memory"] = std::move(mem);
+  }
+  return doc.dump(2) + "\n";
+}
+
+std::optional<Error> check_profile_covers(const Profile& p, const Scenario& s) {
+  // Every inference node of every snapshot, initial or produced by an event.
+  std::vector<const OperationSpec*> snapshots;
+  for (const auto& op : s.initial)
+    if (op) snapshots.push_back(op.get());
+  for (const auto& ev : s.events)
+    for (const auto& [index, op] : ev.changes)
+      if (op) snapshots.push_back(op.get());
+  const std::string file = s.profile.empty() ? s.file : s.profile;
+  std::set<std::string> checked;
+  for (const OperationSpec* op : snapshots) {
+    for (const auto& node : op->nodes) {
+      if (node.is_plain()) continue;
+      const std::string head = s.model.heads.at(static_cast<std::size_t>(node.head));
+      for (const std::string& unit : {std::string("encoder"), "head/" + head}) {
+        if (!checked.insert(unit).second) continue;
+        if (p.find(unit) == nullptr)
+          return Error{
+              file, 0,
+              fmt::format("the profile ({}) has no unit '{}', needed by node '{}' of "
+                          "operation '{}'",
+                          p.source.empty() ? "unnamed" : p.source, unit, node.name, op->name)};
+      }
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace red

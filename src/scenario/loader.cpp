@@ -1,0 +1,1000 @@
+/// \file
+/// The scenario loader (§11). Parsing and validation throw a private Failure that the
+/// two public entry points turn into an Error, so a scenario is either complete or absent.
+/// Events are resolved by replaying them in order on copies of the operation snapshots;
+/// every rule is checked against the workload as it is at the event's time.
+
+#include "red/scenario/loader.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <string_view>
+#include <utility>
+
+#include <fmt/format.h>
+
+namespace red {
+namespace {
+
+/// The only exception the loader raises; never leaves this file.
+struct Failure {
+  int line = 0;
+  std::string message;
+};
+
+[[noreturn]] void fail(int line, std::string message) {
+  throw Failure{line, std::move(message)};
+}
+
+/// yaml-cpp marks are 0-based and -1 when unknown; messages use 1-based lines, 0 unknown.
+int mark_line(const YAML::Node& n) {
+  const YAML::Mark m = n.Mark();
+  return m.line >= 0 ? m.line + 1 : 0;
+}
+
+/// A YAML value, the line to report it by and its path in the file (for messages).
+struct Val {
+  YAML::Node node;
+  int line = 0;
+  std::string what;  ///< e.g. "operations.drive.deadline_ms"; empty for the top level
+};
+
+/// "<what>: " or nothing at the top level.
+std::string at(const std::string& what) {
+  return what.empty() ? std::string{} : what + ": ";
+}
+
+std::string got(const YAML::Node& n) {
+  if (n.IsNull()) return ", got nothing";
+  if (n.IsMap()) return ", got a mapping";
+  if (n.IsSequence()) return ", got a list";
+  return ", got '" + n.Scalar() + "'";
+}
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& s : items) out += (out.empty() ? "" : ", ") + s;
+  return out;
+}
+
+/// One `key: value` of a mapping, in file order.
+struct Entry {
+  std::string key;
+  int key_line = 0;
+  Val value;
+};
+
+/// The entries of a mapping; `kind` names what a duplicate key is ("key", "node", ...).
+std::vector<Entry> entries_of(const Val& v, std::string_view kind = "key") {
+  if (!v.node.IsMap()) fail(v.line, at(v.what) + "must be a mapping" + got(v.node));
+  std::vector<Entry> out;
+  for (auto it = v.node.begin(); it != v.node.end(); ++it) {
+    const YAML::Node key = it->first;
+    const int key_line = mark_line(key);
+    if (!key.IsScalar() || key.Scalar().empty())
+      fail(key_line, at(v.what) + "keys must be non-empty names" + got(key));
+    const std::string name = key.Scalar();
+    for (const auto& e : out)
+      if (e.key == name)
+        fail(key_line, fmt::format("{}duplicate {} '{}' (first at line {})", at(v.what), kind, name,
+                                   e.key_line));
+    const YAML::Node value = it->second;
+    // A null value's mark points at the next token, possibly lines later: use the key's.
+    const int value_line = value.IsNull() ? key_line : mark_line(value);
+    out.push_back(Entry{name, key_line,
+                        Val{value, value_line ? value_line : key_line,
+                            v.what.empty() ? name : v.what + "." + name}});
+  }
+  return out;
+}
+
+/// A mapping with a fixed set of allowed keys.
+class Fields {
+ public:
+  Fields(const Val& v, std::initializer_list<const char*> allowed)
+      : line_(v.line), what_(v.what), entries_(entries_of(v)) {
+    for (const auto& e : entries_) {
+      bool known = false;
+      for (const char* a : allowed) known = known || e.key == a;
+      if (known) continue;
+      std::vector<std::string> names(allowed.begin(), allowed.end());
+      fail(e.key_line,
+           fmt::format("{}unknown key '{}' (allowed: {})", at(what_), e.key, join(names)));
+    }
+  }
+
+  [[nodiscard]] const Val* get(std::string_view key) const {
+    for (const auto& e : entries_)
+      if (e.key == key) return &e.value;
+    return nullptr;
+  }
+
+  [[nodiscard]] const Val& need(std::string_view key) const {
+    if (const Val* v = get(key)) return *v;
+    fail(line_, fmt::format("{}missing required key '{}'", at(what_), key));
+  }
+
+  [[nodiscard]] const std::vector<Entry>& entries() const { return entries_; }
+  [[nodiscard]] int line() const { return line_; }
+
+ private:
+  int line_;
+  std::string what_;
+  std::vector<Entry> entries_;
+};
+
+// ---- scalars -------------------------------------------------------------------------
+
+/// A plain (unquoted) scalar: a quoted "15" is a string, not a number.
+bool is_plain_scalar(const YAML::Node& n) {
+  return n.IsScalar() && n.Tag() != "!";
+}
+
+double number(const Val& v) {
+  if (is_plain_scalar(v.node)) {
+    std::string_view s = v.node.Scalar();
+    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+    double x = 0.0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
+    if (ec == std::errc{} && end == s.data() + s.size() && std::isfinite(x)) return x;
+  }
+  fail(v.line, at(v.what) + "must be a number" + got(v.node));
+}
+
+double positive(const Val& v) {
+  const double x = number(v);
+  if (!(x > 0.0)) fail(v.line, at(v.what) + "must be > 0" + got(v.node));
+  return x;
+}
+
+double non_negative(const Val& v) {
+  const double x = number(v);
+  if (x < 0.0) fail(v.line, at(v.what) + "must be >= 0" + got(v.node));
+  return x;
+}
+
+std::int64_t integer(const Val& v, std::int64_t lo, std::int64_t hi) {
+  if (is_plain_scalar(v.node)) {
+    std::string_view s = v.node.Scalar();
+    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+    std::int64_t x = 0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
+    if (ec == std::errc{} && end == s.data() + s.size()) {
+      if (x < lo || x > hi)
+        fail(v.line,
+             fmt::format("{}must be an integer in [{}, {}]{}", at(v.what), lo, hi, got(v.node)));
+      return x;
+    }
+  }
+  fail(v.line, at(v.what) + "must be an integer" + got(v.node));
+}
+
+int small_int(const Val& v, int lo) {
+  return static_cast<int>(integer(v, lo, std::numeric_limits<int>::max()));
+}
+
+std::string text(const Val& v) {
+  if (!v.node.IsScalar() || v.node.Scalar().empty())
+    fail(v.line, at(v.what) + "must be a non-empty string" + got(v.node));
+  return v.node.Scalar();
+}
+
+/// Milliseconds or seconds from a file, bounded so the nanosecond count cannot overflow.
+Duration ms_value(const Val& v, double ms) {
+  if (ms > 1e12) fail(v.line, at(v.what) + "is too large" + got(v.node));
+  return from_ms(ms);
+}
+
+// ---- graph checks --------------------------------------------------------------------
+
+/// A cycle of node indices (first == last), or empty when the graph is acyclic.
+std::vector<int> find_cycle(const OperationSpec& op) {
+  const std::size_t n = op.nodes.size();
+  std::vector<std::vector<int>> succ(n);
+  for (const auto& e : op.edges) succ[static_cast<std::size_t>(e.from)].push_back(e.to);
+  // Iterative DFS with colours: 0 unseen, 1 on the stack, 2 done.
+  std::vector<int> colour(n, 0);
+  std::vector<int> parent(n, -1);
+  for (std::size_t root = 0; root < n; ++root) {
+    if (colour[root] != 0) continue;
+    std::vector<std::pair<int, std::size_t>> stack{{static_cast<int>(root), 0}};
+    colour[root] = 1;
+    while (!stack.empty()) {
+      auto& [u, next] = stack.back();
+      const auto& out = succ[static_cast<std::size_t>(u)];
+      if (next == out.size()) {
+        colour[static_cast<std::size_t>(u)] = 2;
+        stack.pop_back();
+        continue;
+      }
+      const int w = out[next++];
+      const auto wi = static_cast<std::size_t>(w);
+      if (colour[wi] == 1) {
+        std::vector<int> cycle{w};
+        for (int x = u; x != w; x = parent[static_cast<std::size_t>(x)]) cycle.push_back(x);
+        cycle.push_back(w);
+        std::reverse(cycle.begin(), cycle.end());
+        return cycle;
+      }
+      if (colour[wi] == 0) {
+        colour[wi] = 1;
+        parent[wi] = u;
+        stack.emplace_back(w, 0);
+      }
+    }
+  }
+  return {};
+}
+
+std::string cycle_text(const OperationSpec& op, const std::vector<int>& cycle) {
+  std::string out;
+  for (int i : cycle)
+    out += (out.empty() ? "" : " -> ") + op.nodes[static_cast<std::size_t>(i)].name;
+  return out;
+}
+
+std::string node_names(const OperationSpec& op) {
+  std::vector<std::string> names;
+  for (const auto& n : op.nodes) names.push_back(n.name);
+  return join(names);
+}
+
+bool has_edge(const OperationSpec& op, EdgeSpec e) {
+  return std::any_of(op.edges.begin(), op.edges.end(),
+                     [&](const EdgeSpec& x) { return x.from == e.from && x.to == e.to; });
+}
+
+/// An edge as read from the file, resolved to node indices.
+struct ReadEdge {
+  EdgeSpec edge;
+  int line = 0;
+};
+
+const char* const kEventKinds[] = {"add_nodes",    "remove_nodes",  "add_edges",
+                                   "remove_edges", "add_operation", "remove_operation",
+                                   "set_deadline", "set_rate"};
+
+// ---- the loader ----------------------------------------------------------------------
+
+class Loader {
+ public:
+  explicit Loader(std::string file) : file_(std::move(file)) {}
+
+  Scenario run(const YAML::Node& root);
+
+ private:
+  /// An operation as parsed, before depends_on is resolved to an index.
+  struct Parsed {
+    OperationSpec op;
+    std::optional<Val> depends_on;  ///< the operation name to wait for
+  };
+
+  std::string resolve_path(const std::string& p) const;
+  void parse_device(const Val& v);
+  void parse_model(const Val& v);
+  void parse_scheduler(const Val& v);
+  void parse_interference(const Val& v);
+  void parse_sensors(const Val& v);
+  int sensor_index(const Val& v) const;
+  Parsed parse_operation(const Val& v, const std::string& named_base);
+  NodeSpec parse_node(const Entry& entry) const;
+  void add_nodes(OperationSpec& op, const Val& v) const;
+  std::vector<ReadEdge> read_edges(const OperationSpec& op, const Val& v) const;
+  DeadlineSpec parse_deadline(const Val& v) const;
+  void check_graph(const OperationSpec& op, const std::vector<ReadEdge>& edges,
+                   int fallback_line) const;
+  int active_index(const std::string& name) const;
+  int need_active(const Val& v, Duration t) const;
+  void parse_events(const Val& v);
+  EventSpec parse_event(const Val& v, Duration& last_at, int& last_line);
+
+  std::string file_;
+  Scenario s_;
+  bool have_model_ = false;
+  /// The workload during replay: snapshot by operation index, null when not present.
+  std::vector<std::shared_ptr<const OperationSpec>> current_;
+};
+
+std::string Loader::resolve_path(const std::string& p) const {
+  const std::filesystem::path path(p);
+  if (path.is_absolute() || file_.empty()) return p;
+  const std::filesystem::path dir = std::filesystem::path(file_).parent_path();
+  if (dir.empty()) return p;
+  return (dir / path).lexically_normal().string();
+}
+
+void Loader::parse_device(const Val& v) {
+  const Fields f(v, {"lanes", "sync_cost_us"});
+  if (const Val* x = f.get("lanes")) s_.device.lanes = small_int(*x, 1);
+  if (const Val* x = f.get("sync_cost_us")) {
+    const double us = non_negative(*x);
+    s_.device.sync_cost = ms_value(*x, us / 1e3);
+  }
+}
+
+void Loader::parse_model(const Val& v) {
+  const Fields f(v, {"builtin", "manifest", "heads", "input"});
+  const Val* builtin = f.get("builtin");
+  const Val* manifest = f.get("manifest");
+  if ((builtin != nullptr) == (manifest != nullptr))
+    fail(f.line(), at(v.what) + "give exactly one of 'builtin' (mimonet) or 'manifest' (a path)");
+  if (builtin) {
+    const std::string b = text(*builtin);
+    if (b != "mimonet")
+      fail(builtin->line,
+           at(builtin->what) + "unknown built-in model '" + b + "' (known: mimonet)");
+    s_.model.builtin = b;
+    s_.model.manifest.clear();
+  } else {
+    s_.model.builtin.clear();
+    s_.model.manifest = resolve_path(text(*manifest));
+  }
+  const Val& heads = f.need("heads");
+  if (!heads.node.IsSequence() || heads.node.size() == 0)
+    fail(heads.line, at(heads.what) + "must be a non-empty list of head names" + got(heads.node));
+  s_.model.heads.clear();
+  for (const auto& h : heads.node) {
+    const Val hv{h, mark_line(h) ? mark_line(h) : heads.line, heads.what};
+    const std::string name = text(hv);
+    if (s_.model.head_index(name) >= 0)
+      fail(hv.line, at(heads.what) + "duplicate head '" + name + "'");
+    s_.model.heads.push_back(name);
+  }
+  if (const Val* input = f.get("input")) {
+    if (!input->node.IsSequence() || input->node.size() != 3)
+      fail(input->line, at(input->what) + "must be [C, H, W]" + got(input->node));
+    s_.model.input.clear();
+    for (const auto& d : input->node)
+      s_.model.input.push_back(integer(Val{d, mark_line(d), input->what}, 1, 1 << 20));
+  }
+  have_model_ = true;
+}
+
+void Loader::parse_scheduler(const Val& v) {
+  const Fields f(v, {"gamma_ms", "estimate", "level_cost", "max_batch", "qoe_lambda"});
+  auto& sc = s_.scheduler;
+  if (const Val* x = f.get("gamma_ms")) sc.gamma = ms_value(*x, non_negative(*x));
+  if (const Val* x = f.get("estimate")) {
+    const std::string e = text(*x);
+    if (e == "mean")
+      sc.estimate = EstimateKind::Mean;
+    else if (e == "p95")
+      sc.estimate = EstimateKind::P95;
+    else if (e == "p99")
+      sc.estimate = EstimateKind::P99;
+    else if (e == "max")
+      sc.estimate = EstimateKind::Max;
+    else
+      fail(x->line, at(x->what) + "must be one of mean, p95, p99, max" + got(x->node));
+  }
+  if (const Val* x = f.get("level_cost")) {
+    const std::string l = text(*x);
+    if (l == "max")
+      sc.level_cost = LevelCost::Max;
+    else if (l == "sum")
+      sc.level_cost = LevelCost::Sum;
+    else
+      fail(x->line, at(x->what) + "must be max or sum" + got(x->node));
+  }
+  if (const Val* x = f.get("max_batch")) sc.max_batch = small_int(*x, 1);
+  if (const Val* x = f.get("qoe_lambda")) sc.qoe_lambda = positive(*x);
+}
+
+void Loader::parse_interference(const Val& v) {
+  const Fields f(v, {"kind", "intensity"});
+  InterferenceSpec in;
+  if (const Val* x = f.get("kind")) {
+    in.kind = text(*x);
+    if (in.kind != "cpu") fail(x->line, at(x->what) + "must be cpu" + got(x->node));
+  }
+  if (const Val* x = f.get("intensity")) {
+    in.intensity = number(*x);
+    if (in.intensity < 0.0 || in.intensity > 1.0)
+      fail(x->line, at(x->what) + "must be in [0, 1]" + got(x->node));
+  }
+  s_.interference = in;
+}
+
+void Loader::parse_sensors(const Val& v) {
+  for (const auto& e : entries_of(v, "sensor")) {
+    const Fields f(e.value, {"rate_hz", "phase_ms", "jitter_ms"});
+    SensorSpec sensor;
+    sensor.name = e.key;
+    sensor.line = e.key_line;
+    sensor.rate_hz = positive(f.need("rate_hz"));
+    if (const Val* x = f.get("phase_ms")) sensor.phase = ms_value(*x, non_negative(*x));
+    if (const Val* x = f.get("jitter_ms")) sensor.jitter = ms_value(*x, non_negative(*x));
+    s_.sensors.push_back(std::move(sensor));
+  }
+}
+
+int Loader::sensor_index(const Val& v) const {
+  const std::string name = text(v);
+  for (std::size_t i = 0; i < s_.sensors.size(); ++i)
+    if (s_.sensors[i].name == name) return static_cast<int>(i);
+  std::vector<std::string> names;
+  for (const auto& s : s_.sensors) names.push_back(s.name);
+  fail(v.line, fmt::format("{}unknown sensor '{}' ({})", at(v.what), name,
+                           names.empty() ? "no sensors are defined" : "sensors: " + join(names)));
+}
+
+DeadlineSpec Loader::parse_deadline(const Val& v) const {
+  DeadlineSpec d;
+  if (v.node.IsMap()) {
+    const Fields f(v, {"critical_path_x"});
+    d.critical_path_x = positive(f.need("critical_path_x"));
+  } else {
+    d.fixed = ms_value(v, positive(v));
+  }
+  return d;
+}
+
+NodeSpec Loader::parse_node(const Entry& entry) const {
+  const Val& v = entry.value;
+  // Problems of the node as a whole are reported where it is named.
+  const int line = entry.key_line;
+  const Fields f(v, {"head", "sensor", "cost_ms", "cost", "deadline_ms"});
+  NodeSpec n;
+  n.name = entry.key;
+  n.line = line;
+  const Val* head = f.get("head");
+  const Val* sensor = f.get("sensor");
+  const Val* cost_ms = f.get("cost_ms");
+  const Val* cost = f.get("cost");
+  if (head && (cost_ms || cost))
+    fail(line, at(v.what) +
+                   "has both a head and a cost: a node is an inference (head, sensor) or a "
+                   "plain task (cost_ms or cost), not both");
+  if (cost_ms && cost) fail(line, at(v.what) + "give cost_ms or cost, not both");
+  if (head || sensor) {
+    if (!head) fail(line, at(v.what) + "has a sensor but no head (an inference node needs both)");
+    if (!sensor) fail(line, at(v.what) + "has a head but no sensor (an inference node needs both)");
+    const std::string h = text(*head);
+    if (!have_model_)
+      fail(head->line, at(head->what) + "node uses head '" + h + "' but the scenario has no model");
+    n.head = s_.model.head_index(h);
+    if (n.head < 0)
+      fail(head->line, fmt::format("{}unknown head '{}' (model heads: {})", at(head->what), h,
+                                   join(s_.model.heads)));
+    n.sensor = sensor_index(*sensor);
+  } else if (cost_ms) {
+    const Duration c = ms_value(*cost_ms, non_negative(*cost_ms));
+    n.cost = PlainCost{c, c};
+  } else if (cost) {
+    const Fields c(*cost, {"mean_ms", "p99_ms"});
+    const Val& mean = c.need("mean_ms");
+    const Val& p99 = c.need("p99_ms");
+    const double mean_ms = non_negative(mean);
+    const double p99_ms = non_negative(p99);
+    if (p99_ms < mean_ms) fail(p99.line, at(p99.what) + "must be >= mean_ms" + got(p99.node));
+    n.cost = PlainCost{ms_value(mean, mean_ms), ms_value(p99, p99_ms)};
+  } else {
+    fail(line,
+         at(v.what) + "needs head and sensor (an inference node) or cost_ms / cost (a plain task)");
+  }
+  if (const Val* d = f.get("deadline_ms")) n.deadline = ms_value(*d, positive(*d));
+  return n;
+}
+
+void Loader::add_nodes(OperationSpec& op, const Val& v) const {
+  const auto entries = entries_of(v, "node name");
+  if (entries.empty()) fail(v.line, at(v.what) + "must name at least one node");
+  for (const auto& e : entries) {
+    if (op.node_index(e.key) >= 0)
+      fail(e.key_line,
+           fmt::format("{}operation '{}' already has a node '{}'", at(v.what), op.name, e.key));
+    op.nodes.push_back(parse_node(e));
+  }
+}
+
+std::vector<ReadEdge> Loader::read_edges(const OperationSpec& op, const Val& v) const {
+  if (!v.node.IsSequence())
+    fail(v.line, at(v.what) + "must be a list of [from, to] pairs" + got(v.node));
+  std::vector<ReadEdge> out;
+  for (const auto& item : v.node) {
+    const int line = mark_line(item) ? mark_line(item) : v.line;
+    if (!item.IsSequence() || item.size() != 2 || !item[0].IsScalar() || !item[1].IsScalar())
+      fail(line, at(v.what) + "each edge must be a [from, to] pair of node names" + got(item));
+    const std::string from = item[0].Scalar();
+    const std::string to = item[1].Scalar();
+    ReadEdge e{EdgeSpec{op.node_index(from), op.node_index(to)}, line};
+    for (const auto& [idx, name] : {std::pair{e.edge.from, from}, std::pair{e.edge.to, to}})
+      if (idx < 0)
+        fail(line, fmt::format("{}edge [{}, {}] refers to node '{}', which operation '{}' does "
+                               "not have (nodes: {})",
+                               at(v.what), from, to, name, op.name, node_names(op)));
+    out.push_back(e);
+  }
+  return out;
+}
+
+void Loader::check_graph(const OperationSpec& op, const std::vector<ReadEdge>& edges,
+                         int fallback_line) const {
+  if (op.nodes.empty())
+    fail(fallback_line, "operation '" + op.name +
+                            "' would have no nodes (remove the operation "
+                            "with remove_operation instead)");
+  const std::vector<int> cycle = find_cycle(op);
+  if (cycle.empty()) return;
+  // Report the edge on the cycle written last in the file: the one that closes it.
+  int line = 0;
+  for (std::size_t i = 0; i + 1 < cycle.size(); ++i)
+    for (const auto& e : edges)
+      if (e.edge.from == cycle[i] && e.edge.to == cycle[i + 1]) line = std::max(line, e.line);
+  fail(line ? line : fallback_line,
+       "operation '" + op.name + "' has a cycle: " + cycle_text(op, cycle));
+}
+
+Loader::Parsed Loader::parse_operation(const Val& v, const std::string& named_base) {
+  // Name the operation in messages as soon as its name is known.
+  Val named = v;
+  if (v.node.IsMap() && v.node["name"] && v.node["name"].IsScalar())
+    named.what = named_base + "." + v.node["name"].Scalar();
+  const Fields f(named, {"name", "trigger", "rate_hz", "phase_ms", "release", "deadline_ms",
+                         "criticality", "max_inflight", "depends_on", "nodes", "edges"});
+  Parsed p;
+  OperationSpec& op = p.op;
+  op.line = v.line;
+  op.name = text(f.need("name"));
+  const Val* trigger = f.get("trigger");
+  const Val* rate = f.get("rate_hz");
+  const Val* release = f.get("release");
+  if (trigger && rate)
+    fail(rate->line, at(named.what) + "give trigger (a sensor) or rate_hz, not both");
+  if (trigger) op.trigger_sensor = sensor_index(*trigger);
+  if (rate) op.rate_hz = positive(*rate);
+  if (release) {
+    const Fields r(*release, {"count"});
+    op.release_count = small_int(r.need("count"), 1);
+  }
+  if (!trigger && !rate && !release)
+    fail(f.line(),
+         at(named.what) + "needs a trigger (a sensor name), rate_hz, or release: {count: N}");
+  if (const Val* x = f.get("phase_ms")) op.phase = ms_value(*x, non_negative(*x));
+  op.deadline = parse_deadline(f.need("deadline_ms"));
+  if (const Val* x = f.get("criticality"))
+    op.criticality = static_cast<int>(
+        integer(*x, std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
+  if (const Val* x = f.get("max_inflight")) op.max_inflight = small_int(*x, 1);
+  if (const Val* x = f.get("depends_on")) {
+    const Fields d(*x, {"operation", "use"});
+    p.depends_on = d.need("operation");
+    if (const Val* use = d.get("use"); use && text(*use) != "latest")
+      fail(use->line, at(use->what) + "must be latest" + got(use->node));
+    if (text(*p.depends_on) == op.name)
+      fail(p.depends_on->line, at(p.depends_on->what) + "an operation cannot depend on itself");
+  }
+  add_nodes(op, f.need("nodes"));
+  std::vector<ReadEdge> edges;
+  if (const Val* x = f.get("edges")) edges = read_edges(op, *x);
+  for (const auto& e : edges) {
+    if (has_edge(op, e.edge))
+      fail(e.line, fmt::format("{}edge [{}, {}] is listed twice", at(named.what),
+                               op.nodes[static_cast<std::size_t>(e.edge.from)].name,
+                               op.nodes[static_cast<std::size_t>(e.edge.to)].name));
+    op.edges.push_back(e.edge);
+  }
+  check_graph(op, edges, f.line());
+  return p;
+}
+
+int Loader::active_index(const std::string& name) const {
+  for (std::size_t i = 0; i < current_.size(); ++i)
+    if (current_[i] && current_[i]->name == name) return static_cast<int>(i);
+  return -1;
+}
+
+int Loader::need_active(const Val& v, Duration t) const {
+  const std::string name = text(v);
+  const int i = active_index(name);
+  if (i >= 0) return i;
+  const bool existed = std::find(s_.names_.begin(), s_.names_.end(), name) != s_.names_.end();
+  fail(v.line, fmt::format("{}no operation '{}' in the workload at {} s{}", at(v.what), name,
+                           to_s(t), existed ? " (an earlier event removed it)" : ""));
+}
+
+EventSpec Loader::parse_event(const Val& v, Duration& last_at, int& last_line) {
+  const Fields f(v, {"at_s", "add_nodes", "remove_nodes", "add_edges", "remove_edges",
+                     "add_operation", "remove_operation", "set_deadline", "set_rate"});
+  EventSpec ev;
+  ev.line = v.line;
+  const Val& at_s = f.need("at_s");
+  const double t = non_negative(at_s);
+  if (t > 1e9) fail(at_s.line, at(at_s.what) + "is too large" + got(at_s.node));
+  ev.at = from_s(t);
+  if (ev.at >= s_.duration)
+    fail(at_s.line, fmt::format("{}event at {} s is not before the end of the scenario "
+                                "(duration_s {})",
+                                at(at_s.what), t, to_s(s_.duration)));
+  if (ev.at < last_at)
+    fail(at_s.line, fmt::format("{}events out of time order: at_s {} comes after an event at "
+                                "{} s (line {})",
+                                at(at_s.what), t, to_s(last_at), last_line));
+  last_at = ev.at;
+  last_line = v.line;
+
+  const Entry* action = nullptr;
+  for (const auto& e : f.entries()) {
+    if (e.key == "at_s") continue;
+    if (action)
+      fail(e.key_line, fmt::format("{}an event has exactly one action; this one has '{}' and "
+                                   "'{}'",
+                                   at(v.what), action->key, e.key));
+    action = &e;
+  }
+  if (!action) {
+    std::vector<std::string> kinds(std::begin(kEventKinds), std::end(kEventKinds));
+    fail(v.line, at(v.what) + "event has no action (one of: " + join(kinds) + ")");
+  }
+  ev.kind = action->key;
+  const Val& a = action->value;
+
+  if (ev.kind == "add_operation") {
+    Parsed p = parse_operation(a, a.what);
+    if (active_index(p.op.name) >= 0)
+      fail(a.line, fmt::format("{}an operation named '{}' already exists at {} s", at(a.what),
+                               p.op.name, t));
+    if (p.depends_on) p.op.depends_on = need_active(*p.depends_on, ev.at);
+    const int index = static_cast<int>(current_.size());
+    auto snap = std::make_shared<const OperationSpec>(std::move(p.op));
+    current_.push_back(snap);
+    s_.names_.push_back(snap->name);
+    ev.changes.emplace_back(index, std::move(snap));
+    return ev;
+  }
+  if (ev.kind == "set_rate") {
+    const Fields sr(a, {"operation", "sensor", "rate_hz"});
+    const Val* op_name = sr.get("operation");
+    const Val* sensor = sr.get("sensor");
+    if ((op_name != nullptr) == (sensor != nullptr))
+      fail(sr.line(), at(a.what) + "give exactly one of 'operation' or 'sensor'");
+    const double rate = positive(sr.need("rate_hz"));
+    if (sensor) {
+      ev.sensor_rates.emplace_back(sensor_index(*sensor), rate);
+      return ev;
+    }
+    const int i = need_active(*op_name, ev.at);
+    auto op = std::make_shared<OperationSpec>(*current_[static_cast<std::size_t>(i)]);
+    if (op->trigger_sensor >= 0 || op->rate_hz <= 0.0)
+      fail(op_name->line, fmt::format("{}operation '{}' has no own rate_hz to change{}",
+                                      at(op_name->what), op->name,
+                                      op->trigger_sensor >= 0 ? " (it follows its trigger sensor; "
+                                                                "set the sensor's rate)"
+                                                              : ""));
+    op->rate_hz = rate;
+    current_[static_cast<std::size_t>(i)] = op;
+    ev.changes.emplace_back(i, std::move(op));
+    return ev;
+  }
+
+  // Every other action names an existing operation and changes only it.
+  const Fields af = [&] {
+    if (ev.kind == "add_nodes") return Fields(a, {"operation", "nodes", "edges"});
+    if (ev.kind == "remove_nodes") return Fields(a, {"operation", "nodes"});
+    if (ev.kind == "add_edges" || ev.kind == "remove_edges")
+      return Fields(a, {"operation", "edges"});
+    if (ev.kind == "set_deadline") return Fields(a, {"operation", "deadline_ms"});
+    return Fields(a, {"operation"});  // remove_operation
+  }();
+  const int i = need_active(af.need("operation"), ev.at);
+  const auto index = static_cast<std::size_t>(i);
+
+  if (ev.kind == "remove_operation") {
+    for (const auto& other : current_)
+      if (other && other->depends_on == i)
+        fail(a.line, fmt::format("{}cannot remove operation '{}': operation '{}' depends on it",
+                                 at(a.what), current_[index]->name, other->name));
+    current_[index] = nullptr;
+    ev.changes.emplace_back(i, nullptr);
+    return ev;
+  }
+
+  auto op = std::make_shared<OperationSpec>(*current_[index]);
+  std::vector<ReadEdge> new_edges;
+  if (ev.kind == "add_nodes") {
+    add_nodes(*op, af.need("nodes"));
+    if (const Val* e = af.get("edges")) new_edges = read_edges(*op, *e);
+  } else if (ev.kind == "remove_nodes") {
+    const Val& list = af.need("nodes");
+    if (!list.node.IsSequence() || list.node.size() == 0)
+      fail(list.line, at(list.what) + "must be a non-empty list of node names" + got(list.node));
+    std::vector<bool> removed(op->nodes.size(), false);
+    for (const auto& item : list.node) {
+      const Val iv{item, mark_line(item) ? mark_line(item) : list.line, list.what};
+      const std::string name = text(iv);
+      const int n = op->node_index(name);
+      if (n < 0)
+        fail(iv.line, fmt::format("{}operation '{}' has no node '{}' at {} s (nodes: {})",
+                                  at(list.what), op->name, name, t, node_names(*op)));
+      if (removed[static_cast<std::size_t>(n)])
+        fail(iv.line, at(list.what) + "node '" + name + "' is listed twice");
+      removed[static_cast<std::size_t>(n)] = true;
+    }
+    std::vector<int> remap(op->nodes.size(), -1);
+    std::vector<NodeSpec> kept;
+    for (std::size_t n = 0; n < op->nodes.size(); ++n) {
+      if (removed[n]) continue;
+      remap[n] = static_cast<int>(kept.size());
+      kept.push_back(op->nodes[n]);
+    }
+    std::vector<EdgeSpec> edges;
+    for (const auto& e : op->edges) {
+      const int from = remap[static_cast<std::size_t>(e.from)];
+      const int to = remap[static_cast<std::size_t>(e.to)];
+      if (from >= 0 && to >= 0) edges.push_back(EdgeSpec{from, to});
+    }
+    op->nodes = std::move(kept);
+    op->edges = std::move(edges);
+  } else if (ev.kind == "add_edges") {
+    new_edges = read_edges(*op, af.need("edges"));
+    if (new_edges.empty()) fail(a.line, at(a.what) + "edges must not be empty");
+  } else if (ev.kind == "remove_edges") {
+    const auto gone = read_edges(*op, af.need("edges"));
+    if (gone.empty()) fail(a.line, at(a.what) + "edges must not be empty");
+    for (const auto& g : gone) {
+      const auto it = std::find_if(op->edges.begin(), op->edges.end(), [&](const EdgeSpec& x) {
+        return x.from == g.edge.from && x.to == g.edge.to;
+      });
+      if (it == op->edges.end())
+        fail(g.line, fmt::format("{}operation '{}' has no edge [{}, {}] at {} s", at(a.what),
+                                 op->name, op->nodes[static_cast<std::size_t>(g.edge.from)].name,
+                                 op->nodes[static_cast<std::size_t>(g.edge.to)].name, t));
+      op->edges.erase(it);
+    }
+  } else {  // set_deadline
+    op->deadline = parse_deadline(af.need("deadline_ms"));
+  }
+  for (const auto& e : new_edges) {
+    if (has_edge(*op, e.edge))
+      fail(e.line, fmt::format("{}operation '{}' already has edge [{}, {}]", at(a.what), op->name,
+                               op->nodes[static_cast<std::size_t>(e.edge.from)].name,
+                               op->nodes[static_cast<std::size_t>(e.edge.to)].name));
+    op->edges.push_back(e.edge);
+  }
+  // A cycle made by an event is reported at the event, where the change was written.
+  check_graph(*op, {}, v.line);
+  current_[index] = op;
+  ev.changes.emplace_back(i, std::move(op));
+  return ev;
+}
+
+void Loader::parse_events(const Val& v) {
+  if (!v.node.IsSequence()) fail(v.line, at(v.what) + "must be a list of events" + got(v.node));
+  Duration last_at{0};
+  int last_line = 0;
+  std::size_t k = 0;
+  for (const auto& item : v.node) {
+    const Val ev{item, mark_line(item) ? mark_line(item) : v.line,
+                 fmt::format("{}[{}]", v.what, k++)};
+    s_.events.push_back(parse_event(ev, last_at, last_line));
+  }
+}
+
+Scenario Loader::run(const YAML::Node& root) {
+  const Fields top(Val{root, mark_line(root), ""},
+                   {"name", "duration_s", "warmup_s", "seed", "device", "model", "profile",
+                    "scheduler", "interference", "sensors", "operations", "events"});
+  s_.file = file_;
+  s_.name = text(top.need("name"));
+  const Val& duration = top.need("duration_s");
+  const double duration_s = positive(duration);
+  if (duration_s > 1e9) fail(duration.line, "duration_s: is too large" + got(duration.node));
+  s_.duration = from_s(duration_s);
+  if (const Val* x = top.get("warmup_s")) {
+    const double warmup_s = non_negative(*x);
+    if (warmup_s >= duration_s)
+      fail(x->line,
+           fmt::format("warmup_s: must be less than duration_s ({}){}", duration_s, got(x->node)));
+    s_.warmup = from_s(warmup_s);
+  }
+  if (const Val* x = top.get("seed"))
+    s_.seed = static_cast<std::uint64_t>(integer(*x, 0, std::numeric_limits<std::int64_t>::max()));
+  if (const Val* x = top.get("device")) parse_device(*x);
+  if (const Val* x = top.get("model")) parse_model(*x);
+  if (const Val* x = top.get("profile")) s_.profile = resolve_path(text(*x));
+  if (const Val* x = top.get("scheduler")) parse_scheduler(*x);
+  if (const Val* x = top.get("interference")) parse_interference(*x);
+  if (const Val* x = top.get("sensors")) parse_sensors(*x);
+
+  const Val& ops = top.need("operations");
+  if (!ops.node.IsSequence())
+    fail(ops.line, "operations: must be a list of operations" + got(ops.node));
+  std::vector<Parsed> parsed;
+  std::size_t k = 0;
+  for (const auto& item : ops.node) {
+    const Val v{item, mark_line(item) ? mark_line(item) : ops.line,
+                fmt::format("operations[{}]", k++)};
+    Parsed p = parse_operation(v, "operations");
+    for (const auto& q : parsed)
+      if (q.op.name == p.op.name)
+        fail(p.op.line,
+             fmt::format("duplicate operation name '{}' (first at line {})", p.op.name, q.op.line));
+    parsed.push_back(std::move(p));
+  }
+  // depends_on may name an operation defined later in the list.
+  for (auto& p : parsed) {
+    if (!p.depends_on) continue;
+    const std::string target = text(*p.depends_on);
+    for (std::size_t i = 0; i < parsed.size(); ++i)
+      if (parsed[i].op.name == target) p.op.depends_on = static_cast<int>(i);
+    if (p.op.depends_on < 0)
+      fail(p.depends_on->line, at(p.depends_on->what) + "no operation named '" + target + "'");
+  }
+  // A cycle of "wait for the newest job of" would deadlock the operations on it.
+  for (std::size_t i = 0; i < parsed.size(); ++i) {
+    int j = parsed[i].op.depends_on;
+    for (std::size_t steps = 0; j >= 0 && steps <= parsed.size(); ++steps) {
+      if (j == static_cast<int>(i))
+        fail(parsed[i].depends_on->line,
+             "depends_on forms a cycle through operation '" + parsed[i].op.name + "'");
+      j = parsed[static_cast<std::size_t>(j)].op.depends_on;
+    }
+  }
+  for (auto& p : parsed) {
+    auto snap = std::make_shared<const OperationSpec>(std::move(p.op));
+    s_.names_.push_back(snap->name);
+    current_.push_back(snap);
+    s_.initial.push_back(std::move(snap));
+  }
+  if (const Val* x = top.get("events")) parse_events(*x);
+  s_.initial.resize(s_.names_.size());  // operations added by events start absent
+  return std::move(s_);
+}
+
+// ---- overrides -----------------------------------------------------------------------
+
+std::optional<Duration> scaled(Duration d, double factor) {
+  const double x = static_cast<double>(d.count()) * factor;
+  if (!(x < 9e18)) return std::nullopt;
+  return Duration{static_cast<std::int64_t>(std::llround(x))};
+}
+
+/// Rewrites every operation snapshot (initial and in events) with `edit`, which returns
+/// false when a value would overflow. Snapshots shared between places stay shared.
+template <typename Edit>
+bool rewrite_operations(Scenario& s, Edit edit) {
+  std::map<const OperationSpec*, std::shared_ptr<const OperationSpec>> done;
+  auto redo = [&](std::shared_ptr<const OperationSpec>& p) {
+    if (!p) return true;
+    auto [it, fresh] = done.try_emplace(p.get());
+    if (fresh) {
+      auto copy = std::make_shared<OperationSpec>(*p);
+      if (!edit(*copy)) return false;
+      it->second = std::move(copy);
+    }
+    p = it->second;
+    return true;
+  };
+  for (auto& p : s.initial)
+    if (!redo(p)) return false;
+  for (auto& ev : s.events)
+    for (auto& [index, p] : ev.changes)
+      if (!redo(p)) return false;
+  return true;
+}
+
+}  // namespace
+
+Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::string& file) {
+  try {
+    YAML::Node root;
+    try {
+      root = YAML::Load(yaml_text);
+    } catch (const YAML::ParserException& e) {
+      return Error{file, e.mark.line >= 0 ? e.mark.line + 1 : 0, "YAML syntax error: " + e.msg};
+    }
+    if (!root || root.IsNull())
+      return Error{file, 0,
+                   "the file is empty (a scenario is a mapping with name, duration_s "
+                   "and operations)"};
+    if (!root.IsMap())
+      return Error{
+          file, mark_line(root),
+          "the top level must be a mapping (name, duration_s, operations, ...)" + got(root)};
+    return Loader(file).run(root);
+  } catch (const Failure& f) {
+    return Error{file, f.line, f.message};
+  } catch (const YAML::Exception& e) {
+    return Error{file, e.mark.line >= 0 ? e.mark.line + 1 : 0, e.msg};
+  } catch (const std::exception& e) {
+    return Error{file, 0, std::string("cannot load the scenario: ") + e.what()};
+  } catch (...) {
+    return Error{file, 0, "cannot load the scenario: unknown error"};
+  }
+}
+
+Expected<Scenario> load_scenario(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    return Error{path, 0, "cannot open: it is a directory"};
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{path, 0, std::string("cannot open: ") + std::strerror(errno)};
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return Error{path, 0, "cannot read the file"};
+  return parse_scenario(text.str(), path);
+}
+
+std::optional<Error> apply_override(Scenario& s, const std::string& key, double value) {
+  auto bad = [&](const std::string& why) {
+    return Error{"", 0, fmt::format("override {}={}: {}", key, value, why)};
+  };
+  if (!std::isfinite(value)) return bad("the value must be a finite number");
+  Scenario out = s;
+  if (key == "deadline_scale") {
+    if (!(value > 0.0)) return bad("must be > 0");
+    const bool ok = rewrite_operations(out, [&](OperationSpec& op) {
+      if (op.deadline.critical_path_x) {
+        *op.deadline.critical_path_x *= value;
+        if (!std::isfinite(*op.deadline.critical_path_x)) return false;
+      }
+      const auto fixed = scaled(op.deadline.fixed, value);
+      if (!fixed) return false;
+      op.deadline.fixed = *fixed;
+      for (auto& n : op.nodes) {
+        if (!n.deadline) continue;
+        const auto d = scaled(*n.deadline, value);
+        if (!d) return false;
+        n.deadline = *d;
+      }
+      return true;
+    });
+    if (!ok) return bad("a deadline would become too large");
+  } else if (key == "rate_scale") {
+    if (!(value > 0.0)) return bad("must be > 0");
+    for (auto& sensor : out.sensors) sensor.rate_hz *= value;
+    for (auto& ev : out.events)
+      for (auto& [index, rate] : ev.sensor_rates) rate *= value;
+    bool ok = rewrite_operations(out, [&](OperationSpec& op) {
+      op.rate_hz *= value;  // 0 (no own rate) stays 0
+      return std::isfinite(op.rate_hz);
+    });
+    for (const auto& sensor : out.sensors) ok = ok && std::isfinite(sensor.rate_hz);
+    for (const auto& ev : out.events)
+      for (const auto& [index, rate] : ev.sensor_rates) ok = ok && std::isfinite(rate);
+    if (!ok) return bad("a rate would become too large");
+  } else if (key == "qoe_lambda") {
+    if (!(value > 0.0)) return bad("must be > 0");
+    out.scheduler.qoe_lambda = value;
+  } else if (key == "gamma_ms") {
+    if (value < 0.0 || value > 1e12) return bad("must be in [0, 1e12]");
+    out.scheduler.gamma = from_ms(value);
+  } else if (key == "lanes") {
+    if (value < 1.0 || value > 1e6 || value != std::floor(value))
+      return bad("must be an integer >= 1");
+    out.device.lanes = static_cast<int>(value);
+  } else if (key == "duration_s") {
+    if (!(value > 0.0) || value > 1e9) return bad("must be > 0");
+    out.duration = from_s(value);
+    if (out.warmup >= out.duration)
+      return bad(fmt::format("must be more than warmup_s ({})", to_s(out.warmup)));
+    for (const auto& ev : out.events)
+      if (ev.at >= out.duration)
+        return bad(fmt::format("the event at line {} (at {} s) would fall after the end", ev.line,
+                               to_s(ev.at)));
+  } else if (key == "seed") {
+    if (value < 0.0 || value >= 9.2e18 || value != std::floor(value))
+      return bad("must be an integer >= 0");
+    out.seed = static_cast<std::uint64_t>(value);
+  } else {
+    return Error{"", 0,
+                 fmt::format("override {}={}: unknown key '{}' (allowed: deadline_scale, "
+                             "qoe_lambda, gamma_ms, lanes, rate_scale, duration_s, seed)",
+                             key, value, key)};
+  }
+  s = std::move(out);
+  return std::nullopt;
+}
+
+}  // namespace red

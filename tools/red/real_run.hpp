@@ -1,0 +1,39 @@
+#pragma once
+/// \file
+/// Real runs (`red run`, `red compare --backend torch`): the runtime on a real backend.
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "red/core/expected.hpp"
+#include "red/profile/profile.hpp"
+#include "red/runtime/backend.hpp"
+#include "red/runtime/runtime.hpp"
+#include "red/scenario/scenario.hpp"
+#include "red/sim/run.hpp"
+
+namespace red::cli {
+
+/// Options of a real run.
+struct RealRunOptions {
+  std::string backend = "torch";  ///< torch or synthetic
+  std::string device = "cpu";     ///< LibTorch device (cpu, cuda, cuda:N)
+  int threads = 0;                ///< LibTorch intra-op threads (0: default)
+  bool realtime = true;
+  std::uint64_t seed = 1;
+};
+
+/// A backend by name for the scenario; Error when unknown or when it cannot load.
+Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile& p,
+                                                const RealRunOptions& o);
+
+/// Runs one policy in real time; prints the runtime's report lines to stderr.
+Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::string& policy,
+                             Backend& backend, const RealRunOptions& o,
+                             RuntimeReport* report = nullptr);
+
+/// Prints what a real run measured besides the job metrics.
+void print_runtime_report(const std::string& policy, const RuntimeReport& r);
+
+}  // namespace red::cli
