@@ -123,8 +123,8 @@ struct Runtime::Impl {
         options(o),
         sched(s, p, std::move(policy), SchedulerConfig::from(s)),
         sync(sched.policy().options().sync) {
-    report.decision_us.reserve(1U << 16U);
-    report.handoff_us.reserve(1U << 16U);
+    report.decision_us.reserve(4096);
+    report.handoff_us.reserve(4096);
   }
 
   TimePoint advance_now(TimePoint t) {
@@ -362,6 +362,7 @@ struct Runtime::Impl {
     std::vector<InEvent> batch;
     std::vector<int> completed;
     bool releasing = true;
+    std::uint64_t seen = 0;
     const TimePoint hard_stop = scenario.duration + options.drain_limit;
     for (;;) {
       TimePoint wake;
@@ -375,8 +376,11 @@ struct Runtime::Impl {
           sched.stop_releases();
         }
         {
+          // What is in the inbox now is handled in this round; anything posted after the
+          // swap bumps inbox_seq past `seen` and ends the wait below.
           std::lock_guard il(inbox_mu);
           batch.swap(inbox);
+          seen = inbox_seq.load(std::memory_order_acquire);
           poke.store(false, std::memory_order_relaxed);
         }
         if (!releasing && sched.jobs_in_flight() == 0 && batch.empty()) break;
@@ -403,7 +407,6 @@ struct Runtime::Impl {
         wake = std::min(wake, hard_stop);
         ++report.wakeups;
       }
-      const std::uint64_t seen = inbox_seq.load(std::memory_order_acquire);
       spin_then_park(inbox_mu, inbox_cv, clock, options.spin, wake, [&] {
         return inbox_seq.load(std::memory_order_acquire) != seen ||
                poke.load(std::memory_order_acquire);
