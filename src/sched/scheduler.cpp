@@ -108,7 +108,8 @@ struct Task {
 struct OpState {
   const RefinedGraph* g = nullptr;  // current version; null while not in the workload
   bool own_rate = false;
-  bool all_at_once = false;  // release: {count} without trigger or rate
+  bool all_at_once = false;    // release: {count} without trigger or rate
+  bool awaits_frames = false;  // all_at_once release held until its sensors have frames
   double rate_hz = 0.0;
   int trigger = -1;
   TimePoint next_tick = kNever;
@@ -254,9 +255,12 @@ struct Scheduler::Impl {
     o.criticality = spec->criticality;
     if (!was_active) o.remaining = spec->release_count ? *spec->release_count : -1;
     o.sensors_read = o.g->sensors;
+    // A held all-at-once release survives a new version of its operation (§2 events).
+    if (!o.all_at_once) o.awaits_frames = false;
     if (o.own_rate || o.all_at_once) {
       if (!was_active || initial) {
         o.next_tick = at + spec->phase;
+        o.awaits_frames = false;
       } else if (o.own_rate && old_rate != o.rate_hz) {
         // A rate change takes effect from the next release: one new period from now.
         o.next_tick = at + period_of(o.rate_hz);
@@ -281,9 +285,19 @@ struct Scheduler::Impl {
     return static_cast<int>(jobs.size() - 1);
   }
 
+  // True when every sensor the graph reads has produced a frame (the trigger frame counts).
+  bool inputs_ready(const RefinedGraph& g, int trigger_sensor) const {
+    for (int sn : g.sensors)
+      if (sn != trigger_sensor && !sensors[static_cast<std::size_t>(sn)].has_frame) return false;
+    return true;
+  }
+
   void release(int op_index, TimePoint now, int trigger_sensor, std::uint64_t trigger_frame) {
     OpState& o = ops[static_cast<std::size_t>(op_index)];
     if (o.g == nullptr || o.remaining == 0) return;
+    // §3: a job computes on frames its sensors produced. Before a sensor's first frame there
+    // is nothing to read, so this tick or trigger frame releases no job.
+    if (!inputs_ready(*o.g, trigger_sensor)) return;
     if (o.remaining > 0) --o.remaining;
     const std::uint64_t seq = o.released++;
     ++s.stats_.releases;
@@ -661,8 +675,10 @@ struct Scheduler::Impl {
     for (int t : batch) {
       Task& k = task(t);
       d.task_begin.push_back(static_cast<int>(d.members.size()));
-      if (k.kind == UnitKind::Encoder && k.gamma) {
-        // A γ-merged run uses the newest frame available when it starts (§3).
+      if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
+        // A γ-merged run uses the newest frame available when it starts (§3). Without
+        // DynamicMerge a job keeps the frame it sampled at release: its encoders on one
+        // sensor run as separate tasks, and their heads must all read that one frame.
         const SensorState& sn = sensors[static_cast<std::size_t>(k.sensor)];
         if (sn.has_frame && sn.frame > k.frame) {
           k.frame = sn.frame;
@@ -824,6 +840,12 @@ void Scheduler::on_frame(int sensor, std::uint64_t frame, TimePoint now) {
   sn.has_frame = true;
   sn.frame = frame;
   sn.time = now;
+  for (OpState& o : m.ops) {
+    if (o.awaits_frames && o.g != nullptr && m.inputs_ready(*o.g, -1)) {
+      o.awaits_frames = false;
+      o.next_tick = now;  // advance(now) releases them
+    }
+  }
   for (std::size_t i = 0; i < m.ops.size(); ++i)
     if (m.ops[i].g != nullptr && m.ops[i].trigger == sensor)
       m.release(static_cast<int>(i), now, sensor, frame);
@@ -904,8 +926,12 @@ void Scheduler::advance(TimePoint now) {
     OpState& o = m.ops[static_cast<std::size_t>(due)];
     const TimePoint t = o.next_tick;
     if (o.all_at_once) {
-      while (o.remaining != 0) m.release(due, t, -1, 0);
       o.next_tick = kNever;
+      if (!m.inputs_ready(*o.g, -1)) {
+        o.awaits_frames = true;  // on_frame releases them once every sensor has a frame
+        continue;
+      }
+      while (o.remaining != 0) m.release(due, t, -1, 0);
     } else {
       o.next_tick = t + period_of(o.rate_hz);
       m.release(due, t, -1, 0);
@@ -930,19 +956,25 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (idle > 0 && !m.ready.empty()) {
     ++m.stamp;  // one scheduling point: deadlines are re-assigned from now
     ++stats_.decisions;
-    m.min_wait = kNever;
     for (std::size_t i = 0; i < m.lanes.size(); ++i) {
       if (m.lanes[i].busy) continue;
       if (!m.pick(static_cast<int>(i), now)) break;
       --idle;
     }
   }
-  if (!m.observers.empty()) {
-    int waiting = 0;
-    for (int t : m.ready) waiting += m.task(t).wait_until > now ? 1 : 0;
-    for (Observer* ob : m.observers)
-      ob->on_decision(now, static_cast<int>(m.ready.size()), idle, waiting);
+  // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed
+  // after every round from the waits that end after now, so a wait that is over (its member
+  // came, or every lane is busy) never becomes a wake-up in the past.
+  int waiting = 0;
+  m.min_wait = kNever;
+  for (int t : m.ready) {
+    const TimePoint until = m.task(t).wait_until;
+    if (until <= now) continue;
+    ++waiting;
+    m.min_wait = std::min(m.min_wait, until);
   }
+  for (Observer* ob : m.observers)
+    ob->on_decision(now, static_cast<int>(m.ready.size()), idle, waiting);
   return {m.out.data(), m.out.size()};
 }
 
