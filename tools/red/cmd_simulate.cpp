@@ -4,6 +4,9 @@
 #include <fmt/format.h>
 
 #include <iostream>
+#include <memory>
+
+#include "red/core/clock.hpp"
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -20,6 +23,7 @@ struct RunArgs {
   std::string backend = "sim";
   std::optional<std::uint64_t> seed;
   std::optional<std::string> out;
+  std::size_t trace_events = kDefaultTraceEvents;
 };
 
 // Runs the given policies on one scenario (common random numbers: same seed, §10) and
@@ -45,8 +49,20 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   }
   const std::uint64_t seed = a.seed ? *a.seed : s->seed;
   std::vector<PolicyRun> runs;
-  for (const std::string& n : names) {
-    auto r = simulate_policy(*s, *p, n, seed, {}, a.out.has_value());
+  // Observers beside the metrics: the timeline (only when it will be written) and the
+  // progress line (only on a terminal, only for runs longer than a few seconds).
+  std::vector<std::unique_ptr<TraceObserver>> traces;
+  const SteadyClock clock;
+  ProgressReporter progress(clock, std::cerr, ProgressReporter::stderr_is_terminal());
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const std::string& n = names[i];
+    traces.push_back(a.out ? make_trace(*s, a.trace_events, names.size()) : nullptr);
+    std::vector<Observer*> extra{&progress};
+    if (traces.back()) extra.push_back(traces.back().get());
+    progress.begin_run(names.size() == 1 ? n : fmt::format("{} [{}/{}]", n, i + 1, names.size()),
+                       s->duration);
+    auto r = simulate_policy(*s, *p, n, seed, extra, a.out.has_value());
+    progress.finish();
     if (!r) {
       print_error(r.error());
       return kBadInput;
@@ -54,6 +70,10 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     std::cerr << fmt::format(
         "red: simulated {} on {} in {:.3f} s ({:.2f} M unit events/s)\n", n, s->name, r->wall_s,
         static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
+    if (traces.back() && traces.back()->truncated())
+      std::cerr << fmt::format(
+          "red: trace of {} stops at {:.3f} s (limit of {} events; see --trace-events)\n", n,
+          to_s(traces.back()->truncated_at()), traces.back()->events());
     runs.push_back(std::move(r.value()));
   }
   std::vector<PolicyMetrics> metrics;
@@ -78,11 +98,15 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     fmt::print("lane utilization:{}; frame age mean {:.2f} ms\n", util, m.frame_age_mean_ms);
   }
   if (a.out) {
-    if (auto e = write_outputs(*a.out, *s, *p, "sim", seed, runs)) {
+    OutputOptions o;
+    for (const auto& t : traces) o.traces.push_back(t.get());
+    o.index_html = table;  // red compare
+    OutputReport written;
+    if (auto e = write_outputs(*a.out, *s, *p, "sim", seed, runs, o, &written)) {
       print_error(*e);
       return kRunFailure;
     }
-    fmt::print("wrote {}/summary.json, jobs.csv, units.csv\n", *a.out);
+    fmt::print("{}\n", wrote_message(*a.out, written));
   }
   return kOk;
 }
@@ -94,7 +118,11 @@ void add_common(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--set", a.scenario.sets,
                   "Override key=value (deadline_scale, rate_scale, qoe_lambda, ...)");
   cmd->add_option("--seed", a.seed, "Random seed (default: the scenario's)");
-  cmd->add_option("--out", a.out, "Directory for summary.json, jobs.csv, units.csv");
+  cmd->add_option("--out", a.out,
+                  "Directory for summary.json, jobs.csv, units.csv, trace.json and plots");
+  cmd->add_option("--trace-events", a.trace_events,
+                  "Most events in trace.json, over all policies (0: no trace.json)")
+      ->capture_default_str();
 }
 
 }  // namespace

@@ -9,6 +9,10 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "red/core/clock.hpp"
+#include "red/observe/progress.hpp"
+#include "red/report/html.hpp"
+#include "red/report/plots.hpp"
 #include "red/report/report.hpp"
 #include "red/scenario/loader.hpp"
 
@@ -78,7 +82,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
   cmd->add_option("--policies", a->policies, "Comma-separated presets (default: all)");
   cmd->add_option("--profile", a->scenario.profile, "Profile JSON");
   cmd->add_option("--seed", a->seed, "Random seed (default: the scenario's)");
-  cmd->add_option("--out", a->out, "Directory for sweep.json and sweep.csv");
+  cmd->add_option("--out", a->out, "Directory for sweep.json, sweep.csv, plots and index.html");
   cmd->callback([a, &exit_code] {
     auto sw = parse_sweep(a->sweep);
     if (!sw) {
@@ -109,16 +113,24 @@ void register_sweep(CLI::App& app, int& exit_code) {
     const std::uint64_t seed = a->seed ? *a->seed : base->seed;
     // results[policy][value]
     std::vector<std::vector<PolicyMetrics>> results(names.size());
+    const SteadyClock clock;
+    ProgressReporter progress(clock, std::cerr, ProgressReporter::stderr_is_terminal());
+    const std::size_t total = values.size() * names.size();
+    std::size_t done = 0;
     for (double v : values) {
       Scenario s = *base;
       if (auto e = apply_override(s, key, v)) {
+        progress.finish();
         print_error(*e);
         exit_code = kBadInput;
         return;
       }
       for (std::size_t i = 0; i < names.size(); ++i) {
-        auto r = simulate_policy(s, *p, names[i], seed, {}, false);
+        progress.begin_run(fmt::format("{}={:g} {} [{}/{}]", key, v, names[i], ++done, total),
+                           s.duration);
+        auto r = simulate_policy(s, *p, names[i], seed, {&progress}, false);
         if (!r) {
+          progress.finish();
           print_error(r.error());
           exit_code = kBadInput;
           return;
@@ -126,6 +138,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
         results[i].push_back(r->metrics);
       }
     }
+    progress.finish();  // the line stays up across the sweep's runs
     auto table = [&](const char* title, auto get) {
       std::string out = fmt::format("{} by {}\n{:<8}", title, key, "policy");
       for (double v : values) out += fmt::format(" {:>9g}", v);
@@ -175,7 +188,25 @@ void register_sweep(CLI::App& app, int& exit_code) {
         exit_code = kRunFailure;
         return;
       }
-      fmt::print("wrote {}/sweep.json, sweep.csv\n", *a->out);
+      std::vector<SweepSeries> series;
+      for (std::size_t i = 0; i < names.size(); ++i) series.push_back({names[i], results[i]});
+      PlotOptions po;
+      po.gnuplot = gnuplot_command();
+      const PlotReport plots = write_sweep_plots(*a->out, base->name, key, values, series, po);
+      if (!plots.note.empty()) std::cerr << "red: " << plots.note << '\n';
+      const std::vector<HtmlLink> links = {{"sweep.csv", "one row per (policy, value)"},
+                                           {"sweep.json", "the same numbers as JSON"}};
+      if (auto e = write_file(
+              *a->out, "index.html",
+              render_html(sweep_page(base->name, seed, key, values, series, plots, links)))) {
+        print_error(*e);
+        exit_code = kRunFailure;
+        return;
+      }
+      std::size_t images = 0;
+      for (const PlotFile& f : plots.plots) images += f.svg.empty() ? 1 : 2;
+      fmt::print("wrote {}/sweep.json, sweep.csv, index.html{}\n", *a->out,
+                 images > 0 ? fmt::format(", plots/ ({} images)", images) : std::string());
     }
     exit_code = kOk;
   });

@@ -1,7 +1,14 @@
 #include "common.hpp"
 
-#include <cstdlib>
+#include <fmt/format.h>
 
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "red/report/html.hpp"
+#include "red/report/plots.hpp"
 #include "red/report/report.hpp"
 #include "red/scenario/loader.hpp"
 
@@ -39,16 +46,37 @@ Expected<Scenario> load(const ScenarioArgs& a) {
   return s;
 }
 
+std::string gnuplot_command(const std::string& configured) {
+  std::string cmd = configured;
+  if (cmd.empty()) {
+    const char* env = std::getenv("RED_GNUPLOT");
+    cmd = env != nullptr && *env != '\0' ? env : "gnuplot";
+  }
+  return cmd == "none" ? std::string() : cmd;
+}
+
+std::unique_ptr<TraceObserver> make_trace(const Scenario& s, std::size_t total_events,
+                                          std::size_t runs) {
+  if (total_events == 0) return nullptr;
+  TraceOptions o;
+  o.max_events = std::max<std::size_t>(1, total_events / std::max<std::size_t>(1, runs));
+  return std::make_unique<TraceObserver>(s, o);
+}
+
 std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, const Profile& p,
                                    const std::string& backend, std::uint64_t seed,
-                                   const std::vector<PolicyRun>& runs) {
+                                   const std::vector<PolicyRun>& runs, const OutputOptions& options,
+                                   OutputReport* report) {
+  OutputReport local;
+  OutputReport& r = report != nullptr ? *report : local;
+  r = {};
   std::vector<PolicyMetrics> metrics;
   std::vector<PolicyRows<JobRow>> jobs;
   std::vector<PolicyRows<UnitRow>> units;
-  for (const PolicyRun& r : runs) {
-    metrics.push_back(r.metrics);
-    jobs.push_back({r.metrics.name, &r.jobs});
-    units.push_back({r.metrics.name, &r.units});
+  for (const PolicyRun& run : runs) {
+    metrics.push_back(run.metrics);
+    jobs.push_back({run.metrics.name, &run.jobs});
+    units.push_back({run.metrics.name, &run.units});
   }
   apply_ratios(metrics, "edf");
   SummaryHeader h;
@@ -59,7 +87,67 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
   if (auto e = write_file(dir, "summary.json", summary_json(h, metrics))) return e;
   if (auto e = write_file(dir, "jobs.csv", jobs_csv(s, jobs))) return e;
   if (auto e = write_file(dir, "units.csv", units_csv(s, units))) return e;
+  r.files = {"summary.json", "jobs.csv", "units.csv"};
+
+  // trace.json: one process per policy, so Perfetto shows the policies on one time axis.
+  std::vector<TraceProcess> processes;
+  for (std::size_t i = 0; i < runs.size() && i < options.traces.size(); ++i)
+    if (options.traces[i] != nullptr)
+      processes.push_back({"policy " + runs[i].metrics.name, options.traces[i]});
+  if (!processes.empty()) {
+    const std::string path = (std::filesystem::path(dir) / "trace.json").string();
+    std::ofstream f(path, std::ios::binary);
+    if (!f) return Error{path, 0, "cannot open for writing"};
+    write_chrome_trace(f, s, processes,
+                       {{"backend", backend},
+                        {"seed", std::to_string(seed)},
+                        {"profile", p.source},
+                        {"time", backend == "sim" ? "simulated" : "real (from the run's start)"}});
+    f.close();
+    if (!f) return Error{path, 0, "write failed"};
+    r.files.push_back("trace.json");
+  }
+
+  PlotOptions po;
+  po.gnuplot = gnuplot_command(options.gnuplot);
+  std::vector<PlotRun> plot_runs;
+  for (std::size_t i = 0; i < runs.size(); ++i)
+    plot_runs.push_back({runs[i].metrics.name, &metrics[i], &runs[i].jobs});
+  const PlotReport plots = write_run_plots(dir, s, plot_runs, po);
+  if (!plots.note.empty()) std::cerr << "red: " << plots.note << '\n';
+  for (const PlotFile& f : plots.plots) {
+    r.files.push_back(f.png);
+    ++r.images;
+    if (!f.svg.empty()) {
+      r.files.push_back(f.svg);
+      ++r.images;
+    }
+  }
+
+  if (options.index_html) {
+    std::vector<HtmlLink> links = {
+        {"summary.json", "the summary of every policy (schema in docs/REPORTS.md)"},
+        {"jobs.csv", "one row per job"},
+        {"units.csv", "one row per unit execution"}};
+    if (!processes.empty())
+      links.push_back({"trace.json", "the timeline: drag into https://ui.perfetto.dev"});
+    if (auto e = write_file(dir, "index.html", render_html(compare_page(h, metrics, plots, links))))
+      return e;
+    r.files.push_back("index.html");
+  }
   return std::nullopt;
+}
+
+std::string wrote_message(const std::string& dir, const OutputReport& r) {
+  std::string out = "wrote " + dir + "/";
+  bool first = true;
+  for (const std::string& f : r.files) {
+    if (f.rfind("plots/", 0) == 0) continue;  // images are counted below
+    out += (first ? "" : ", ") + f;
+    first = false;
+  }
+  if (r.images > 0) out += fmt::format(", plots/ ({} images)", r.images);
+  return out;
 }
 
 }  // namespace red::cli

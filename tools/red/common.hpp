@@ -3,12 +3,16 @@
 /// What the `red` subcommands share: loading a scenario with overrides and its profile,
 /// printing located errors, writing a run's outputs.
 
+#include <cstddef>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "red/core/expected.hpp"
+#include "red/observe/progress.hpp"
+#include "red/observe/trace.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sim/run.hpp"
@@ -33,9 +37,46 @@ Expected<Scenario> load(const ScenarioArgs& a);
 /// Splits "a,b,c".
 std::vector<std::string> split_list(const std::string& s);
 
-/// Writes summary.json, jobs.csv and units.csv for a set of runs into `dir`.
+/// What write_outputs writes besides summary.json, jobs.csv, units.csv and the plots.
+struct OutputOptions {
+  /// The timeline of each run, in the order of `runs` (null entries are left out); empty:
+  /// no trace.json.
+  std::vector<const TraceObserver*> traces;
+  bool index_html = false;  ///< index.html (red compare)
+  /// gnuplot command; empty: $RED_GNUPLOT, else "gnuplot" ("none" writes no images).
+  std::string gnuplot;
+};
+
+/// What write_outputs wrote, relative to its directory.
+struct OutputReport {
+  std::vector<std::string> files;
+  std::size_t images = 0;  ///< PNG and SVG files among them
+};
+
+/// Writes everything a set of runs of one scenario leaves in `dir`: summary.json, jobs.csv,
+/// units.csv, trace.json (one process per run, when traces are given), the plots (PNG and
+/// SVG with their data and scripts, under plots/) and, if asked, index.html. A missing or
+/// failing gnuplot gives a note on stderr, never an error. Error: a file that cannot be
+/// written (names the path).
 std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, const Profile& p,
                                    const std::string& backend, std::uint64_t seed,
-                                   const std::vector<PolicyRun>& runs);
+                                   const std::vector<PolicyRun>& runs,
+                                   const OutputOptions& options = {},
+                                   OutputReport* report = nullptr);
+
+/// "wrote DIR/summary.json, jobs.csv, units.csv, trace.json, index.html, plots/ (N images)".
+std::string wrote_message(const std::string& dir, const OutputReport& r);
+
+/// The gnuplot command to use: `configured` if set, else $RED_GNUPLOT, else "gnuplot";
+/// "none" gives an empty command (no images).
+std::string gnuplot_command(const std::string& configured = {});
+
+/// The default limit on trace events per file (spread over its processes).
+inline constexpr std::size_t kDefaultTraceEvents = 1'000'000;
+
+/// A trace observer for one of `runs` runs sharing a file of at most `total_events` events
+/// (0: no trace, returns null).
+std::unique_ptr<TraceObserver> make_trace(const Scenario& s, std::size_t total_events,
+                                          std::size_t runs);
 
 }  // namespace red::cli
