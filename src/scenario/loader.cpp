@@ -158,6 +158,21 @@ double positive(const Val& v) {
   return x;
 }
 
+// Rates must give a period that fits the nanosecond timeline with room to spare:
+// between one frame a day and a million frames a second.
+constexpr double kMinRateHz = 1.0 / 86400.0;
+constexpr double kMaxRateHz = 1e6;
+
+double rate(const Val& v) {
+  const double x = positive(v);
+  if (x < kMinRateHz || x > kMaxRateHz)
+    fail(v.line, at(v.what) +
+                     fmt::format("must be between {:g} Hz (one a day) and {:g} Hz", kMinRateHz,
+                                 kMaxRateHz) +
+                     got(v.node));
+  return x;
+}
+
 double non_negative(const Val& v) {
   const double x = number(v);
   if (x < 0.0) fail(v.line, at(v.what) + "must be >= 0" + got(v.node));
@@ -412,7 +427,7 @@ void Loader::parse_sensors(const Val& v) {
     SensorSpec sensor;
     sensor.name = e.key;
     sensor.line = e.key_line;
-    sensor.rate_hz = positive(f.need("rate_hz"));
+    sensor.rate_hz = rate(f.need("rate_hz"));
     if (const Val* x = f.get("phase_ms")) sensor.phase = ms_value(*x, non_negative(*x));
     if (const Val* x = f.get("jitter_ms")) sensor.jitter = ms_value(*x, non_negative(*x));
     s_.sensors.push_back(std::move(sensor));
@@ -553,7 +568,7 @@ Loader::Parsed Loader::parse_operation(const Val& v, const std::string& named_ba
   if (trigger && rate)
     fail(rate->line, at(named.what) + "give trigger (a sensor) or rate_hz, not both");
   if (trigger) op.trigger_sensor = sensor_index(*trigger);
-  if (rate) op.rate_hz = positive(*rate);
+  if (rate) op.rate_hz = red::rate(*rate);
   if (release) {
     const Fields r(*release, {"count"});
     op.release_count = small_int(r.need("count"), 1);
@@ -659,7 +674,7 @@ EventSpec Loader::parse_event(const Val& v, Duration& last_at, int& last_line) {
     const Val* sensor = sr.get("sensor");
     if ((op_name != nullptr) == (sensor != nullptr))
       fail(sr.line(), at(a.what) + "give exactly one of 'operation' or 'sensor'");
-    const double rate = positive(sr.need("rate_hz"));
+    const double rate = red::rate(sr.need("rate_hz"));
     if (sensor) {
       ev.sensor_rates.emplace_back(sensor_index(*sensor), rate);
       return ev;
@@ -958,12 +973,13 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
       for (auto& [index, rate] : ev.sensor_rates) rate *= value;
     bool ok = rewrite_operations(out, [&](OperationSpec& op) {
       op.rate_hz *= value;  // 0 (no own rate) stays 0
-      return std::isfinite(op.rate_hz);
+      return op.rate_hz == 0.0 || (op.rate_hz >= kMinRateHz && op.rate_hz <= kMaxRateHz);
     });
-    for (const auto& sensor : out.sensors) ok = ok && std::isfinite(sensor.rate_hz);
+    auto in_range = [](double r) { return r >= kMinRateHz && r <= kMaxRateHz; };
+    for (const auto& sensor : out.sensors) ok = ok && in_range(sensor.rate_hz);
     for (const auto& ev : out.events)
-      for (const auto& [index, rate] : ev.sensor_rates) ok = ok && std::isfinite(rate);
-    if (!ok) return bad("a rate would become too large");
+      for (const auto& [index, r] : ev.sensor_rates) ok = ok && in_range(r);
+    if (!ok) return bad(fmt::format("a rate would leave [{:g}, {:g}] Hz", kMinRateHz, kMaxRateHz));
   } else if (key == "qoe_lambda") {
     if (!(value > 0.0)) return bad("must be > 0");
     out.scheduler.qoe_lambda = value;
@@ -975,7 +991,8 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
       return bad("must be an integer >= 1");
     out.device.lanes = static_cast<int>(value);
   } else if (key == "duration_s") {
-    if (!(value > 0.0) || value > 1e9) return bad("must be > 0");
+    if (!(value > 0.0)) return bad("must be > 0");
+    if (value > 1e9) return bad("is too large (at most 1e9 s)");
     out.duration = from_s(value);
     if (out.warmup >= out.duration)
       return bad(fmt::format("must be more than warmup_s ({})", to_s(out.warmup)));

@@ -145,18 +145,22 @@ struct Key {
   TimePoint release;
   int op;
   std::uint64_t seq;
+  int node;  // scenario node order (§5 ties); a unit of no node (mono) sorts first
   int unit;
   bool operator<(const Key& o) const noexcept {
     if (rank != o.rank) return rank < o.rank;
     if (release != o.release) return release < o.release;
     if (op != o.op) return op < o.op;
     if (seq != o.seq) return seq < o.seq;
+    if (node != o.node) return node < o.node;
     return unit < o.unit;
   }
 };
 
 Duration period_of(double hz) {
-  return Duration{static_cast<std::int64_t>(std::llround(1e9 / hz))};
+  // The loader rejects rates whose period does not fit; clamp anyway (a day at most).
+  const double ns = std::min(1e9 / hz, 86400e9);
+  return Duration{static_cast<std::int64_t>(std::llround(ns))};
 }
 
 }  // namespace
@@ -587,7 +591,7 @@ struct Scheduler::Impl {
     v.release = kNever;
     v.job_deadline = kNever;
     v.cost = k.cost;
-    Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0};
+    Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
     for (auto [slot, unit] : k.members) {
       Job& j = job(slot);
       eval(j, now);
@@ -597,7 +601,7 @@ struct Scheduler::Impl {
       v.job_deadline = std::min(v.job_deadline, j.deadline);
       v.remaining = std::max(v.remaining, j.remaining);
       v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
-      const Key mk{0, j.release, j.op, j.seq, unit};
+      const Key mk{0, j.release, j.op, j.seq, ru.node, unit};
       if (mk < best) best = mk;
     }
     best.rank = s.policy_->rank(v, now);

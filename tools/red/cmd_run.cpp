@@ -107,7 +107,8 @@ void register_run(CLI::App& app, int& exit_code) {
   cmd->add_option("--device", a->real.device, "LibTorch device: cpu, cuda, cuda:N");
   cmd->add_option("--threads", a->real.threads, "LibTorch intra-op threads (0: default)");
   cmd->add_flag("--no-realtime", a->no_realtime, "Do not try SCHED_FIFO, CPU affinity, mlockall");
-  cmd->add_option("--seed", a->seed, "Seed for synthetic frames and costs");
+  cmd->add_option("--seed", a->seed, "Seed for synthetic frames and costs")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", a->out, "Directory for summary.json, jobs.csv, units.csv");
   cmd->callback([a, &exit_code] {
     auto s = load(a->scenario);

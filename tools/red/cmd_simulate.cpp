@@ -117,7 +117,8 @@ void add_common(CLI::App* cmd, RunArgs& a) {
                   "Profile JSON (default: the scenario's, else built-in)");
   cmd->add_option("--set", a.scenario.sets,
                   "Override key=value (deadline_scale, rate_scale, qoe_lambda, ...)");
-  cmd->add_option("--seed", a.seed, "Random seed (default: the scenario's)");
+  cmd->add_option("--seed", a.seed, "Random seed (default: the scenario's)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", a.out,
                   "Directory for summary.json, jobs.csv, units.csv, trace.json and plots");
   cmd->add_option("--trace-events", a.trace_events,

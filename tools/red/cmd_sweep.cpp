@@ -81,7 +81,8 @@ void register_sweep(CLI::App& app, int& exit_code) {
       ->required();
   cmd->add_option("--policies", a->policies, "Comma-separated presets (default: all)");
   cmd->add_option("--profile", a->scenario.profile, "Profile JSON");
-  cmd->add_option("--seed", a->seed, "Random seed (default: the scenario's)");
+  cmd->add_option("--seed", a->seed, "Random seed (default: the scenario's)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", a->out, "Directory for sweep.json, sweep.csv, plots and index.html");
   cmd->callback([a, &exit_code] {
     auto sw = parse_sweep(a->sweep);

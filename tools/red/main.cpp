@@ -2,6 +2,7 @@
 /// `red`: validate, simulate, compare, sweep, profile (§12).
 
 #include <iostream>
+#include <string>
 
 #include "commands.hpp"
 
@@ -16,6 +17,17 @@ int main(int argc, char** argv) {
   red::cli::register_sweep(app, exit_code);
   red::cli::register_run(app, exit_code);
   red::cli::register_profile(app, exit_code);
+  // Name an unknown command (CLI11 alone says only that a subcommand is required).
+  std::string known;
+  bool found = argc < 2 || argv[1][0] == '-';
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+    known += (known.empty() ? "" : ", ") + sub->get_name();
+    found = found || sub->get_name() == argv[1];
+  }
+  if (!found) {
+    std::cerr << "red: unknown subcommand '" << argv[1] << "' (subcommands: " << known << ")\n";
+    return red::cli::kBadInput;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

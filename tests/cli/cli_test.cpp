@@ -1,0 +1,447 @@
+// The `red` command line (§12), run as a real process: exit codes, messages on stderr,
+// and the files --out writes (summary.json schema, jobs.csv, units.csv, sweep.json/csv).
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+namespace red {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+/// What one run of the binary did.
+struct RunResult {
+  bool exited = false;  ///< ended by exit() (not by a signal)
+  int code = -1;        ///< exit status when `exited`
+  std::string out;
+  std::string err;
+};
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string scenario(const std::string& name) {
+  return quote(std::string(RED_SOURCE_DIR) + "/scenarios/" + name);
+}
+
+std::string data(const std::string& name) {
+  return std::string(RED_TEST_DATA) + "/cli/" + name;
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) out.push_back(line);
+  return out;
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           fmt::format("red_cli_test_{}_{}_{}", ::getpid(), info->test_suite_name(), info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  /// Runs `red ARGS`, capturing stdout and stderr. `wrapper` (e.g. "timeout 120") runs the
+  /// binary under another command, so a hang shows as a failure instead of stalling the suite.
+  RunResult red(const std::string& args, const std::string& wrapper = "") {
+    const fs::path out = dir_ / "stdout.txt";
+    const fs::path err = dir_ / "stderr.txt";
+    const std::string cmd = wrapper + (wrapper.empty() ? "" : " ") + quote(RED_CLI) + " " + args +
+                            " >" + quote(out.string()) + " 2>" + quote(err.string()) +
+                            " </dev/null";
+    const int status = std::system(cmd.c_str());
+    RunResult r;
+    r.exited = status != -1 && WIFEXITED(status);
+    r.code = r.exited ? WEXITSTATUS(status) : -1;
+    r.out = read_text(out);
+    r.err = read_text(err);
+    return r;
+  }
+
+  /// Expects exit code exactly 2 (bad input), a message on stderr, and no crash.
+  void expect_bad_input(const std::string& args, const std::string& fragment,
+                        const std::string& wrapper = "") {
+    SCOPED_TRACE("red " + args);
+    const RunResult r = red(args, wrapper);
+    ASSERT_TRUE(r.exited) << "terminated abnormally\nstderr: " << r.err;
+    EXPECT_EQ(r.code, 2) << "stderr: " << r.err << "\nstdout: " << r.out;
+    EXPECT_FALSE(r.err.empty());
+    EXPECT_TRUE(contains(r.err, fragment)) << "stderr: " << r.err << "\nexpected: " << fragment;
+    EXPECT_FALSE(contains(r.err, "RED_ASSERT"));
+    EXPECT_FALSE(contains(r.err, "terminate called"));
+  }
+
+  fs::path dir_;
+};
+
+// ---- red validate ---------------------------------------------------------------------------
+
+TEST_F(Cli, ValidatePrintsNodesWithHeightsAndDeadlines) {
+  const RunResult r = red("validate " + scenario("minibench-tight.yaml"));
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "scenario minibench-tight"));
+  EXPECT_TRUE(contains(r.out, "operation cruise"));
+  // 1.125 × coarse critical path (17.6 + 18.8 + 14.75 ms p99, default profile).
+  EXPECT_TRUE(contains(r.out, "deadline 57.544 ms")) << r.out;
+  EXPECT_TRUE(contains(r.out, "coarse H")) << r.out;
+  EXPECT_TRUE(contains(r.out, "fine H")) << r.out;
+  // Node rows: name, what it runs, coarse height, coarse deadline, fine height, fine deadline.
+  std::map<std::string, std::tuple<int, double, int, double>> rows;
+  bool first_op = true;
+  for (const std::string& line : lines_of(r.out)) {
+    if (contains(line, "event 0")) first_op = false;  // rows after this belong to events
+    std::istringstream in(line);
+    std::string name, head, on, sensor;
+    int ch = -1, fh = -1;
+    double cd = 0, fd = 0;
+    if (!(in >> name >> head >> on >> sensor >> ch >> cd >> fh >> fd) || on != "on") continue;
+    if (first_op) rows[name] = {ch, cd, fh, fd};
+  }
+  ASSERT_EQ(rows.size(), 3u) << r.out;
+  EXPECT_EQ(std::get<0>(rows["L"]), 0);
+  EXPECT_EQ(std::get<0>(rows["S"]), 1);
+  EXPECT_EQ(std::get<0>(rows["C"]), 2);
+  EXPECT_EQ(std::get<2>(rows["L"]), 1);  // fine: encoders at height 0
+  EXPECT_EQ(std::get<2>(rows["S"]), 2);
+  EXPECT_EQ(std::get<2>(rows["C"]), 3);
+  EXPECT_NEAR(std::get<1>(rows["C"]), 57.544, 1e-3);  // the last level ends at D
+  EXPECT_NEAR(std::get<3>(rows["C"]), 57.544, 1e-3);
+  EXPECT_LT(std::get<1>(rows["L"]), std::get<1>(rows["S"]));
+  EXPECT_LT(std::get<1>(rows["S"]), std::get<1>(rows["C"]));
+  // The events' node O is shown too.
+  EXPECT_TRUE(contains(r.out, "add_nodes"));
+  EXPECT_TRUE(contains(r.out, "det on camera"));
+  EXPECT_TRUE(contains(r.out, "ok"));
+}
+
+// ---- red simulate ---------------------------------------------------------------------------
+
+TEST_F(Cli, SimulateWritesSummaryJobsAndUnits) {
+  const fs::path out = dir_ / "sim";
+  const RunResult r = red("simulate " + scenario("minibench-tight.yaml") +
+                          " --policy red --seed 1 --out " + quote(out.string()));
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(out / "summary.json"));
+  ASSERT_TRUE(fs::exists(out / "jobs.csv"));
+  ASSERT_TRUE(fs::exists(out / "units.csv"));
+
+  const json j = json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(j.at("schema"), 1);
+  EXPECT_EQ(j.at("scenario"), "minibench-tight");
+  EXPECT_EQ(j.at("backend"), "sim");
+  EXPECT_EQ(j.at("baseline"), "edf");
+  ASSERT_EQ(j.at("policies").size(), 1u);
+  const json& p = j.at("policies")[0];
+  EXPECT_EQ(p.at("name"), "red");
+  for (const char* key : {"jobs", "completed", "missed", "dropped", "encoder_runs",
+                          "encoder_runs_saved", "sync_round_trips"})
+    EXPECT_TRUE(p.at(key).is_number_integer()) << key;
+  for (const char* key : {"miss_rate", "drop_rate", "qoe"}) {
+    ASSERT_TRUE(p.at(key).is_number()) << key;
+    EXPECT_GE(p.at(key).get<double>(), 0.0) << key;
+    EXPECT_LE(p.at(key).get<double>(), 1.0) << key;
+  }
+  for (const char* key : {"mean", "p50", "p90", "p99", "max"})
+    EXPECT_TRUE(p.at("latency_ms").at(key).is_number()) << key;
+  EXPECT_LE(p.at("latency_ms").at("p50").get<double>(), p.at("latency_ms").at("p99").get<double>());
+  EXPECT_LE(p.at("latency_ms").at("p99").get<double>(), p.at("latency_ms").at("max").get<double>());
+  for (const char* key : {"miss_rate", "latency_mean", "qoe"})
+    EXPECT_TRUE(p.at("ratios").contains(key)) << key;
+  const auto jobs = p.at("jobs").get<std::int64_t>();
+  EXPECT_GE(jobs, p.at("completed").get<std::int64_t>());
+  // 20 Hz camera, 20 s, frames at k · 50 ms; warm-up 1 s excluded: frames 20..399.
+  EXPECT_EQ(jobs, 380);
+  EXPECT_GT(p.at("encoder_runs_saved").get<std::int64_t>(), 0);  // red merges encoders
+
+  const auto job_lines = lines_of(read_text(out / "jobs.csv"));
+  ASSERT_FALSE(job_lines.empty());
+  EXPECT_EQ(job_lines[0],
+            "policy,operation,job,release_ms,finish_ms,deadline_ms,outcome,response_ms,qoe,"
+            "frame_age_ms,reason");
+  EXPECT_EQ(static_cast<std::int64_t>(job_lines.size()) - 1, jobs);
+  std::map<std::string, std::int64_t> outcomes;
+  for (std::size_t i = 1; i < job_lines.size(); ++i) {
+    const auto f = split_csv(job_lines[i]);
+    ASSERT_EQ(f.size(), 11u) << job_lines[i];
+    EXPECT_EQ(f[0], "red");
+    EXPECT_EQ(f[1], "cruise");
+    EXPECT_GE(std::stod(f[3]), 1000.0) << "a warm-up job was counted: " << job_lines[i];
+    ++outcomes[f[6]];
+  }
+  EXPECT_EQ(outcomes["met"] + outcomes["missed"], p.at("completed").get<std::int64_t>());
+
+  const auto unit_lines = lines_of(read_text(out / "units.csv"));
+  ASSERT_GT(unit_lines.size(), 1u);
+  EXPECT_EQ(unit_lines[0],
+            "policy,dispatch,lane,decided_ms,start_ms,end_ms,kind,head,batch,members,round_trip,"
+            "status,jobs");
+  EXPECT_EQ(split_csv(unit_lines[1]).size(), 13u);
+
+  // Same seed, same summary, byte for byte.
+  const fs::path again = dir_ / "again";
+  const RunResult r2 = red("simulate " + scenario("minibench-tight.yaml") +
+                           " --policy red --seed 1 --out " + quote(again.string()));
+  ASSERT_EQ(r2.code, 0) << r2.err;
+  EXPECT_EQ(read_text(out / "summary.json"), read_text(again / "summary.json"));
+  EXPECT_EQ(read_text(out / "jobs.csv"), read_text(again / "jobs.csv"));
+}
+
+TEST_F(Cli, SimulatePrintsASummaryWithoutOut) {
+  const RunResult r = red("simulate " + quote(data("tiny.yaml")) + " --policy edf");
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "scenario tiny")) << r.out;
+  EXPECT_TRUE(contains(r.out, "edf")) << r.out;
+  EXPECT_TRUE(contains(r.out, "latency ms")) << r.out;
+}
+
+// ---- red compare ----------------------------------------------------------------------------
+
+TEST_F(Cli, CompareRunsEveryPresetOnTheSameReleases) {
+  const fs::path out = dir_ / "cmp";
+  const RunResult r = red("compare " + scenario("minibench-tight.yaml") + " --backend sim --out " +
+                          quote(out.string()));
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::vector<std::string> presets{"fifo", "mono", "edf", "red-fg", "red-ida", "red"};
+  // The table: a row per preset, and ratio columns against edf.
+  const auto rows = lines_of(r.out);
+  for (const std::string& name : presets) {
+    bool found = false;
+    for (const std::string& line : rows) found = found || line.rfind(name + " ", 0) == 0;
+    EXPECT_TRUE(found) << "no row for " << name << "\n" << r.out;
+  }
+  EXPECT_TRUE(contains(r.out, "miss/")) << r.out;
+  EXPECT_TRUE(contains(r.out, "QoE/")) << r.out;
+  for (const std::string& line : rows) {
+    if (line.rfind("edf ", 0) == 0) {
+      EXPECT_TRUE(contains(line, "1.000")) << line;
+    }
+  }
+
+  const json j = json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(j.at("schema"), 1);
+  EXPECT_EQ(j.at("baseline"), "edf");
+  ASSERT_EQ(j.at("policies").size(), 6u);
+  for (std::size_t i = 0; i < presets.size(); ++i) {
+    const json& p = j.at("policies")[i];
+    EXPECT_EQ(p.at("name"), presets[i]);
+    EXPECT_EQ(p.at("jobs"), j.at("policies")[0].at("jobs"));  // identical workload
+    if (presets[i] == "edf") {
+      EXPECT_EQ(p.at("ratios").at("miss_rate"), 1.0);
+      EXPECT_EQ(p.at("ratios").at("latency_mean"), 1.0);
+      EXPECT_EQ(p.at("ratios").at("qoe"), 1.0);
+    }
+  }
+
+  // Common random numbers: every policy saw the same (operation, job, release) set.
+  std::map<std::string, std::set<std::tuple<std::string, std::string, std::string>>> releases;
+  const auto job_lines = lines_of(read_text(out / "jobs.csv"));
+  ASSERT_GT(job_lines.size(), 1u);
+  for (std::size_t i = 1; i < job_lines.size(); ++i) {
+    const auto f = split_csv(job_lines[i]);
+    ASSERT_GE(f.size(), 4u);
+    releases[f[0]].insert({f[1], f[2], f[3]});
+  }
+  ASSERT_EQ(releases.size(), 6u);
+  for (const std::string& name : presets) {
+    EXPECT_EQ(releases[name].size(), j.at("policies")[0].at("jobs").get<std::size_t>()) << name;
+    EXPECT_EQ(releases[name], releases["edf"]) << name;
+  }
+}
+
+// ---- red sweep ------------------------------------------------------------------------------
+
+TEST_F(Cli, SweepWritesOneColumnPerValue) {
+  const fs::path out = dir_ / "sweep";
+  const RunResult r =
+      red("sweep " + scenario("minibench-tight.yaml") +
+          " --set deadline_scale=0.8:1.2:0.2 --policies edf,red --out " + quote(out.string()));
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(out / "sweep.json"));
+  ASSERT_TRUE(fs::exists(out / "sweep.csv"));
+  const json j = json::parse(read_text(out / "sweep.json"));
+  EXPECT_EQ(j.at("parameter"), "deadline_scale");
+  ASSERT_EQ(j.at("values").size(), 3u);
+  EXPECT_NEAR(j.at("values")[0].get<double>(), 0.8, 1e-9);
+  EXPECT_NEAR(j.at("values")[1].get<double>(), 1.0, 1e-9);
+  EXPECT_NEAR(j.at("values")[2].get<double>(), 1.2, 1e-9);
+  ASSERT_EQ(j.at("policies").size(), 2u);
+  EXPECT_EQ(j.at("policies")[0].at("name"), "edf");
+  EXPECT_EQ(j.at("policies")[1].at("name"), "red");
+  for (const json& p : j.at("policies")) {
+    EXPECT_EQ(p.at("miss_rate").size(), 3u);
+    EXPECT_EQ(p.at("qoe").size(), 3u);
+  }
+  // Looser deadlines never make edf miss more on the identical workload... at least the
+  // loosest is no worse than the tightest.
+  const json& edf = j.at("policies")[0].at("miss_rate");
+  EXPECT_LE(edf[2].get<double>(), edf[0].get<double>());
+
+  const auto csv = lines_of(read_text(out / "sweep.csv"));
+  ASSERT_EQ(csv.size(), 7u);  // header + 2 policies × 3 values
+  EXPECT_EQ(split_csv(csv[0]).at(1), "deadline_scale");
+  std::set<std::string> values;
+  for (std::size_t i = 1; i < csv.size(); ++i) values.insert(split_csv(csv[i]).at(1));
+  EXPECT_EQ(values, (std::set<std::string>{"0.8", "1", "1.2"}));
+}
+
+// ---- bad input: exit code 2 and a located message, never a crash -----------------------------
+
+TEST_F(Cli, UnknownPolicy) {
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --policy bogus",
+                   "unknown policy 'bogus'");
+  expect_bad_input("compare " + quote(data("tiny.yaml")) + " --policies edf,bogus",
+                   "unknown policy 'bogus'");
+  expect_bad_input(
+      "sweep " + quote(data("tiny.yaml")) + " --set deadline_scale=1,2 --policies bogus",
+      "unknown policy 'bogus'");
+}
+
+TEST_F(Cli, MissingScenarioFile) {
+  const std::string path = (dir_ / "no-such-scenario.yaml").string();
+  for (const char* cmd : {"validate", "simulate", "compare"})
+    expect_bad_input(std::string(cmd) + " " + quote(path), path + ": cannot open");
+  expect_bad_input("sweep " + quote(path) + " --set deadline_scale=1", path + ": cannot open");
+}
+
+TEST_F(Cli, YamlSyntaxError) {
+  const std::string path = data("syntax_error.yaml");
+  for (const char* cmd : {"validate", "simulate"})
+    expect_bad_input(std::string(cmd) + " " + quote(path), path + ":5:");
+  expect_bad_input("validate " + quote(path), "YAML syntax error");
+}
+
+TEST_F(Cli, EmptyFile) {
+  const std::string path = data("empty.yaml");
+  for (const char* cmd : {"validate", "simulate", "compare"})
+    expect_bad_input(std::string(cmd) + " " + quote(path), path + ": the file is empty");
+}
+
+TEST_F(Cli, UnknownKeyNamesFileAndLine) {
+  const std::string path = data("unknown_key.yaml");
+  for (const char* cmd : {"validate", "simulate", "compare"})
+    expect_bad_input(std::string(cmd) + " " + quote(path), path + ":5: ");
+  expect_bad_input("validate " + quote(path), "unknown key 'colour'");
+}
+
+TEST_F(Cli, UnknownSubcommand) {
+  expect_bad_input("frobnicate " + quote(data("tiny.yaml")), "subcommand");
+  expect_bad_input("", "subcommand");  // no subcommand at all
+}
+
+TEST_F(Cli, UnknownSubcommandIsNamed) {
+  expect_bad_input("frobnicate " + quote(data("tiny.yaml")), "frobnicate");
+}
+
+TEST_F(Cli, BadSetValue) {
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --set deadline_scale=abc",
+                   "not a number");
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --set deadline_scale", "key=value");
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --set deadline_scale=-1",
+                   "deadline_scale");
+  expect_bad_input("validate " + quote(data("tiny.yaml")) + " --set lanes=0", "lanes");
+  expect_bad_input("sweep " + quote(data("tiny.yaml")) + " --set deadline_scale=1.2:0.8:0.1",
+                   "deadline_scale");
+  expect_bad_input("sweep " + quote(data("tiny.yaml")) + " --set deadline_scale=0.5,x",
+                   "not a number");
+}
+
+TEST_F(Cli, NegativeSeedIsRejected) {
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --seed -1", "--seed");
+  expect_bad_input("sweep " + quote(data("tiny.yaml")) + " --set deadline_scale=1 --seed -1",
+                   "--seed");
+}
+
+TEST_F(Cli, TooLargeOverrideSaysTooLarge) {
+  const RunResult r = red("simulate " + quote(data("tiny.yaml")) + " --set duration_s=1e10");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(contains(r.err, "must be > 0")) << r.err;
+}
+
+TEST_F(Cli, SensorRateWhosePeriodOverflowsIsRejected) {
+  // `timeout` turns the hang into exit 124 (a failure) instead of stalling the suite.
+  expect_bad_input("simulate " + quote(data("tiny_rate.yaml")), "rate_hz", "timeout 120");
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --set rate_scale=1e-12", "rate_scale",
+                   "timeout 120");
+}
+
+TEST_F(Cli, UnknownSetKey) {
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --set bogus_key=1",
+                   "unknown key 'bogus_key'");
+  expect_bad_input("sweep " + quote(data("tiny.yaml")) + " --set bogus_key=1,2",
+                   "unknown key 'bogus_key'");
+}
+
+TEST_F(Cli, MissingRequiredArgument) {
+  expect_bad_input("validate", "scenario");
+  expect_bad_input("simulate", "scenario");
+  expect_bad_input("sweep " + quote(data("tiny.yaml")), "--set");  // the swept parameter
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --policy", "--policy");
+  expect_bad_input("compare " + quote(data("tiny.yaml")) + " --backend gpu", "backend");
+}
+
+TEST_F(Cli, BadInputWritesNoOutputs) {
+  const fs::path out = dir_ / "never";
+  expect_bad_input("simulate " + quote(data("unknown_key.yaml")) + " --out " + quote(out.string()),
+                   "unknown key");
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+}
+
+}  // namespace
+}  // namespace red
