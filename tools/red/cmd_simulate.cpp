@@ -1,5 +1,6 @@
 /// \file
-/// `red simulate` and `red compare --backend sim`.
+/// `red simulate`, `red compare` (simulator or real backend) and `red run`: one or more
+/// policies on one scenario, printed as a table and written as a report.
 
 #include <fmt/format.h>
 
@@ -10,6 +11,7 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "real_run.hpp"
 #include "red/report/report.hpp"
 
 namespace red::cli {
@@ -21,13 +23,32 @@ struct RunArgs {
   std::string policy = "red";
   std::string policies;
   std::string backend = "sim";
+  RealRunOptions real;
+  bool no_realtime = false;
   std::optional<std::uint64_t> seed;
   std::optional<std::string> out;
   std::size_t trace_events = kDefaultTraceEvents;
 };
 
-// Runs the given policies on one scenario (common random numbers: same seed, §10) and
-// prints and writes the results. Returns the exit code.
+// The simulator's prediction of a real run, side by side with it (same scenario, same
+// profile): how well the simulator, fed the measured profile, predicts reality.
+void print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
+                      const std::vector<PolicyRun>& real) {
+  fmt::print("simulator prediction with the same profile ({}):\n", p.source);
+  fmt::print("{:<8} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}\n", "policy", "miss% real", "miss% sim",
+             "mean ms real", "mean ms sim", "QoE real", "QoE sim");
+  for (const PolicyRun& r : real) {
+    auto sim = simulate_policy(s, p, r.metrics.name, seed, {}, false);
+    if (!sim) continue;
+    fmt::print("{:<8} {:>10.2f} {:>10.2f} {:>12.2f} {:>12.2f} {:>8.3f} {:>8.3f}\n", r.metrics.name,
+               100 * r.metrics.miss_rate, 100 * sim->metrics.miss_rate, r.metrics.latency.mean,
+               sim->metrics.latency.mean, r.metrics.qoe, sim->metrics.qoe);
+  }
+}
+
+// Runs the given policies on one scenario and prints and writes the results. In the
+// simulator every policy sees the same releases and the same sampled unit times (common
+// random numbers, §10); on a real backend the same releases. Returns the exit code.
 int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool table) {
   auto s = load(a.scenario);
   if (!s) {
@@ -48,6 +69,21 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     }
   }
   const std::uint64_t seed = a.seed ? *a.seed : s->seed;
+  const bool sim = a.backend == "sim";
+  RealRunOptions real = a.real;
+  real.backend = a.backend;
+  real.realtime = !a.no_realtime;
+  real.seed = seed;
+  std::unique_ptr<Backend> backend;
+  if (!sim) {
+    // One backend (one loaded model) serves every policy.
+    auto b = make_backend(*s, *p, real);
+    if (!b) {
+      print_error(b.error());
+      return kBadInput;
+    }
+    backend = std::move(b.value());
+  }
   std::vector<PolicyRun> runs;
   // Observers beside the metrics: the timeline (only when it will be written) and the
   // progress line (only on a terminal, only for runs longer than a few seconds).
@@ -61,15 +97,20 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     if (traces.back()) extra.push_back(traces.back().get());
     progress.begin_run(names.size() == 1 ? n : fmt::format("{} [{}/{}]", n, i + 1, names.size()),
                        s->duration);
-    auto r = simulate_policy(*s, *p, n, seed, extra, a.out.has_value());
+    RuntimeReport report;
+    auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value())
+                 : run_real(*s, *p, n, *backend, real, extra, &report);
     progress.finish();
     if (!r) {
       print_error(r.error());
-      return kBadInput;
+      return sim ? kBadInput : kRunFailure;
     }
-    std::cerr << fmt::format(
-        "red: simulated {} on {} in {:.3f} s ({:.2f} M unit events/s)\n", n, s->name, r->wall_s,
-        static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
+    if (sim)
+      std::cerr << fmt::format(
+          "red: simulated {} on {} in {:.3f} s ({:.2f} M unit events/s)\n", n, s->name, r->wall_s,
+          static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
+    else
+      print_runtime_report(n, report);
     if (traces.back() && traces.back()->truncated())
       std::cerr << fmt::format(
           "red: trace of {} stops at {:.3f} s (limit of {} events; see --trace-events)\n", n,
@@ -79,9 +120,11 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   std::vector<PolicyMetrics> metrics;
   for (const PolicyRun& r : runs) metrics.push_back(r.metrics);
   apply_ratios(metrics, "edf");
-  fmt::print("scenario {} (backend sim, seed {}, profile {}, {} lane(s), {:g} s measured)\n",
-             s->name, seed, p->source, s->device.lanes, metrics.front().measured_s);
+  fmt::print("scenario {} (backend {}, seed {}, profile {}, {} lane(s), {:g} s measured)\n",
+             s->name, sim ? "sim" : backend->name(), seed, p->source, s->device.lanes,
+             metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
+  if (!sim) print_prediction(*s, *p, seed, runs);
   if (!table) {
     const PolicyMetrics& m = metrics.front();
     fmt::print(
@@ -102,7 +145,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     for (const auto& t : traces) o.traces.push_back(t.get());
     o.index_html = table;  // red compare
     OutputReport written;
-    if (auto e = write_outputs(*a.out, *s, *p, "sim", seed, runs, o, &written)) {
+    if (auto e = write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written)) {
       print_error(*e);
       return kRunFailure;
     }
@@ -126,6 +169,15 @@ void add_common(CLI::App* cmd, RunArgs& a) {
       ->capture_default_str();
 }
 
+// Options of the real backends (compare --backend torch, run).
+void add_real(CLI::App* cmd, RunArgs& a) {
+  cmd->add_option("--device", a.real.device, "LibTorch device: cpu, cuda, cuda:N")
+      ->capture_default_str();
+  cmd->add_option("--threads", a.real.threads, "LibTorch intra-op threads (0: LibTorch's default)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--no-realtime", a.no_realtime, "Do not try SCHED_FIFO, CPU affinity, mlockall");
+}
+
 }  // namespace
 
 void register_simulate(CLI::App& app, int& exit_code) {
@@ -142,10 +194,13 @@ void register_compare(CLI::App& app, int& exit_code) {
   CLI::App* cmd =
       app.add_subcommand("compare", "Every policy on the identical workload, side by side");
   add_common(cmd, *a);
+  add_real(cmd, *a);
   cmd->add_option("--policies", a->policies,
                   "Comma-separated presets (default: fifo,mono,edf,red-fg,red-ida,red)");
-  cmd->add_option("--backend", a->backend, "sim (simulator) or torch (real LibTorch inference)")
-      ->check(CLI::IsMember({"sim", "torch"}));
+  cmd->add_option("--backend", a->backend,
+                  "sim (simulator), torch (real LibTorch inference) or synthetic (real time, "
+                  "profiled unit times)")
+      ->check(CLI::IsMember({"sim", "torch", "synthetic"}));
   cmd->callback([a, &exit_code] {
     const auto names = a->policies.empty() ? default_presets() : split_list(a->policies);
     if (names.empty()) {
@@ -153,14 +208,23 @@ void register_compare(CLI::App& app, int& exit_code) {
       exit_code = kBadInput;
       return;
     }
-    if (a->backend == "torch") {
-      print_error(Error{
-          "", 0, "--backend torch: the real-time LibTorch runtime is not part of this build yet"});
-      exit_code = kRunFailure;
-      return;
-    }
     exit_code = run_policies(*a, names, true);
   });
+}
+
+void register_run(CLI::App& app, int& exit_code) {
+  auto a = std::make_shared<RunArgs>();
+  a->backend = "torch";
+  CLI::App* cmd = app.add_subcommand("run", "Real execution in real time (LibTorch inference)");
+  add_common(cmd, *a);
+  add_real(cmd, *a);
+  cmd->add_option("--policy", a->policy,
+                  "Policy preset: fifo, mono, edf, red-fg, red-ida, red, lst");
+  cmd->add_option("--backend", a->backend,
+                  "torch (real inference) or synthetic (spends profiled unit times)")
+      ->check(CLI::IsMember({"torch", "synthetic"}))
+      ->capture_default_str();
+  cmd->callback([a, &exit_code] { exit_code = run_policies(*a, {a->policy}, false); });
 }
 
 }  // namespace red::cli

@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "red/core/expected.hpp"
 #include "red/profile/profile.hpp"
@@ -28,9 +29,10 @@ struct RealRunOptions {
 Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile& p,
                                                 const RealRunOptions& o);
 
-/// Runs one policy in real time; prints the runtime's report lines to stderr.
+/// Runs one policy in real time; `extra` observers (trace, progress) see the run too.
 Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::string& policy,
                              Backend& backend, const RealRunOptions& o,
+                             const std::vector<Observer*>& extra = {},
                              RuntimeReport* report = nullptr);
 
 /// Prints what a real run measured besides the job metrics.
