@@ -3,12 +3,24 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string_view>
 
 #include <fmt/format.h>
 
 namespace red {
 
 namespace {
+
+// A CSV field (RFC 4180): quoted when it holds a comma, a quote or a line break.
+std::string csv(std::string_view v) {
+  if (v.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(v);
+  std::string q = "\"";
+  for (char c : v) {
+    if (c == '"') q += '"';
+    q += c;
+  }
+  return q + '"';
+}
 
 nlohmann::json opt(const std::optional<double>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
@@ -74,13 +86,13 @@ std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& r
   for (const auto& run : runs)
     for (const JobRow& j : *run.rows) {
       const bool done = j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed;
-      out += fmt::format("{},{},{},{:.6f},{},{:.6f},{},{},{},{},{}\n", run.policy,
-                         s.operation_name(j.operation), j.seq, to_ms(j.release),
+      out += fmt::format("{},{},{},{:.6f},{},{:.6f},{},{},{},{},{}\n", csv(run.policy),
+                         csv(s.operation_name(j.operation)), j.seq, to_ms(j.release),
                          done ? fmt::format("{:.6f}", to_ms(j.finish)) : "", to_ms(j.deadline),
                          to_string(j.outcome),
                          done ? fmt::format("{:.6f}", to_ms(j.finish - j.release)) : "",
                          done ? fmt::format("{:.6f}", j.qoe) : "0",
-                         done ? fmt::format("{:.6f}", to_ms(j.frame_age)) : "", j.reason);
+                         done ? fmt::format("{:.6f}", to_ms(j.frame_age)) : "", csv(j.reason));
     }
   return out;
 }
@@ -91,11 +103,11 @@ std::string units_csv(const Scenario& s, const std::vector<PolicyRows<UnitRow>>&
       "jobs\n";
   for (const auto& run : runs)
     for (const UnitRow& u : *run.rows) {
-      out += fmt::format("{},{},{},{:.6f},{:.6f},{:.6f},{},{},{},{},{},{},{}\n", run.policy,
-                         u.dispatch, u.lane, to_ms(u.decided), to_ms(u.start), to_ms(u.end),
-                         to_string(u.kind),
-                         u.head >= 0 ? s.model.heads[static_cast<std::size_t>(u.head)] : "",
-                         u.batch, u.members, u.round_trip ? 1 : 0, to_string(u.status), u.jobs);
+      out += fmt::format(
+          "{},{},{},{:.6f},{:.6f},{:.6f},{},{},{},{},{},{},{}\n", csv(run.policy), u.dispatch,
+          u.lane, to_ms(u.decided), to_ms(u.start), to_ms(u.end), to_string(u.kind),
+          u.head >= 0 ? s.model.heads[static_cast<std::size_t>(u.head)] : "", u.batch, u.members,
+          u.round_trip ? 1 : 0, to_string(u.status), csv(u.jobs));
     }
   return out;
 }

@@ -82,8 +82,13 @@ struct Job {
   std::vector<int> dependents;        // slots of jobs waiting for this one (depends_on)
   std::vector<JobId> dependent_ids;
   std::string reason;
-  // §4 re-assignment cache, valid for one decision stamp.
-  std::uint64_t stamp = 0;
+  // §4 re-assignment cache. The base (costs of units not started, per height) changes
+  // only when a unit starts or ends (dirty); running units are adjusted at each decision.
+  bool dirty = true;
+  std::vector<Duration> lvl_base;
+  std::vector<std::uint8_t> has_base;
+  std::vector<int> running_units;
+  std::uint64_t stamp = 0;    // decision stamp the values below are valid for
   std::vector<TimePoint> hd;  // absolute deadline of each height
   std::vector<Duration> lvl;
   std::vector<std::uint8_t> has;
@@ -191,6 +196,12 @@ struct Scheduler::Impl {
   TimePoint min_wait = kNever;
   // scratch for batching
   std::vector<std::pair<Key, int>> cand;
+  struct Scan {
+    Key key;
+    TimePoint deadline;
+    int task;
+  };
+  std::vector<Scan> scanned;
   std::vector<int> batch;
   Duration enc_single{0};
   int enc_max_batch = 1;
@@ -340,6 +351,7 @@ struct Scheduler::Impl {
     j.dependents.clear();
     j.dependent_ids.clear();
     j.stamp = 0;
+    j.dirty = true;
     j.frame.assign(sensors.size(), 0);
     j.frame_time.assign(sensors.size(), now);
     for (int sn : g.sensors) {
@@ -393,6 +405,7 @@ struct Scheduler::Impl {
         UnitRt& u = j.u[i];
         if (u.state == UState::Queued) remove_member(u.task, slot, static_cast<int>(i));
         if (u.state == UState::Queued || u.state == UState::Blocked) u.state = UState::Cancelled;
+        j.dirty = true;
       }
     }
     notify_job(j, outcome, now, false);
@@ -421,18 +434,34 @@ struct Scheduler::Impl {
     j.stamp = stamp;
     const RefinedGraph& g = *j.g;
     const auto levels = static_cast<std::size_t>(g.levels);
-    j.lvl.assign(levels, Duration{0});
-    j.has.assign(levels, 0);
-    j.hd.resize(levels);
     const bool sum = s.config_.level_cost == LevelCost::Sum;
-    for (std::size_t i = 0; i < g.units.size(); ++i) {
-      const UnitRt& u = j.u[i];
-      if (u.state == UState::Done || u.state == UState::Cancelled) continue;
-      Duration c = g.units[i].estimate;
-      if (u.state == UState::Running && now > u.start)
-        c = std::max(Duration{0}, c - (now - u.start));
-      const auto h = static_cast<std::size_t>(g.units[i].height);
-      j.has[h] = 1;
+    if (j.dirty) {
+      j.dirty = false;
+      j.lvl_base.assign(levels, Duration{0});
+      j.has_base.assign(levels, 0);
+      j.running_units.clear();
+      for (std::size_t i = 0; i < g.units.size(); ++i) {
+        const UnitRt& u = j.u[i];
+        if (u.state == UState::Done || u.state == UState::Cancelled) continue;
+        const auto h = static_cast<std::size_t>(g.units[i].height);
+        j.has_base[h] = 1;
+        if (u.state == UState::Running) {
+          j.running_units.push_back(static_cast<int>(i));
+          continue;
+        }
+        const Duration c = g.units[i].estimate;
+        j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
+      }
+    }
+    j.lvl = j.lvl_base;
+    j.has = j.has_base;
+    j.hd.resize(levels);
+    // A running unit's remaining cost is c(x) − elapsed, at least 0 (§4).
+    for (int i : j.running_units) {
+      const UnitRt& u = j.u[static_cast<std::size_t>(i)];
+      Duration c = g.units[static_cast<std::size_t>(i)].estimate;
+      if (now > u.start) c = std::max(Duration{0}, c - (now - u.start));
+      const auto h = static_cast<std::size_t>(g.units[static_cast<std::size_t>(i)].height);
       j.lvl[h] = sum ? j.lvl[h] + c : std::max(j.lvl[h], c);
     }
     j.remaining = Duration{0};
@@ -467,6 +496,10 @@ struct Scheduler::Impl {
       total += (g.override_budget[h] > Duration{0} ? g.override_budget[h] : j.lvl[h]).count();
     }
     const bool equal = opt.deadlines == DeadlineMode::Equal || total <= 0;
+    const std::int64_t denom = equal ? n : total;
+    // Double arithmetic on the hot path (no 128-bit division); the last remaining height
+    // gets exactly the job's deadline.
+    const double scale = static_cast<double>(budget.count()) / static_cast<double>(denom);
     std::int64_t cum = 0;
     TimePoint last = now;
     for (std::size_t h = 0; h < levels; ++h) {
@@ -474,7 +507,9 @@ struct Scheduler::Impl {
         cum += equal
                    ? 1
                    : (g.override_budget[h] > Duration{0} ? g.override_budget[h] : j.lvl[h]).count();
-        last = now + Duration{mul_div(budget.count(), cum, equal ? n : total)};
+        last = cum == denom
+                   ? j.deadline
+                   : now + Duration{static_cast<std::int64_t>(static_cast<double>(cum) * scale)};
       }
       j.hd[h] = last;
     }
@@ -614,7 +649,9 @@ struct Scheduler::Impl {
     TimePoint best = kNever;
     for (std::size_t i = 0; i < ops.size(); ++i) {
       const OpState& o = ops[i];
-      if (o.g == nullptr || !o.own_rate || o.remaining == 0) continue;
+      // An operation at max_inflight will skip its next release: nothing to wait for.
+      if (o.g == nullptr || !o.own_rate || o.remaining == 0 || o.inflight >= o.max_inflight)
+        continue;
       if (o.next_tick <= now || o.next_tick - k.min_release > s.config_.gamma) continue;
       if (std::find(o.sensors_read.begin(), o.sensors_read.end(), k.sensor) == o.sensors_read.end())
         continue;
@@ -693,6 +730,7 @@ struct Scheduler::Impl {
         Job& j = job(slot);
         UnitRt& u = j.u[static_cast<std::size_t>(unit)];
         u.state = UState::Running;
+        j.dirty = true;
         u.task = -1;
         u.start = now;
         ++j.running;
@@ -736,61 +774,77 @@ struct Scheduler::Impl {
   // Picks work for one idle lane; false when nothing can start now.
   bool pick(int lane_index, TimePoint now) {
     for (;;) {
-      int best = -1;
-      Key best_key{};
-      TaskView best_view{};
+      // One scan ranks every ready task (the policy's key, and the deadline batching
+      // orders by); a merge wait then only moves to the next best entry of the scan.
+      scanned.clear();
       for (int t : ready) {
         if (task(t).wait_until > now) continue;
         TaskView v;
         const Key k = key(t, now, v);
-        if (best < 0 || k < best_key) {
-          best = t;
-          best_key = k;
-          best_view = v;
-        }
+        scanned.push_back({k, v.deadline, t});
       }
-      if (best < 0) return false;
-      Task& k = task(best);
-      if (opt.drop == DropMode::Hopeless) {
-        bool aborted = false;
-        for (std::size_t m = 0; m < k.members.size();) {
-          const int slot = k.members[m].first;
-          Job& j = job(slot);
-          if (now + j.remaining > j.deadline) {
-            end_job(slot, JobOutcome::Dropped, now);  // may free this task
-            aborted = true;
-            break;
+      int best = -1;
+      Key best_key{};
+      TimePoint best_deadline{};
+      bool rescan = false;
+      for (;;) {
+        best = -1;
+        for (const Scan& e : scanned) {
+          if (task(e.task).wait_until > now) continue;  // began a merge wait this round
+          if (best < 0 || e.key < best_key) {
+            best = e.task;
+            best_key = e.key;
+            best_deadline = e.deadline;
           }
-          ++m;
         }
-        if (aborted) continue;
-      }
-      if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
-        const TimePoint until = predicted_member(k, now);
-        if (until != kNever && slack_covers(k, now, until)) {
-          k.wait_until = until;
-          min_wait = std::min(min_wait, until);
-          ++s.stats_.merge_waits;
-          for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);
-          continue;
+        if (best < 0) return false;
+        Task& k = task(best);
+        if (opt.drop == DropMode::Hopeless) {
+          for (const auto& [slot, unit] : k.members) {
+            Job& j = job(slot);
+            if (now + j.remaining > j.deadline) {
+              end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again
+              rescan = true;
+              break;
+            }
+          }
+          if (rescan) break;
         }
+        if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
+          const TimePoint until = predicted_member(k, now);
+          if (until != kNever && slack_covers(k, now, until)) {
+            k.wait_until = until;
+            min_wait = std::min(min_wait, until);
+            ++s.stats_.merge_waits;
+            for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);
+            continue;
+          }
+        }
+        break;
       }
+      if (rescan) continue;
+      Task& k = task(best);
       batch.clear();
       batch.push_back(best);
-      TimePoint deadline = best_view.deadline;
+      TimePoint deadline = best_deadline;
       if (opt.batching && (k.kind == UnitKind::Encoder || k.kind == UnitKind::Head)) {
         const int limit = batch_limit(k);
         cand.clear();
-        for (int t : ready) {
-          const Task& o = task(t);
-          if (t == best || o.kind != k.kind || o.head != k.head || o.wait_until > now) continue;
-          TaskView v;
-          Key kk = key(t, now, v);
-          kk.rank = v.deadline.count();  // the batch keeps members by deadline
-          cand.emplace_back(kk, t);
+        for (const Scan& e : scanned) {
+          if (limit <= 1) break;
+          const Task& o = task(e.task);
+          if (e.task == best || o.kind != k.kind || o.head != k.head || o.wait_until > now)
+            continue;
+          Key byd = e.key;
+          byd.rank = e.deadline.count();  // a batch takes its members by deadline
+          cand.emplace_back(byd, e.task);
         }
-        std::sort(cand.begin(), cand.end(),
-                  [](const auto& a, const auto& b) { return a.first < b.first; });
+        // Only the max_batch − 1 earliest can join: order just those.
+        const auto take = std::min(cand.size(), static_cast<std::size_t>(std::max(0, limit - 1)));
+        std::partial_sort(cand.begin(), cand.begin() + static_cast<std::ptrdiff_t>(take),
+                          cand.end(),
+                          [](const auto& a, const auto& b) { return a.first < b.first; });
+        cand.resize(take);
         const Duration single = k.kind == UnitKind::Encoder
                                     ? enc_single
                                     : head_single[static_cast<std::size_t>(k.head)];
@@ -892,16 +946,19 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
     --j.running;
     if (j.ended) {
       u.state = UState::Cancelled;  // output discarded: the job was aborted meanwhile
+      j.dirty = true;
       if (j.running == 0) m.free_job(mb.slot);
       continue;
     }
     if (status != UnitStatus::Completed) {
       u.state = UState::Cancelled;
+      j.dirty = true;
       j.reason = reason.empty() ? std::string(to_string(status)) : std::string(reason);
       m.end_job(mb.slot, JobOutcome::Failed, now);
       continue;
     }
     u.state = UState::Done;
+    j.dirty = true;
     --j.unfinished;
     lane.last_slot = mb.slot;
     lane.last_job = j.id;

@@ -78,7 +78,8 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
 
 void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
   std::cerr << fmt::format(
-      "red: {}: decisions {} (p50 {:.2f} us, p99 {:.2f} us), completion->next start p99 {:.2f} us "
+      "red: policy {}: decisions {} (p50 {:.2f} us, p99 {:.2f} us), completion->next start p99 "
+      "{:.2f} us "
       "({} handoffs), sync round trips {}, local decisions {}, failures {}, RSS {:.1f} MB\n",
       policy, r.decision_us.size(), pct(r.decision_us, 0.5), pct(r.decision_us, 0.99),
       pct(r.handoff_us, 0.99), r.handoff_us.size(), r.stats.round_trips, r.local_decisions,

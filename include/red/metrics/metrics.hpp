@@ -83,6 +83,7 @@ class MetricsCollector final : public Observer {
   void on_job_end(const JobRecord& j) override;
   void on_unit_start(const Dispatch& d) override;
   void on_unit_end(const Dispatch& d, TimePoint end, UnitStatus s) override;
+  void on_merge_wait(int sensor, TimePoint now, TimePoint until) override;
 
   /// Summary of the run that ended at `end`.
   [[nodiscard]] PolicyMetrics summarize(const std::string& name, TimePoint end,
@@ -97,7 +98,8 @@ class MetricsCollector final : public Observer {
   std::vector<JobRow> jobs_;
   std::vector<UnitRow> units_;
   std::vector<Duration> busy_;  // per lane, after warm-up
-  std::int64_t encoder_runs_ = 0, encoder_saved_ = 0, round_trips_ = 0, dispatches_ = 0;
+  std::int64_t encoder_runs_ = 0, encoder_saved_ = 0, round_trips_ = 0, dispatches_ = 0,
+               merge_waits_ = 0;
   std::map<int, std::int64_t> batches_;
   std::vector<std::int64_t> head_outputs_;
   std::vector<TimePoint> started_;  // per lane: start of the running unit
