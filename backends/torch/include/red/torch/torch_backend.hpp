@@ -1,0 +1,22 @@
+#pragma once
+/// \file
+/// The runtime's LibTorch backend (§6, §9): synthetic camera frames as real tensors in
+/// memory, real inference of the scenario's model (the built-in MIMONet or a manifest's
+/// TorchScript modules). Merged members share one encoder output; a batch runs as one
+/// tensor batch. On a CUDA device each lane gets its own CUDA stream.
+
+#include <memory>
+#include <string>
+
+#include "red/core/expected.hpp"
+#include "red/runtime/backend.hpp"
+#include "red/scenario/scenario.hpp"
+
+namespace red::torchb {
+
+/// A LibTorch backend for the scenario's model on `device` ("cpu", "cuda", "cuda:N") with
+/// `threads` intra-op threads (0: LibTorch's default). Errors name the model file.
+Expected<std::unique_ptr<Backend>> make_torch_backend(const Scenario& s, const std::string& device,
+                                                      int threads);
+
+}  // namespace red::torchb

@@ -1,0 +1,252 @@
+#include "red/torch/profiler.hpp"
+
+#include <ATen/ATen.h>
+#include <ATen/Parallel.h>
+#include <c10/core/Allocator.h>
+#include <c10/util/ThreadLocalDebugInfo.h>
+#include <torch/cuda.h>
+#include <unistd.h>
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <memory>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "internal.hpp"
+
+namespace red::torchb {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Receives every allocation and free that LibTorch's allocators report on this thread
+/// while installed as the thread's PROFILER_STATE debug info, and keeps the peak sum.
+class PeakMeter final : public c10::MemoryReportingInfoBase {
+ public:
+  explicit PeakMeter(c10::DeviceType type) : type_(type) {}
+
+  void reportMemoryUsage(void* /*ptr*/, std::int64_t alloc_size, std::int64_t /*total_allocated*/,
+                         std::int64_t /*total_reserved*/, c10::Device device) override {
+    if (device.type() != type_) return;
+    live_ += alloc_size;
+    peak_ = std::max(peak_, live_);
+  }
+  [[nodiscard]] bool memoryProfilingEnabled() const override { return true; }
+  [[nodiscard]] std::int64_t peak() const noexcept { return peak_; }
+
+ private:
+  c10::DeviceType type_;
+  std::int64_t live_ = 0;
+  std::int64_t peak_ = 0;
+};
+
+/// The value at quantile q of sorted samples (nearest rank).
+Duration nearest_rank(const std::vector<Duration>& sorted, double q) {
+  const auto n = static_cast<double>(sorted.size());
+  auto rank = static_cast<std::size_t>(std::ceil(q * n));
+  rank = std::clamp<std::size_t>(rank, 1, sorted.size());
+  return sorted[rank - 1];
+}
+
+LatencyStats summarize(std::vector<Duration> samples) {
+  std::sort(samples.begin(), samples.end());
+  LatencyStats s;
+  s.samples = static_cast<int>(samples.size());
+  s.min = samples.front();
+  s.max = samples.back();
+  const Duration total = std::accumulate(samples.begin(), samples.end(), Duration{0});
+  s.mean = total / static_cast<std::int64_t>(samples.size());
+  s.p50 = nearest_rank(samples, 0.50);
+  s.p95 = nearest_rank(samples, 0.95);
+  s.p99 = nearest_rank(samples, 0.99);
+  return s;
+}
+
+class Profiler {
+ public:
+  Profiler(const ProfileOptions& options, const ProgressFn& progress)
+      : options_(options), progress_(progress) {}
+
+  /// Runs fn warmup times, then times `runs` runs of it.
+  LatencyStats measure(const std::function<void()>& fn) const {
+    for (int i = 0; i < options_.warmup; ++i) fn();
+    sync();
+    std::vector<Duration> samples;
+    samples.reserve(static_cast<std::size_t>(options_.runs));
+    for (int i = 0; i < options_.runs; ++i) {
+      const auto start = Clock::now();
+      fn();
+      sync();  // CUDA kernels run asynchronously: the unit ends when its work has finished
+      samples.push_back(std::chrono::duration_cast<Duration>(Clock::now() - start));
+    }
+    return summarize(std::move(samples));
+  }
+
+  void say(const std::string& message) const {
+    if (progress_) progress_(message);
+  }
+
+  void set_device(const c10::Device& d) { cuda_ = d.is_cuda(); }
+
+ private:
+  void sync() const {
+    if (cuda_) torch::cuda::synchronize();
+  }
+
+  ProfileOptions options_;
+  const ProgressFn& progress_;
+  bool cuda_ = false;
+};
+
+void release_freed_memory() {
+#if defined(__GLIBC__)
+  // Hands freed heap pages back to the kernel so the next resident figure is not
+  // inflated by the previous model's memory.
+  malloc_trim(0);
+#endif
+}
+
+std::string device_label(const c10::Device& d) {
+  if (d.is_cpu()) {
+    const int n = at::get_num_threads();
+    return "cpu (" + std::to_string(n) + (n == 1 ? " thread)" : " threads)");
+  }
+  return d.str();
+}
+
+}  // namespace
+
+std::int64_t resident_bytes() noexcept {
+  std::ifstream statm("/proc/self/statm");
+  long long size = 0;
+  long long resident = 0;
+  if (!(statm >> size >> resident)) return 0;
+  const long page = sysconf(_SC_PAGESIZE);
+  return page > 0 ? static_cast<std::int64_t>(resident) * page : 0;
+}
+
+std::int64_t peak_allocated_bytes(const c10::Device& device, const std::function<void()>& fn) {
+  auto meter = std::make_shared<PeakMeter>(device.type());
+  {
+    c10::DebugInfoGuard guard(c10::DebugInfoKind::PROFILER_STATE, meter);
+    fn();
+  }
+  return meter->peak();
+}
+
+Expected<Profile> profile_model(const ModelOptions& model, const ProfileOptions& options,
+                                const ProgressFn& progress) {
+  if (options.warmup < 0 || options.runs < 1 || options.max_batch < 1 ||
+      options.coarse_max_batch < 1) {
+    return Error{"", 0,
+                 "profile options: need warmup >= 0, runs >= 1, max_batch >= 1 and "
+                 "coarse_max_batch >= 1"};
+  }
+  const auto wall_start = Clock::now();
+  Profiler prof(options, progress);
+  const int coarse_batches = std::min(options.coarse_max_batch, options.max_batch);
+  std::string stage = "creating the model";
+  try {
+    ModelOptions shared_options = model;
+    shared_options.separate = false;
+    auto created = Model::create(shared_options);
+    if (!created) return created.error();
+    std::unique_ptr<Model> m = std::move(*created);
+    prof.set_device(m->device());
+
+    Profile p;
+    p.source = "measured";
+    p.device = device_label(m->device());
+    p.model = m->label();
+    const int n_heads = static_cast<int>(m->heads().size());
+    prof.say("profiling " + p.model + " on " + p.device + ": " + std::to_string(options.runs) +
+             " runs after " + std::to_string(options.warmup) + " warm-up runs per unit and batch");
+
+    // Memory of the shared model: one frame (batch 1) through the encoder and every head, keeping
+    // every head's output until the frame is done (as a runtime would).
+    MemoryStats shared_mem;
+    shared_mem.parameter_bytes = m->parameter_bytes();
+    shared_mem.resident_bytes = resident_bytes();
+    {
+      stage = "measuring the shared model's activations";
+      const at::Tensor x = m->make_input(1, 1);
+      shared_mem.peak_activation_bytes = peak_allocated_bytes(m->device(), [&] {
+        const Features f = m->encode(x);
+        std::vector<at::Tensor> outputs;
+        for (int h = 0; h < n_heads; ++h) outputs.push_back(m->head(h, f));
+      });
+    }
+    p.shared_memory = shared_mem;
+
+    for (int b = 1; b <= options.max_batch; ++b) {
+      const at::Tensor x = m->make_input(b, static_cast<std::uint64_t>(b));
+      stage = "measuring encoder at batch " + std::to_string(b);
+      prof.say(stage);
+      p.units["encoder"].by_batch.push_back(prof.measure([&] { (void)m->encode(x); }));
+      const Features f = m->encode(x);
+      for (int h = 0; h < n_heads; ++h) {
+        const std::string& name = m->heads()[static_cast<std::size_t>(h)];
+        stage = "measuring head/" + name + " at batch " + std::to_string(b);
+        prof.say(stage);
+        p.units["head/" + name].by_batch.push_back(prof.measure([&] { (void)m->head(h, f); }));
+      }
+      if (b > coarse_batches) continue;
+      for (int h = 0; h < n_heads; ++h) {
+        const std::string& name = m->heads()[static_cast<std::size_t>(h)];
+        stage = "measuring coarse/" + name + " at batch " + std::to_string(b);
+        prof.say(stage);
+        p.units["coarse/" + name].by_batch.push_back(prof.measure([&] { (void)m->full(h, x); }));
+      }
+    }
+    m.reset();
+    release_freed_memory();
+
+    if (options.separate) {
+      stage = "creating the separate networks";
+      prof.say(stage);
+      ModelOptions separate_options = model;
+      separate_options.separate = true;
+      auto sep_created = Model::create(separate_options);
+      if (!sep_created) return sep_created.error();
+      std::unique_ptr<Model> s = std::move(*sep_created);
+      MemoryStats sep_mem;
+      sep_mem.parameter_bytes = s->parameter_bytes();
+      sep_mem.resident_bytes = resident_bytes();
+      {
+        stage = "measuring the separate networks' activations";
+        const at::Tensor x = s->make_input(1, 1);
+        sep_mem.peak_activation_bytes = peak_allocated_bytes(s->device(), [&] {
+          std::vector<at::Tensor> outputs;
+          for (int h = 0; h < n_heads; ++h) outputs.push_back(s->full(h, x));
+        });
+      }
+      p.separate_memory = sep_mem;
+      for (int b = 1; b <= coarse_batches; ++b) {
+        const at::Tensor x = s->make_input(b, static_cast<std::uint64_t>(b));
+        for (int h = 0; h < n_heads; ++h) {
+          const std::string& name = s->heads()[static_cast<std::size_t>(h)];
+          stage = "measuring separate/" + name + " at batch " + std::to_string(b);
+          prof.say(stage);
+          p.units["separate/" + name].by_batch.push_back(
+              prof.measure([&] { (void)s->full(h, x); }));
+        }
+      }
+    }
+    p.profile_wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
+    prof.say("profile done in " + std::to_string(p.profile_wall_s) + " s");
+    return p;
+  } catch (const std::exception& e) {
+    return Error{model.manifest, 0, "profiling failed while " + stage + ": " + detail::describe(e)};
+  }
+}
+
+}  // namespace red::torchb

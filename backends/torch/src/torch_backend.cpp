@@ -1,0 +1,232 @@
+#include "red/torch/torch_backend.hpp"
+
+#include <ATen/ATen.h>
+#include <c10/core/InferenceMode.h>
+#include <c10/util/Exception.h>
+
+#include <chrono>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+#include <utility>
+
+#include "red/core/rng.hpp"
+#include "red/torch/model.hpp"
+
+namespace red::torchb {
+
+namespace {
+
+// Frames and encoder outputs are kept per (sensor, frame) for a bounded window: the
+// scheduler only runs units on recent frames (max_inflight bounds the jobs in flight).
+constexpr std::size_t kKeepFrames = 64;
+
+template <typename V>
+class Window {
+ public:
+  void put(int sensor, std::uint64_t frame, V v) {
+    std::lock_guard lock(mu_);
+    const auto key = std::make_pair(sensor, frame);
+    if (map_.emplace(key, std::move(v)).second) order_.push_back(key);
+    while (order_.size() > kKeepFrames) {
+      map_.erase(order_.front());
+      order_.pop_front();
+    }
+  }
+  /// The newest frame id stored for a sensor, if any.
+  bool newest(int sensor, std::uint64_t& frame) const {
+    std::lock_guard lock(mu_);
+    bool found = false;
+    for (const auto& [key, v] : map_)
+      if (key.first == sensor && (!found || key.second > frame)) {
+        frame = key.second;
+        found = true;
+      }
+    return found;
+  }
+  bool get(int sensor, std::uint64_t frame, V& out) const {
+    std::lock_guard lock(mu_);
+    auto it = map_.find({sensor, frame});
+    if (it == map_.end()) return false;
+    out = it->second;
+    return true;
+  }
+
+ private:
+  mutable std::mutex mu_;
+  std::map<std::pair<int, std::uint64_t>, V> map_;
+  std::deque<std::pair<int, std::uint64_t>> order_;
+};
+
+class TorchBackend final : public Backend {
+ public:
+  TorchBackend(const Scenario& s, std::unique_ptr<Model> model, std::vector<int> head_map)
+      : scenario_(s),
+        model_(std::move(model)),
+        head_map_(std::move(head_map)),
+        name_("torch " + model_->device().str()) {}
+
+  [[nodiscard]] std::string_view name() const noexcept override { return name_; }
+
+  void on_frame(int sensor, std::uint64_t frame) override {
+    c10::InferenceMode guard;
+    // A synthetic camera frame: deterministic pixels for (sensor, frame), in memory.
+    const std::uint64_t seed =
+        hash_combine(hash_combine(scenario_.seed, static_cast<std::uint64_t>(sensor)), frame);
+    frames_.put(sensor, frame, model_->make_input(1, seed));
+  }
+
+  void run(int /*lane*/, const Dispatch& d) override {
+    try {
+      c10::InferenceMode guard;
+      execute(d);
+    } catch (const c10::OutOfMemoryError& e) {
+      throw OutOfMemoryError(e.what_without_backtrace());
+    } catch (const std::bad_alloc&) {
+      throw OutOfMemoryError("host allocation failed");
+    } catch (const c10::Error& e) {
+      throw std::runtime_error(std::string("LibTorch: ") + e.what_without_backtrace());
+    }
+  }
+
+ private:
+  at::Tensor frame(int sensor, std::uint64_t id) const {
+    at::Tensor t;
+    if (!frames_.get(sensor, id, t))
+      throw std::runtime_error("frame " + std::to_string(id) + " of sensor " +
+                               scenario_.sensors[static_cast<std::size_t>(sensor)].name +
+                               " is no longer in memory");
+    return t;
+  }
+
+  Features features(int sensor, std::uint64_t id) const {
+    Features f;
+    if (!features_.get(sensor, id, f))
+      throw std::runtime_error("encoder output of frame " + std::to_string(id) +
+                               " is not available");
+    return f;
+  }
+
+  int model_head(int scenario_head) const {
+    return head_map_[static_cast<std::size_t>(scenario_head)];
+  }
+
+  static void spin(Duration t) {
+    const auto until = std::chrono::steady_clock::now() +
+                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(t);
+    while (std::chrono::steady_clock::now() < until) {
+    }
+  }
+
+  void execute(const Dispatch& d) {
+    switch (d.kind) {
+      case UnitKind::Encoder: {
+        // One encoder run per task (a distinct frame); a batch runs as one tensor batch
+        // and every merged member reads the same output.
+        // A batch may hold frames of different sensors (one encoder for all of them).
+        std::vector<at::Tensor> inputs;
+        std::vector<std::pair<int, std::uint64_t>> ids;
+        for (std::size_t t = 0; t + 1 < d.task_begin.size(); ++t) {
+          const Member& m = d.members[static_cast<std::size_t>(d.task_begin[t])];
+          const int sensor = m.graph->units[static_cast<std::size_t>(m.unit)].sensor;
+          inputs.push_back(frame(sensor, m.frame));
+          ids.emplace_back(sensor, m.frame);
+        }
+        const Features f = model_->encode(inputs.size() == 1 ? inputs.front() : at::cat(inputs, 0));
+        for (std::size_t i = 0; i < ids.size(); ++i) {
+          Features one;
+          for (const at::Tensor& x : f)
+            one.push_back(ids.size() == 1 ? x : x.narrow(0, static_cast<std::int64_t>(i), 1));
+          features_.put(ids[i].first, ids[i].second, std::move(one));
+        }
+        return;
+      }
+      case UnitKind::Head: {
+        std::vector<Features> parts;
+        for (const Member& m : d.members) {
+          const RefinedUnit& ru = m.graph->units[static_cast<std::size_t>(m.unit)];
+          parts.push_back(features(ru.sensor, m.frame));
+        }
+        Features batch = parts.front();
+        if (parts.size() > 1) {
+          for (std::size_t k = 0; k < batch.size(); ++k) {
+            std::vector<at::Tensor> xs;
+            for (const Features& p : parts) xs.push_back(p[k]);
+            batch[k] = at::cat(xs, 0);
+          }
+        }
+        last_ = model_->head(model_head(d.head), batch);
+        return;
+      }
+      case UnitKind::Coarse: {
+        const Member& m = d.members.front();
+        const RefinedUnit& ru = m.graph->units[static_cast<std::size_t>(m.unit)];
+        last_ = model_->full(model_head(ru.head), frame(ru.sensor, m.frame));
+        return;
+      }
+      case UnitKind::Mono: {
+        // The whole job as one unit: the encoder once per sensor, then every node.
+        const Member& m = d.members.front();
+        const RefinedGraph& g = *m.graph;
+        std::map<int, Features> enc;
+        for (int sensor : g.sensors) {
+          // The member carries the first sensor's frame; other sensors use their newest.
+          std::uint64_t id = m.frame;
+          if (sensor != g.sensors.front() && !frames_.newest(sensor, id))
+            throw std::runtime_error("no frame yet from sensor " +
+                                     scenario_.sensors[static_cast<std::size_t>(sensor)].name);
+          enc[sensor] = model_->encode(frame(sensor, id));
+        }
+        for (int n : g.units.front().produces) {
+          const NodeSpec& ns = g.spec->nodes[static_cast<std::size_t>(n)];
+          if (ns.is_plain())
+            spin(ns.cost->mean);
+          else
+            last_ = model_->head(model_head(ns.head), enc[ns.sensor]);
+        }
+        return;
+      }
+      case UnitKind::Plain: {
+        const Member& m = d.members.front();
+        spin(m.graph->spec->nodes[static_cast<std::size_t>(m.node)].cost->mean);
+        return;
+      }
+    }
+  }
+
+  const Scenario& scenario_;
+  std::unique_ptr<Model> model_;
+  std::vector<int> head_map_;  // scenario head index -> model head index
+  std::string name_;
+  Window<at::Tensor> frames_;
+  Window<Features> features_;
+  thread_local static at::Tensor last_;  // keeps the latest output alive until the next
+};
+
+thread_local at::Tensor TorchBackend::last_;
+
+}  // namespace
+
+Expected<std::unique_ptr<Backend>> make_torch_backend(const Scenario& s, const std::string& device,
+                                                      int threads) {
+  ModelOptions o;
+  o.heads = s.model.heads;
+  o.input = s.model.input;
+  o.device = device;
+  o.threads = threads;
+  o.manifest = s.model.manifest;
+  o.seed = s.seed;
+  auto model = Model::create(o);
+  if (!model) return model.error();
+  std::vector<int> head_map;
+  for (const std::string& h : s.model.heads) {
+    const int i = (*model)->head_index(h);
+    if (i < 0) return Error{s.file, 0, "the model has no head '" + h + "'"};
+    head_map.push_back(i);
+  }
+  return std::unique_ptr<Backend>(
+      std::make_unique<TorchBackend>(s, std::move(model.value()), std::move(head_map)));
+}
+
+}  // namespace red::torchb
