@@ -328,18 +328,25 @@ struct Runtime::Impl {
                                         ": applied"
                                   : "SCHED_FIFO: not applied (" +
                                         std::string(std::strerror(err == 0 ? EPERM : err)) + ")");
-    const long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    // Each lane gets its own share of the cores (lane i: cores [i*k, (i+1)*k), k = cores /
+    // lanes, at least one), so a backend's worker threads, which inherit the handler's
+    // mask, stay on that lane's cores instead of piling onto one.
+    const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+    const long lanes = static_cast<long>(handlers.size());
+    const long share = std::max(1L, cores / std::max(1L, lanes));
     int pinned = 0;
     for (std::size_t i = 0; i < handlers.size(); ++i) {
       cpu_set_t set;
       CPU_ZERO(&set);
-      CPU_SET(static_cast<int>(i % static_cast<std::size_t>(std::max(1L, cores))), &set);
+      const long first = (static_cast<long>(i) * share) % cores;
+      for (long c = first; c < std::min(cores, first + share); ++c)
+        CPU_SET(static_cast<int>(c), &set);
       if (pthread_setaffinity_np(handlers[i]->thread.native_handle(), sizeof(set), &set) == 0)
         ++pinned;
     }
-    report.realtime.push_back(
-        "CPU affinity: " + std::to_string(pinned) + " of " + std::to_string(handlers.size()) +
-        " handler(s) pinned (lane i -> core i mod " + std::to_string(cores) + ")");
+    report.realtime.push_back("CPU affinity: " + std::to_string(pinned) + " of " +
+                              std::to_string(handlers.size()) + " handler(s) pinned, " +
+                              std::to_string(share) + " core(s) each of " + std::to_string(cores));
   }
 
   RuntimeReport run() {

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <thread>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -29,7 +30,11 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
   }
   if (o.backend == "torch") {
 #ifdef RED_HAVE_TORCH
-    return torchb::make_torch_backend(s, o.device, o.threads);
+    // As `red profile` does: every hardware thread, so run and profile agree.
+    const int threads = o.threads > 0
+                            ? o.threads
+                            : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+    return torchb::make_torch_backend(s, o.device, threads);
 #else
     return Error{"", 0,
                  "this red was built without LibTorch (install libtorch-dev and rebuild), "

@@ -20,7 +20,7 @@ namespace {
 
 // Frames and encoder outputs are kept per (sensor, frame) for a bounded window: the
 // scheduler only runs units on recent frames (max_inflight bounds the jobs in flight).
-constexpr std::size_t kKeepFrames = 64;
+constexpr std::size_t kKeepFrames = 32;
 
 template <typename V>
 class Window {
