@@ -4,10 +4,17 @@
 
 namespace red {
 
+std::optional<PolicyOptions> with_sync(const std::string& policy, std::optional<SyncMode> sync) {
+  auto o = preset_options(policy);
+  if (!o || !sync) return std::nullopt;
+  o->sync = *sync;
+  return o;
+}
+
 Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
                                     std::uint64_t seed, const std::vector<Observer*>& extra,
-                                    bool keep_units) {
-  auto pol = make_policy(policy);
+                                    bool keep_units, std::optional<SyncMode> sync) {
+  auto pol = make_policy(policy, with_sync(policy, sync));
   if (!pol) {
     std::string known;
     for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;

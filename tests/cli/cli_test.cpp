@@ -445,3 +445,29 @@ TEST_F(Cli, BadInputWritesNoOutputs) {
 
 }  // namespace
 }  // namespace red
+
+namespace red {
+namespace {
+
+// --sync overrides a preset's synchronization: per-edge pays a round trip for every
+// dispatch, on-demand continues a job's chain on the same lane without one.
+TEST_F(Cli, SyncOptionSelectsPerEdgeOrOnDemand) {
+  auto trips = [&](const std::string& sync) {
+    const fs::path out = dir_ / ("sync-" + sync);
+    const RunResult r =
+        red("simulate " + scenario("minibench-tight.yaml") + " --policy red --sync " + sync +
+            " --trace-events 0 --out " + quote(out.string()));
+    EXPECT_EQ(r.code, 0) << r.err;
+    const json p = json::parse(read_text(out / "summary.json")).at("policies")[0];
+    return std::pair{p.at("sync_round_trips").get<long>(), p.at("dispatches").get<long>()};
+  };
+  const auto [edge_trips, edge_dispatches] = trips("per-edge");
+  const auto [demand_trips, demand_dispatches] = trips("on-demand");
+  EXPECT_EQ(edge_trips, edge_dispatches);
+  EXPECT_GT(demand_dispatches, 0);
+  EXPECT_LT(demand_trips, demand_dispatches);
+  expect_bad_input("simulate " + scenario("minibench-tight.yaml") + " --sync sometimes", "--sync");
+}
+
+}  // namespace
+}  // namespace red

@@ -28,17 +28,24 @@ struct RunArgs {
   std::optional<std::uint64_t> seed;
   std::optional<std::string> out;
   std::size_t trace_events = kDefaultTraceEvents;
+  std::string sync;  ///< empty: the policy's own
 };
+
+std::optional<SyncMode> parse_sync(const std::string& v) {
+  if (v == "per-edge") return SyncMode::PerEdge;
+  if (v == "on-demand") return SyncMode::OnDemand;
+  return std::nullopt;  // CLI11 has checked the value
+}
 
 // The simulator's prediction of a real run, side by side with it (same scenario, same
 // profile): how well the simulator, fed the measured profile, predicts reality.
 void print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
-                      const std::vector<PolicyRun>& real) {
+                      const std::vector<PolicyRun>& real, std::optional<SyncMode> sync) {
   fmt::print("simulator prediction with the same profile ({}):\n", p.source);
   fmt::print("{:<8} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}\n", "policy", "miss% real", "miss% sim",
              "mean ms real", "mean ms sim", "QoE real", "QoE sim");
   for (const PolicyRun& r : real) {
-    auto sim = simulate_policy(s, p, r.metrics.name, seed, {}, false);
+    auto sim = simulate_policy(s, p, r.metrics.name, seed, {}, false, sync);
     if (!sim) continue;
     fmt::print("{:<8} {:>10.2f} {:>10.2f} {:>12.2f} {:>12.2f} {:>8.3f} {:>8.3f}\n", r.metrics.name,
                100 * r.metrics.miss_rate, 100 * sim->metrics.miss_rate, r.metrics.latency.mean,
@@ -74,6 +81,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   real.backend = a.backend;
   real.realtime = !a.no_realtime;
   real.seed = seed;
+  real.sync = parse_sync(a.sync);
   std::unique_ptr<Backend> backend;
   if (!sim) {
     // One backend (one loaded model) serves every policy.
@@ -98,7 +106,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     progress.begin_run(names.size() == 1 ? n : fmt::format("{} [{}/{}]", n, i + 1, names.size()),
                        s->duration);
     RuntimeReport report;
-    auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value())
+    auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value(), real.sync)
                  : run_real(*s, *p, n, *backend, real, extra, &report);
     progress.finish();
     if (!r) {
@@ -124,7 +132,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
              s->name, sim ? "sim" : backend->name(), seed, p->source, s->device.lanes,
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
-  if (!sim) print_prediction(*s, *p, seed, runs);
+  if (!sim) print_prediction(*s, *p, seed, runs, real.sync);
   if (!table) {
     const PolicyMetrics& m = metrics.front();
     fmt::print(
@@ -164,6 +172,9 @@ void add_common(CLI::App* cmd, RunArgs& a) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", a.out,
                   "Directory for summary.json, jobs.csv, units.csv, trace.json and plots");
+  cmd->add_option("--sync", a.sync,
+                  "Synchronization: per-edge or on-demand (default: each policy's own, §7)")
+      ->check(CLI::IsMember({"per-edge", "on-demand"}));
   cmd->add_option("--trace-events", a.trace_events,
                   "Most events in trace.json, over all policies (0: no trace.json)")
       ->capture_default_str();

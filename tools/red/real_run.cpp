@@ -58,7 +58,7 @@ double pct(std::vector<double> v, double p) {
 Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::string& policy,
                              Backend& backend, const RealRunOptions& o,
                              const std::vector<Observer*>& extra, RuntimeReport* out) {
-  auto pol = make_policy(policy);
+  auto pol = make_policy(policy, with_sync(policy, o.sync));
   if (!pol) return Error{"", 0, "unknown policy '" + policy + "'"};
   RuntimeOptions ro;
   ro.realtime = o.realtime;

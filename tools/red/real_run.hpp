@@ -23,6 +23,7 @@ struct RealRunOptions {
   int threads = 0;                ///< LibTorch intra-op threads (0: default)
   bool realtime = true;
   std::uint64_t seed = 1;
+  std::optional<SyncMode> sync;  ///< overrides the policy's synchronization mode
 };
 
 /// A backend by name for the scenario; Error when unknown or when it cannot load.

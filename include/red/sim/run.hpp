@@ -24,11 +24,15 @@ struct PolicyRun {
   double wall_s = 0.0;  ///< host time the simulation took (not in summary.json)
 };
 
-/// Simulates `policy` (a preset name) on the scenario. `extra` observers see the run too.
-/// Returns an Error for an unknown policy name.
+/// Simulates `policy` (a preset name) on the scenario. `extra` observers see the run too;
+/// `sync` overrides the preset's synchronization mode. Error for an unknown policy name.
 Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
                                     std::uint64_t seed, const std::vector<Observer*>& extra = {},
-                                    bool keep_units = true);
+                                    bool keep_units = true,
+                                    std::optional<SyncMode> sync = std::nullopt);
+
+/// The preset's options with its synchronization mode replaced, or nullopt (no change).
+std::optional<PolicyOptions> with_sync(const std::string& policy, std::optional<SyncMode> sync);
 
 /// The profile a run uses: `cli_path` if given, else the scenario's `profile:`, else the
 /// built-in default. Checks that it covers every head the scenario uses.
