@@ -18,19 +18,13 @@
 #include <string>
 #include <vector>
 
+#include "red/metrics/metrics.hpp"
 #include "red/runtime/runtime.hpp"
 #include "red/runtime/synthetic_backend.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sim/run.hpp"
 
 namespace {
-
-double pct(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
-  return v[std::min(v.size() - 1, rank == 0 ? 0 : rank - 1)];
-}
 
 std::size_t heap_in_use() {
   return mallinfo2().uordblks;
@@ -117,10 +111,10 @@ int main(int argc, char** argv) {
             : 0.0,
         outcomes.completed > 0 ? outcomes.latency_ms / static_cast<double>(outcomes.completed)
                                : 0.0,
-        pct(r.handoff_us, 0.5), pct(r.handoff_us, 0.99),
+        red::percentile(r.handoff_us, 0.5), red::percentile(r.handoff_us, 0.99),
         static_cast<unsigned long long>(r.stats.round_trips),
-        static_cast<unsigned long long>(r.local_decisions), pct(r.decision_us, 0.5),
-        pct(r.decision_us, 0.99), static_cast<double>(held) / 1024.0);
+        static_cast<unsigned long long>(r.local_decisions), red::percentile(r.decision_us, 0.5),
+        red::percentile(r.decision_us, 0.99), static_cast<double>(held) / 1024.0);
   }
   std::printf(
       "hand = unit completion -> next unit started on that lane (us); rtrips = synchronizer\n"

@@ -5,6 +5,17 @@
 
 namespace red {
 
+double percentile_sorted(const std::vector<double>& v, double p) {
+  if (v.empty()) return 0.0;
+  const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, rank == 0 ? 0 : rank - 1)];
+}
+
+double percentile(std::vector<double> values, double p) {
+  std::sort(values.begin(), values.end());
+  return percentile_sorted(values, p);
+}
+
 double qoe_score(Duration response, Duration deadline, double lambda) {
   const double late = std::max(0.0, to_s(response) - to_s(deadline));
   return 1.0 / (1.0 + std::exp(lambda) * late);
@@ -108,13 +119,6 @@ void MetricsCollector::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus 
 
 namespace {
 
-double percentile(std::vector<double>& v, double p) {
-  if (v.empty()) return 0.0;
-  // Nearest-rank percentile on sorted data.
-  const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
-  return v[std::min(v.size() - 1, rank == 0 ? 0 : rank - 1)];
-}
-
 double round6(double x) {
   return std::round(x * 1e6) / 1e6;
 }
@@ -173,15 +177,15 @@ PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end
     for (double x : lat) sum += x;
     m.latency.mean = round6(sum / static_cast<double>(lat.size()));
     std::sort(lat.begin(), lat.end());
-    m.latency.p50 = round6(percentile(lat, 0.50));
-    m.latency.p90 = round6(percentile(lat, 0.90));
-    m.latency.p99 = round6(percentile(lat, 0.99));
+    m.latency.p50 = round6(percentile_sorted(lat, 0.50));
+    m.latency.p90 = round6(percentile_sorted(lat, 0.90));
+    m.latency.p99 = round6(percentile_sorted(lat, 0.99));
     m.latency.max = round6(lat.back());
     double asum = 0;
     for (double x : age) asum += x;
     m.frame_age_mean_ms = round6(asum / static_cast<double>(age.size()));
     std::sort(age.begin(), age.end());
-    m.frame_age_p99_ms = round6(percentile(age, 0.99));
+    m.frame_age_p99_ms = round6(percentile_sorted(age, 0.99));
   }
   m.encoder_runs = encoder_runs_;
   m.encoder_runs_saved = encoder_saved_;

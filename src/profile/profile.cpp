@@ -4,6 +4,8 @@
 
 #include "red/profile/profile.hpp"
 
+#include "red/core/file.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -335,15 +337,9 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
 }
 
 Expected<Profile> load_profile(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    return Error{path, 0, "cannot open: it is a directory"};
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Error{path, 0, std::string("cannot open: ") + std::strerror(errno)};
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) return Error{path, 0, "cannot read the file"};
-  return parse_profile(text.str(), path);
+  auto text = read_file(path);
+  if (!text) return text.error();
+  return parse_profile(text.value(), path);
 }
 
 namespace {

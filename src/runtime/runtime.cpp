@@ -49,10 +49,6 @@ std::int64_t resident_bytes() {
 
 namespace {
 
-Duration period_of(double hz) {
-  return Duration{static_cast<std::int64_t>(std::llround(1e9 / hz))};
-}
-
 // Spin for `spin`, then park on the condition variable until `pred` or `until`.
 template <typename Pred>
 void spin_then_park(std::mutex& m, std::condition_variable& cv, const Clock& clock, Duration spin,

@@ -6,6 +6,8 @@
 
 #include "red/scenario/loader.hpp"
 
+#include "red/core/file.hpp"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -930,15 +932,9 @@ Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::strin
 }
 
 Expected<Scenario> load_scenario(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    return Error{path, 0, "cannot open: it is a directory"};
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Error{path, 0, std::string("cannot open: ") + std::strerror(errno)};
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) return Error{path, 0, "cannot read the file"};
-  return parse_scenario(text.str(), path);
+  auto text = read_file(path);
+  if (!text) return text.error();
+  return parse_scenario(text.value(), path);
 }
 
 std::optional<Error> apply_override(Scenario& s, const std::string& key, double value) {

@@ -162,12 +162,6 @@ struct Key {
   }
 };
 
-Duration period_of(double hz) {
-  // The loader rejects rates whose period does not fit; clamp anyway (a day at most).
-  const double ns = std::min(1e9 / hz, 86400e9);
-  return Duration{static_cast<std::int64_t>(std::llround(ns))};
-}
-
 }  // namespace
 
 struct Scheduler::Impl {

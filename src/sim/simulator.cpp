@@ -22,10 +22,6 @@ struct Ev {
   bool operator>(const Ev& o) const noexcept { return t != o.t ? t > o.t : seq > o.seq; }
 };
 
-Duration period_of(double hz) {
-  return Duration{static_cast<std::int64_t>(std::llround(1e9 / hz))};
-}
-
 // Interference in the simulator is a slowdown of every unit: 1 + intensity.
 double slowdown_of(const Scenario& s) {
   return s.interference ? 1.0 + s.interference->intensity : 1.0;

@@ -44,17 +44,6 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
   return Error{"", 0, "unknown backend '" + o.backend + "' (known: torch, synthetic)"};
 }
 
-namespace {
-
-double pct(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size())));
-  return v[std::min(v.size() - 1, rank == 0 ? 0 : rank - 1)];
-}
-
-}  // namespace
-
 Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::string& policy,
                              Backend& backend, const RealRunOptions& o,
                              const std::vector<Observer*>& extra, RuntimeReport* out) {
@@ -71,8 +60,8 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   PolicyRun run;
   run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   run.metrics = metrics.summarize(policy, report.end, report.stats);
-  run.metrics.decision_p50_us = std::round(pct(report.decision_us, 0.5) * 1000) / 1000;
-  run.metrics.decision_p99_us = std::round(pct(report.decision_us, 0.99) * 1000) / 1000;
+  run.metrics.decision_p50_us = std::round(percentile(report.decision_us, 0.5) * 1000) / 1000;
+  run.metrics.decision_p99_us = std::round(percentile(report.decision_us, 0.99) * 1000) / 1000;
   run.jobs = metrics.jobs();
   run.units = metrics.units();
   run.result.end = report.end;
@@ -86,8 +75,8 @@ void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
       "red: policy {}: decisions {} (p50 {:.2f} us, p99 {:.2f} us), completion->next start p99 "
       "{:.2f} us "
       "({} handoffs), sync round trips {}, local decisions {}, failures {}, RSS {:.1f} MB\n",
-      policy, r.decision_us.size(), pct(r.decision_us, 0.5), pct(r.decision_us, 0.99),
-      pct(r.handoff_us, 0.99), r.handoff_us.size(), r.stats.round_trips, r.local_decisions,
+      policy, r.decision_us.size(), percentile(r.decision_us, 0.5), percentile(r.decision_us, 0.99),
+      percentile(r.handoff_us, 0.99), r.handoff_us.size(), r.stats.round_trips, r.local_decisions,
       r.failures, static_cast<double>(r.resident_bytes_after) / 1e6);
   for (const std::string& line : r.realtime) std::cerr << "red:   " << line << '\n';
 }

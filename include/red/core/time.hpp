@@ -2,6 +2,7 @@
 /// \file
 /// Time in RED: integer nanoseconds inside, milliseconds or seconds only at the edges (§2).
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -38,6 +39,12 @@ inline Duration from_s(double s) noexcept {
 inline std::int64_t mul_div(std::int64_t a, std::int64_t b, std::int64_t c) noexcept {
   __extension__ using i128 = __int128;
   return static_cast<std::int64_t>(static_cast<i128>(a) * b / c);
+}
+
+/// The period of a rate in hertz, clamped to a day (the loader rejects slower rates).
+inline Duration period_of(double hz) noexcept {
+  const double ns = std::min(1e9 / hz, 86400e9);
+  return Duration{static_cast<std::int64_t>(std::llround(ns))};
 }
 
 /// A Duration as floating-point milliseconds, for reports.

@@ -71,6 +71,12 @@ struct PolicyMetrics {
   std::optional<double> decision_p50_us, decision_p99_us;
 };
 
+/// Nearest-rank percentile (p in [0, 1]) of values already sorted ascending; 0 when empty.
+double percentile_sorted(const std::vector<double>& sorted, double p);
+
+/// Nearest-rank percentile of unsorted values (sorts a copy).
+double percentile(std::vector<double> values, double p);
+
 /// QoE of one completed job (§10, the paper's Eq. 1): 1 / (1 + e^λ · max(0, R − D)), R and
 /// D in seconds.
 double qoe_score(Duration response, Duration deadline, double lambda);
