@@ -7,6 +7,9 @@ cd "$(dirname "$0")/.."
 scripts/deps.sh
 JOBS=$(nproc)
 
+echo "== formatting (.clang-format)"
+git ls-files '*.cpp' '*.hpp' | xargs clang-format --dry-run -Werror
+
 echo "== build and test (Release, all targets)"
 scripts/build.sh
 ctest --test-dir build --output-on-failure -j"$JOBS"
