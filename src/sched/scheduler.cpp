@@ -88,10 +88,11 @@ struct Job {
   std::vector<Duration> lvl_base;
   std::vector<std::uint8_t> has_base;
   std::vector<int> running_units;
-  std::uint64_t stamp = 0;    // decision stamp the values below are valid for
-  std::vector<TimePoint> hd;  // absolute deadline of each height
-  std::vector<Duration> lvl;
-  std::vector<std::uint8_t> has;
+  Duration remaining_base{0};  // Σ lvl_base
+  std::vector<double> frac;    // budget shares per height, valid while no unit runs
+  std::uint64_t stamp = 0;     // decision stamp the values below are valid for
+  std::vector<Duration> lvl;   // level costs with the running units' remaining costs
+  std::vector<double> frac_now;
   Duration remaining{0};  // Σ remaining level costs (critical-path estimate)
 };
 
@@ -422,35 +423,80 @@ struct Scheduler::Impl {
     free_jobs.push_back(slot);
   }
 
-  // §4: remaining level costs and (re-)assigned height deadlines of a job at `now`.
-  void eval(Job& j, TimePoint now) {
-    if (j.stamp == stamp) return;
-    j.stamp = stamp;
+  // Rebuilds what changes only when one of the job's units starts or ends: the costs of
+  // its units not yet started, per height, and — when none is running — the shares of the
+  // re-assigned budget (§4), which are then the same at every decision.
+  void refresh(Job& j) {
+    if (!j.dirty) return;
+    j.dirty = false;
     const RefinedGraph& g = *j.g;
     const auto levels = static_cast<std::size_t>(g.levels);
     const bool sum = s.config_.level_cost == LevelCost::Sum;
-    if (j.dirty) {
-      j.dirty = false;
-      j.lvl_base.assign(levels, Duration{0});
-      j.has_base.assign(levels, 0);
-      j.running_units.clear();
-      for (std::size_t i = 0; i < g.units.size(); ++i) {
-        const UnitRt& u = j.u[i];
-        if (u.state == UState::Done || u.state == UState::Cancelled) continue;
-        const auto h = static_cast<std::size_t>(g.units[i].height);
-        j.has_base[h] = 1;
-        if (u.state == UState::Running) {
-          j.running_units.push_back(static_cast<int>(i));
-          continue;
-        }
-        const Duration c = g.units[i].estimate;
-        j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
+    j.lvl_base.assign(levels, Duration{0});
+    j.has_base.assign(levels, 0);
+    j.running_units.clear();
+    for (std::size_t i = 0; i < g.units.size(); ++i) {
+      const UnitRt& u = j.u[i];
+      if (u.state == UState::Done || u.state == UState::Cancelled) continue;
+      const auto h = static_cast<std::size_t>(g.units[i].height);
+      j.has_base[h] = 1;
+      if (u.state == UState::Running) {
+        j.running_units.push_back(static_cast<int>(i));
+        continue;
       }
+      const Duration c = g.units[i].estimate;
+      j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
     }
+    j.remaining_base = Duration{0};
+    for (Duration l : j.lvl_base) j.remaining_base += l;
+    if (opt.reassign && j.running_units.empty()) shares(j, j.lvl_base, j.has_base, j.frac);
+  }
+
+  // §4 re-assignment: the budget left, B = deadline − now, is spread over the heights that
+  // still have work in proportion to their remaining level costs (or per-node overrides);
+  // height h ends at now + B · frac[h], frac[h] the cumulative share up to h (exactly 1 for
+  // the last height: its deadline is the job's).
+  void shares(const Job& j, const std::vector<Duration>& lvl, const std::vector<std::uint8_t>& has,
+              std::vector<double>& frac) const {
+    const RefinedGraph& g = *j.g;
+    const std::size_t levels = lvl.size();
+    frac.resize(levels);
+    std::int64_t total = 0;
+    std::int64_t n = 0;
+    for (std::size_t h = 0; h < levels; ++h) {
+      if (has[h] == 0) continue;
+      ++n;
+      total += (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
+    }
+    const bool equal = opt.deadlines == DeadlineMode::Equal || total <= 0;
+    const std::int64_t denom = equal ? n : total;
+    std::int64_t cum = 0;
+    double last = 0.0;  // before the first height with work: now
+    for (std::size_t h = 0; h < levels; ++h) {
+      if (has[h] != 0) {
+        cum += equal ? 1
+                     : (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
+        last = cum == denom ? 1.0 : static_cast<double>(cum) / static_cast<double>(denom);
+      }
+      frac[h] = last;
+    }
+  }
+
+  static TimePoint from_share(const Job& j, double frac, TimePoint now) {
+    const Duration budget = j.deadline - now;
+    if (budget <= Duration{0} || frac == 1.0) return j.deadline;
+    return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
+  }
+
+  // A job with running units: their remaining cost is c(x) − elapsed, at least 0 (§4), so
+  // level costs, the remaining work and the shares depend on now. Cached per decision.
+  void eval(Job& j, TimePoint now) {
+    refresh(j);
+    if (j.stamp == stamp) return;
+    j.stamp = stamp;
+    const RefinedGraph& g = *j.g;
+    const bool sum = s.config_.level_cost == LevelCost::Sum;
     j.lvl = j.lvl_base;
-    j.has = j.has_base;
-    j.hd.resize(levels);
-    // A running unit's remaining cost is c(x) − elapsed, at least 0 (§4).
     for (int i : j.running_units) {
       const UnitRt& u = j.u[static_cast<std::size_t>(i)];
       Duration c = g.units[static_cast<std::size_t>(i)].estimate;
@@ -459,54 +505,35 @@ struct Scheduler::Impl {
       j.lvl[h] = sum ? j.lvl[h] + c : std::max(j.lvl[h], c);
     }
     j.remaining = Duration{0};
-    for (std::size_t h = 0; h < levels; ++h) j.remaining += j.lvl[h];
+    for (Duration l : j.lvl) j.remaining += l;
+    if (opt.reassign) shares(j, j.lvl, j.has_base, j.frac_now);
+  }
+
+  // Absolute intermediate deadline of height h of a job at `now` (§4, §7).
+  TimePoint height_deadline(Job& j, int h, TimePoint now) {
+    const auto hi = static_cast<std::size_t>(h);
     switch (opt.deadlines) {
       case DeadlineMode::None:
-        std::fill(j.hd.begin(), j.hd.end(), j.release);
-        return;
+        return j.release;
       case DeadlineMode::EndToEnd:
-        std::fill(j.hd.begin(), j.hd.end(), j.deadline);
-        return;
+        return j.deadline;
       case DeadlineMode::Proportional:
       case DeadlineMode::Equal:
         break;
     }
-    if (!opt.reassign) {
-      for (std::size_t h = 0; h < levels; ++h) j.hd[h] = j.release + g.static_offset[h];
-      return;
-    }
-    // Re-assignment: spread the budget left over the heights left, in proportion to their
-    // remaining level costs (or their per-node overrides), from now.
-    const Duration budget = j.deadline - now;
-    if (budget <= Duration{0}) {
-      std::fill(j.hd.begin(), j.hd.end(), j.deadline);
-      return;
-    }
-    std::int64_t total = 0;
-    std::int64_t n = 0;
-    for (std::size_t h = 0; h < levels; ++h) {
-      if (j.has[h] == 0) continue;
-      ++n;
-      total += (g.override_budget[h] > Duration{0} ? g.override_budget[h] : j.lvl[h]).count();
-    }
-    const bool equal = opt.deadlines == DeadlineMode::Equal || total <= 0;
-    const std::int64_t denom = equal ? n : total;
-    // Double arithmetic on the hot path (no 128-bit division); the last remaining height
-    // gets exactly the job's deadline.
-    const double scale = static_cast<double>(budget.count()) / static_cast<double>(denom);
-    std::int64_t cum = 0;
-    TimePoint last = now;
-    for (std::size_t h = 0; h < levels; ++h) {
-      if (j.has[h] != 0) {
-        cum += equal
-                   ? 1
-                   : (g.override_budget[h] > Duration{0} ? g.override_budget[h] : j.lvl[h]).count();
-        last = cum == denom
-                   ? j.deadline
-                   : now + Duration{static_cast<std::int64_t>(static_cast<double>(cum) * scale)};
-      }
-      j.hd[h] = last;
-    }
+    if (!opt.reassign) return j.release + j.g->static_offset[hi];
+    refresh(j);
+    if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
+    eval(j, now);
+    return from_share(j, j.frac_now[hi], now);
+  }
+
+  // Estimated work left in a job (Σ remaining level costs: its critical-path estimate).
+  Duration remaining_work(Job& j, TimePoint now) {
+    refresh(j);
+    if (j.running_units.empty()) return j.remaining_base;
+    eval(j, now);
+    return j.remaining;
   }
 
   // ---- tasks --------------------------------------------------------------------------
@@ -623,12 +650,11 @@ struct Scheduler::Impl {
     Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
     for (auto [slot, unit] : k.members) {
       Job& j = job(slot);
-      eval(j, now);
       const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
-      v.deadline = std::min(v.deadline, j.hd[static_cast<std::size_t>(ru.height)]);
+      v.deadline = std::min(v.deadline, height_deadline(j, ru.height, now));
       v.release = std::min(v.release, j.release);
       v.job_deadline = std::min(v.job_deadline, j.deadline);
-      v.remaining = std::max(v.remaining, j.remaining);
+      v.remaining = std::max(v.remaining, remaining_work(j, now));
       v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
       const Key mk{0, j.release, j.op, j.seq, ru.node, unit};
       if (mk < best) best = mk;
@@ -660,8 +686,7 @@ struct Scheduler::Impl {
   bool slack_covers(Task& k, TimePoint now, TimePoint until) {
     for (auto [slot, unit] : k.members) {
       Job& j = job(slot);
-      eval(j, now);
-      if (j.deadline - now - j.remaining < until - now) return false;
+      if (j.deadline - now - remaining_work(j, now) < until - now) return false;
     }
     return true;
   }
@@ -796,7 +821,7 @@ struct Scheduler::Impl {
         if (opt.drop == DropMode::Hopeless) {
           for (const auto& [slot, unit] : k.members) {
             Job& j = job(slot);
-            if (now + j.remaining > j.deadline) {
+            if (now + remaining_work(j, now) > j.deadline) {
               end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again
               rescan = true;
               break;
@@ -1086,8 +1111,7 @@ TimePoint Scheduler::unit_deadline(int slot, int unit, TimePoint now) {
   Impl& m = *impl_;
   ++m.stamp;
   Job& j = m.job(slot);
-  m.eval(j, now);
-  return j.hd[static_cast<std::size_t>(j.g->units[static_cast<std::size_t>(unit)].height)];
+  return m.height_deadline(j, j.g->units[static_cast<std::size_t>(unit)].height, now);
 }
 
 }  // namespace red
