@@ -2,12 +2,15 @@
 
 #include <ATen/ATen.h>
 #include <c10/core/InferenceMode.h>
+#include <c10/core/Stream.h>
+#include <c10/core/impl/DeviceGuardImplInterface.h>
 #include <c10/util/Exception.h>
 
 #include <chrono>
 #include <deque>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -69,6 +72,17 @@ class TorchBackend final : public Backend {
 
   [[nodiscard]] std::string_view name() const noexcept override { return name_; }
 
+  // On a GPU every lane runs on its own stream from the device's pool (§6: one lane per
+  // CUDA stream), set as the lane thread's current stream. Device-generic c10 interface:
+  // it builds against a CPU-only LibTorch and uses CUDA when the LibTorch has it.
+  void init_lane(int /*lane*/) override {
+    const c10::Device device = model_->device();
+    if (device.is_cpu() || !c10::impl::hasDeviceGuardImpl(device.type())) return;
+    const auto* impl = c10::impl::getDeviceGuardImpl(device.type());
+    lane_stream_ = impl->getStreamFromGlobalPool(device);
+    impl->exchangeStream(*lane_stream_);
+  }
+
   void on_frame(int sensor, std::uint64_t frame) override {
     c10::InferenceMode guard;
     // A synthetic camera frame: deterministic pixels for (sensor, frame), in memory.
@@ -81,6 +95,10 @@ class TorchBackend final : public Backend {
     try {
       c10::InferenceMode guard;
       execute(d);
+      // Kernels are queued asynchronously on a GPU: the unit ends when its stream drains.
+      if (lane_stream_)
+        c10::impl::getDeviceGuardImpl(lane_stream_->device_type())
+            ->synchronizeStream(*lane_stream_);
     } catch (const c10::OutOfMemoryError& e) {
       throw OutOfMemoryError(e.what_without_backtrace());
     } catch (const std::bad_alloc&) {
@@ -202,9 +220,11 @@ class TorchBackend final : public Backend {
   Window<at::Tensor> frames_;
   Window<Features> features_;
   thread_local static at::Tensor last_;  // keeps the latest output alive until the next
+  thread_local static std::optional<c10::Stream> lane_stream_;  // this lane's GPU stream
 };
 
 thread_local at::Tensor TorchBackend::last_;
+thread_local std::optional<c10::Stream> TorchBackend::lane_stream_;
 
 }  // namespace
 
