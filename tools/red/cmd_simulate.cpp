@@ -185,7 +185,7 @@ void add_real(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--device", a.real.device, "LibTorch device: cpu, cuda, cuda:N")
       ->capture_default_str();
   cmd->add_option("--threads", a.real.threads,
-                  "LibTorch intra-op threads (0: every hardware thread, as red profile)")
+                  "LibTorch intra-op threads per lane (0: hardware threads / lanes)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-realtime", a.no_realtime, "Do not try SCHED_FIFO, CPU affinity, mlockall");
 }

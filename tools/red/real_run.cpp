@@ -30,10 +30,10 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
   }
   if (o.backend == "torch") {
 #ifdef RED_HAVE_TORCH
-    // As `red profile` does: every hardware thread, so run and profile agree.
-    const int threads = o.threads > 0
-                            ? o.threads
-                            : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+    // Every hardware thread shared among the lanes (one lane: all of them, as `red profile`
+    // measures), so lanes running side by side do not oversubscribe the cores.
+    const int hw = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+    const int threads = o.threads > 0 ? o.threads : std::max(1, hw / std::max(1, s.device.lanes));
     return torchb::make_torch_backend(s, o.device, threads);
 #else
     return Error{"", 0,
