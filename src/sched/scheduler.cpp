@@ -195,6 +195,7 @@ struct Scheduler::Impl {
     Key key;
     TimePoint deadline;
     int task;
+    int criticality;
   };
   std::vector<Scan> scanned;
   std::vector<int> batch;
@@ -796,23 +797,37 @@ struct Scheduler::Impl {
       // One scan ranks every ready task (the policy's key, and the deadline batching
       // orders by); a merge wait then only moves to the next best entry of the scan.
       scanned.clear();
+      // Criticality (§5): under overload — some ready job cannot, by estimate, finish its
+      // remaining work by its deadline — ready work of the most critical operations goes
+      // first and lower-criticality work waits, so it is shed first. With equal
+      // criticalities (the default) nothing changes.
+      bool overload = false;
+      int top = std::numeric_limits<int>::min();
       for (int t : ready) {
         if (task(t).wait_until > now) continue;
         TaskView v;
         const Key k = key(t, now, v);
-        scanned.push_back({k, v.deadline, t});
+        scanned.push_back({k, v.deadline, t, v.criticality});
+        overload = overload || now + v.remaining > v.job_deadline;
+        top = std::max(top, v.criticality);
       }
+      const int shed_below = overload ? top : std::numeric_limits<int>::min();
+      auto before = [shed_below](const Scan& a, const Scan& b) {
+        const bool shed_a = a.criticality < shed_below, shed_b = b.criticality < shed_below;
+        return shed_a != shed_b ? shed_b : a.key < b.key;
+      };
       int best = -1;
-      Key best_key{};
+      const Scan* best_scan = nullptr;
       TimePoint best_deadline{};
       bool rescan = false;
       for (;;) {
         best = -1;
+        best_scan = nullptr;
         for (const Scan& e : scanned) {
           if (task(e.task).wait_until > now) continue;  // began a merge wait this round
-          if (best < 0 || e.key < best_key) {
+          if (best_scan == nullptr || before(e, *best_scan)) {
+            best_scan = &e;
             best = e.task;
-            best_key = e.key;
             best_deadline = e.deadline;
           }
         }
