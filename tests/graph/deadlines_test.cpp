@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "../support/harness.hpp"
 #include "red/graph/refine.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
@@ -21,29 +22,8 @@ namespace red {
 namespace {
 
 using namespace std::chrono_literals;
-
-Scenario parse(const std::string& text) {
-  Expected<Scenario> s = parse_scenario(text, "test.yaml");
-  if (!s) throw std::runtime_error("scenario does not parse: " + s.error().to_string());
-  return std::move(s).value();
-}
-
-// §4 worked example: D = 120 ms; A and B at height 0 cost 20 ms; C at height 1 costs 40 ms.
-constexpr const char* kWorked = R"(name: worked
-duration_s: 10
-sensors:
-  cam: {rate_hz: 10}
-operations:
-  - name: job
-    trigger: cam
-    deadline_ms: 120
-    max_inflight: 4
-    nodes:
-      A: {cost_ms: 20}
-      B: {cost_ms: 20}
-      C: {cost_ms: 40}
-    edges: [[A, C], [B, C]]
-)";
+using test::kWorked;
+using test::parse;
 
 // The paper's case study: A -> C -> B with per-node budgets 50 / 50 / 30 in 130 ms.
 constexpr const char* kCaseStudy = R"(name: case

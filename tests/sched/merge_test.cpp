@@ -16,6 +16,7 @@
 
 #include <fmt/format.h>
 
+#include "../support/harness.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sched/observer.hpp"
@@ -26,12 +27,7 @@ namespace red {
 namespace {
 
 using namespace std::chrono_literals;
-
-Scenario parse(const std::string& text) {
-  Expected<Scenario> s = parse_scenario(text, "test.yaml");
-  if (!s) throw std::runtime_error("scenario does not parse: " + s.error().to_string());
-  return std::move(s).value();
-}
+using test::parse;
 
 struct Wait {
   int sensor = -1;
@@ -72,73 +68,7 @@ class Recorder final : public Observer {
   std::vector<JobOutcome> outcomes;
 };
 
-/// A fake scheduling context: the test is the clock and the executor.
-class Harness {
- public:
-  Harness(const std::string& yaml, std::string_view policy, Profile profile = default_profile())
-      : scenario_(parse(yaml)), profile_(std::move(profile)) {
-    auto p = make_policy(policy);
-    if (!p) throw std::runtime_error("unknown policy");
-    const SchedulerConfig cfg = SchedulerConfig::from(scenario_);
-    lanes_ = cfg.lanes;
-    sched_ = std::make_unique<Scheduler>(scenario_, profile_, std::move(p), cfg);
-    sched_->add_observer(&rec_);
-  }
-
-  Scheduler& s() { return *sched_; }
-  Recorder& rec() { return rec_; }
-
-  void frame(int sensor, std::uint64_t id, TimePoint t) {
-    sched_->apply_events(t);
-    sched_->on_frame(sensor, id, t);
-  }
-  /// Releases due by t, without a dispatch round.
-  void release_only(TimePoint t) {
-    sched_->apply_events(t);
-    sched_->advance(t);
-  }
-  std::vector<Dispatch> step(TimePoint t) {
-    sched_->apply_events(t);
-    sched_->advance(t);
-    std::vector<Dispatch> out;
-    for (const Dispatch* d : sched_->dispatch(t)) out.push_back(*d);
-    for (const Dispatch& d : out) sched_->on_start(d.lane, t);
-    return out;
-  }
-  void complete(int lane, TimePoint t) {
-    sched_->apply_events(t);
-    sched_->on_complete(lane, t, UnitStatus::Completed);
-  }
-  /// Runs until every lane is idle; a dispatch takes the largest estimate of its members.
-  TimePoint run_out(TimePoint t) {
-    std::vector<TimePoint> end(static_cast<std::size_t>(lanes_), kNever);
-    for (int l = 0; l < lanes_; ++l)
-      if (const Dispatch* d = sched_->running(l))
-        end[static_cast<std::size_t>(l)] = std::max(t, d->start + cost(*d));
-    for (const Dispatch& d : step(t)) end[static_cast<std::size_t>(d.lane)] = t + cost(d);
-    for (;;) {
-      const auto it = std::min_element(end.begin(), end.end());
-      if (*it == kNever) return t;
-      t = *it;
-      *it = kNever;
-      complete(static_cast<int>(it - end.begin()), t);
-      for (const Dispatch& d : step(t)) end[static_cast<std::size_t>(d.lane)] = t + cost(d);
-    }
-  }
-  static Duration cost(const Dispatch& d) {
-    Duration c{0};
-    for (const Member& m : d.members)
-      c = std::max(c, m.graph->units[static_cast<std::size_t>(m.unit)].estimate);
-    return c;
-  }
-
- private:
-  Scenario scenario_;
-  Profile profile_;
-  Recorder rec_;
-  std::unique_ptr<Scheduler> sched_;
-  int lanes_ = 1;
-};
+using Harness = test::Harness<Recorder>;
 
 std::set<int> operations_of(const Dispatch& d) {
   std::set<int> out;
@@ -541,7 +471,7 @@ TEST(Batching, NotWhenTheBatchIsNoCheaper) {
   LatencyStats two = enc.by_batch[0];
   for (Duration* x : {&two.min, &two.mean, &two.p50, &two.p95, &two.p99, &two.max}) *x *= 2;
   enc.by_batch[1] = two;  // batch of 2 costs exactly two single runs
-  Harness h(batch_yaml(100), "red", p);
+  Harness h(batch_yaml(100), "red", std::nullopt, 0, p);
   h.frame(0, 1, 0ms);
   h.frame(0, 2, 10ms);
   const auto d = h.step(10ms);
