@@ -125,8 +125,7 @@ double round6(double x) {
 
 }  // namespace
 
-PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end,
-                                          const SchedulerStats& /*stats*/) const {
+PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end) const {
   PolicyMetrics m;
   m.name = name;
   std::vector<double> lat;

@@ -28,7 +28,7 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
   const auto t0 = std::chrono::steady_clock::now();
   run.result = sim.run();
   run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  run.metrics = metrics.summarize(policy, run.result.end, run.result.stats);
+  run.metrics = metrics.summarize(policy, run.result.end);
   run.jobs = metrics.jobs();
   run.units = metrics.units();
   return run;

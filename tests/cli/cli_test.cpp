@@ -18,6 +18,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "../support/cli.hpp"
+
 namespace red {
 namespace {
 
@@ -32,22 +34,9 @@ struct RunResult {
   std::string err;
 };
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-std::string scenario(const std::string& name) {
-  return quote(std::string(RED_SOURCE_DIR) + "/scenarios/" + name);
-}
+using test::quote;
+using test::read_text;
+using test::scenario;
 
 std::string data(const std::string& name) {
   return std::string(RED_TEST_DATA) + "/cli/" + name;

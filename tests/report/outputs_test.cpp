@@ -17,28 +17,17 @@
 
 #include "red/report/plots.hpp"
 
+#include "../support/cli.hpp"
+
 namespace red {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-std::string scenario(const std::string& name) {
-  return quote(std::string(RED_SOURCE_DIR) + "/scenarios/" + name);
-}
+using test::quote;
+using test::read_text;
+using test::scenario;
 
 class Outputs : public ::testing::Test {
  protected:

@@ -71,7 +71,7 @@ RunResult run_runtime(const std::string& policy, SyntheticBackend::Options o) {
   rt.add_observer(&r.acc);
   rt.add_observer(&metrics);
   r.report = rt.run();
-  r.metrics = metrics.summarize(policy, r.report.end, r.report.stats);
+  r.metrics = metrics.summarize(policy, r.report.end);
   return r;
 }
 

@@ -59,7 +59,7 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   RuntimeReport report = rt.run();
   PolicyRun run;
   run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  run.metrics = metrics.summarize(policy, report.end, report.stats);
+  run.metrics = metrics.summarize(policy, report.end);
   run.metrics.decision_p50_us = std::round(percentile(report.decision_us, 0.5) * 1000) / 1000;
   run.metrics.decision_p99_us = std::round(percentile(report.decision_us, 0.99) * 1000) / 1000;
   run.jobs = metrics.jobs();

@@ -92,8 +92,7 @@ class MetricsCollector final : public Observer {
   void on_merge_wait(int sensor, TimePoint now, TimePoint until) override;
 
   /// Summary of the run that ended at `end`.
-  [[nodiscard]] PolicyMetrics summarize(const std::string& name, TimePoint end,
-                                        const SchedulerStats& stats) const;
+  [[nodiscard]] PolicyMetrics summarize(const std::string& name, TimePoint end) const;
   [[nodiscard]] const std::vector<JobRow>& jobs() const noexcept { return jobs_; }
   [[nodiscard]] const std::vector<UnitRow>& units() const noexcept { return units_; }
 
