@@ -226,6 +226,34 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
                out_unit[static_cast<std::size_t>(e.to)]);
   }
 
+  // Every estimate kind of every unit, for the checks that judge by another one (§15).
+  for (int k = 0; k < 4; ++k) {
+    const CostModel ck = costs.with(static_cast<EstimateKind>(k));
+    for (RefinedUnit& u : g->units) {
+      Duration c{0};
+      switch (u.kind) {
+        case UnitKind::Encoder:
+          c = ck.encoder();
+          break;
+        case UnitKind::Head:
+          c = ck.head(u.head);
+          break;
+        case UnitKind::Coarse:
+          c = ck.encoder() + ck.head(u.head);
+          break;
+        case UnitKind::Plain:
+          c = CostModel::plain(*op.nodes[static_cast<std::size_t>(u.node)].cost, ck.estimate);
+          break;
+        case UnitKind::Mono:
+          c = ck.encoder() * static_cast<std::int64_t>(g->sensors.size());
+          for (const NodeSpec& n : op.nodes)
+            c += n.is_plain() ? CostModel::plain(*n.cost, ck.estimate) : ck.head(n.head);
+          break;
+      }
+      u.costs[static_cast<std::size_t>(k)] = c;
+    }
+  }
+
   // Heights and critical path; units are in topological order by construction.
   std::vector<Duration> finish(g->units.size(), Duration{0});
   for (std::size_t i = 0; i < g->units.size(); ++i) {

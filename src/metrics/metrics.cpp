@@ -56,7 +56,11 @@ void MetricsCollector::on_unit_start(const Dispatch& d) {
 void MetricsCollector::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus s) {
   const TimePoint start = started_[static_cast<std::size_t>(d.lane)];
   const TimePoint from = std::max(start, scenario_.warmup);
-  if (end > from) busy_[static_cast<std::size_t>(d.lane)] += end - from;
+  if (end > from) {
+    busy_[static_cast<std::size_t>(d.lane)] += end - from;
+    const Duration share = (end - from) / static_cast<std::int64_t>(d.members.size());
+    for (const Member& m : d.members) spent_[m.job] += share;
+  }
   if (start < scenario_.warmup) return;
   ++dispatches_;
   if (d.round_trip) ++round_trips_;
@@ -131,8 +135,14 @@ PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end
   std::vector<double> lat;
   std::vector<double> age;
   double qoe_sum = 0;
+  Duration wasted{0};
   for (const JobRow& j : jobs_) {
     ++m.jobs;
+    if (j.outcome == JobOutcome::Dropped || j.outcome == JobOutcome::Skipped ||
+        j.outcome == JobOutcome::Failed) {
+      ++m.drop_reasons[j.reason.empty() ? std::string(to_string(j.outcome)) : j.reason];
+      if (const auto it = spent_.find(j.id); it != spent_.end()) wasted += it->second;
+    }
     switch (j.outcome) {
       case JobOutcome::Met:
         ++m.completed;
@@ -164,6 +174,7 @@ PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end
     }
   }
   const auto decided = static_cast<double>(m.completed + m.dropped);
+  if (m.jobs > 0) m.on_time = round6(static_cast<double>(m.met) / static_cast<double>(m.jobs));
   // A job misses if it finishes late or is dropped (§10).
   m.missed += m.dropped;
   if (decided > 0) {
@@ -194,7 +205,12 @@ PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end
   m.batch_sizes = batches_;
   const double window = std::max(1e-9, to_s(end - scenario_.warmup));
   m.measured_s = round6(window);
-  for (Duration b : busy_) m.lane_utilization.push_back(round6(std::min(1.0, to_s(b) / window)));
+  Duration busy{0};
+  for (Duration b : busy_) {
+    m.lane_utilization.push_back(round6(std::min(1.0, to_s(b) / window)));
+    busy += b;
+  }
+  if (busy > Duration{0}) m.wasted_lane_fraction = round6(to_s(wasted) / to_s(busy));
   for (std::size_t h = 0; h < head_outputs_.size(); ++h)
     m.throughput_hz[scenario_.model.heads[h]] =
         round6(static_cast<double>(head_outputs_[h]) / window);

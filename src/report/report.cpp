@@ -50,6 +50,11 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
     p["miss_rate"] = m.miss_rate;
     p["drop_rate"] = m.drop_rate;
     p["qoe"] = m.qoe;
+    p["on_time"] = m.on_time;
+    nlohmann::ordered_json why = nlohmann::ordered_json::object();
+    for (const auto& [reason, n] : m.drop_reasons) why[reason] = n;
+    p["drop_reasons"] = why;
+    p["wasted_lane_fraction"] = m.wasted_lane_fraction;
     p["latency_ms"] = {{"mean", m.latency.mean},
                        {"p50", m.latency.p50},
                        {"p90", m.latency.p90},
@@ -118,13 +123,13 @@ std::string comparison_table(const std::vector<PolicyMetrics>& policies,
     return v ? fmt::format("{:.3f}", *v) : std::string("-");
   };
   std::string out = fmt::format(
-      "{:<8} {:>6} {:>7} {:>7} {:>9} {:>9} {:>6} {:>8}  {:>6} {:>6} {:>6}\n", "policy", "jobs",
+      "{:<10} {:>6} {:>7} {:>7} {:>9} {:>9} {:>6} {:>8}  {:>6} {:>6} {:>6}\n", "policy", "jobs",
       "miss%", "drop%", "mean ms", "p99 ms", "QoE", "enc runs", "miss/", "lat/", "QoE/");
-  out += fmt::format("{:<8} {:>6} {:>7} {:>7} {:>9} {:>9} {:>6} {:>8}  {:>6} {:>6} {:>6}\n", "", "",
-                     "", "", "", "", "", "", baseline, baseline, baseline);
+  out += fmt::format("{:<10} {:>6} {:>7} {:>7} {:>9} {:>9} {:>6} {:>8}  {:>6} {:>6} {:>6}\n", "",
+                     "", "", "", "", "", "", "", baseline, baseline, baseline);
   for (const PolicyMetrics& m : policies) {
     out += fmt::format(
-        "{:<8} {:>6} {:>7.2f} {:>7.2f} {:>9.2f} {:>9.2f} {:>6.3f} {:>8}  {:>6} {:>6} {:>6}\n",
+        "{:<10} {:>6} {:>7.2f} {:>7.2f} {:>9.2f} {:>9.2f} {:>6.3f} {:>8}  {:>6} {:>6} {:>6}\n",
         m.name, m.jobs, 100.0 * m.miss_rate, 100.0 * m.drop_rate, m.latency.mean, m.latency.p99,
         m.qoe, m.encoder_runs, r(m.ratio_miss), r(m.ratio_latency), r(m.ratio_qoe));
   }

@@ -117,7 +117,7 @@ struct Runtime::Impl {
       : scenario(s),
         backend(b),
         options(o),
-        sched(s, p, std::move(policy), SchedulerConfig::from(s)),
+        sched(s, p, std::move(policy), SchedulerConfig::from(s, p)),
         sync(sched.policy().options().sync) {
     report.decision_us.reserve(4096);
     report.handoff_us.reserve(4096);
@@ -427,6 +427,15 @@ struct Runtime::Impl {
     for (std::thread& t : load) t.join();
     {
       std::lock_guard lock(sched_mu);
+      // Units that returned after the loop ended still completed: report them, so that
+      // only a unit cut by the end of the run is reported unfinished.
+      {
+        std::lock_guard il(inbox_mu);
+        for (InEvent& e : inbox)
+          if (e.kind == InEvent::Complete && sched.running(e.index) != nullptr)
+            sched.on_complete(e.index, advance_now(e.t), e.status, e.reason);
+        inbox.clear();
+      }
       const TimePoint end = advance_now(clock.now());
       sched.finish(end);
       report.end = end;

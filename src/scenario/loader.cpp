@@ -7,6 +7,7 @@
 #include "red/scenario/loader.hpp"
 
 #include "red/core/file.hpp"
+#include "red/sched/policy.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -379,8 +380,20 @@ void Loader::parse_model(const Val& v) {
 }
 
 void Loader::parse_scheduler(const Val& v) {
-  const Fields f(v, {"gamma_ms", "estimate", "level_cost", "max_batch", "qoe_lambda"});
+  const Fields f(
+      v, {"gamma_ms", "estimate", "level_cost", "max_batch", "qoe_lambda", "graph", "deadlines",
+          "reassign", "merge", "batching", "sync", "drop", "drop_estimate", "admission", "rank"});
   auto& sc = s_.scheduler;
+  // Policy options (§15 ablations): checked here so that a bad value names its line.
+  PolicyOptions check;
+  for (const std::string& key : option_keys()) {
+    const Val* x = f.get(key);
+    if (x == nullptr) continue;
+    const std::string value = text(*x);
+    if (std::string err = set_option(check, key, value); !err.empty())
+      fail(x->line, at(x->what) + err);
+    sc.policy_with += (sc.policy_with.empty() ? "" : ",") + key + "=" + value;
+  }
   if (const Val* x = f.get("gamma_ms")) sc.gamma = ms_value(*x, non_negative(*x));
   if (const Val* x = f.get("estimate")) {
     const std::string e = text(*x);

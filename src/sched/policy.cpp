@@ -1,5 +1,8 @@
 #include "red/sched/policy.hpp"
 
+#include <array>
+#include <utility>
+
 namespace red {
 
 const char* to_string(SyncMode m) noexcept {
@@ -18,27 +21,179 @@ const char* to_string(DropMode m) noexcept {
   return "?";
 }
 
+const char* to_string(RankMode m) noexcept {
+  switch (m) {
+    case RankMode::Policy:
+      return "policy";
+    case RankMode::JobDeadline:
+      return "job-deadline";
+    case RankMode::Overload:
+      return "overload";
+  }
+  return "?";
+}
+
+const char* to_string(Admission m) noexcept {
+  return m == Admission::None ? "none" : "shed";
+}
+
+namespace {
+
+const char* estimate_name(EstimateKind k) noexcept {
+  switch (k) {
+    case EstimateKind::Mean:
+      return "mean";
+    case EstimateKind::P95:
+      return "p95";
+    case EstimateKind::P99:
+      return "p99";
+    case EstimateKind::Max:
+      return "max";
+  }
+  return "?";
+}
+
+// One option: its key, how it is spelled, how it is read.
+template <typename E, std::size_t N>
+std::string choose(E& field, std::string_view key, std::string_view value,
+                   const std::array<std::pair<const char*, E>, N>& values) {
+  std::string allowed;
+  for (const auto& [name, v] : values) {
+    if (value == name) {
+      field = v;
+      return {};
+    }
+    allowed += allowed.empty() ? "" : ", ";
+    allowed += name;
+  }
+  return "option '" + std::string(key) + "': '" + std::string(value) +
+         "' is not one of: " + allowed;
+}
+
+constexpr std::array<std::pair<const char*, bool>, 6> kBool{
+    {{"yes", true}, {"no", false}, {"true", true}, {"false", false}, {"on", true}, {"off", false}}};
+
+}  // namespace
+
+std::string set_option(PolicyOptions& o, std::string_view key, std::string_view value) {
+  if (key == "graph")
+    return choose(
+        o.graph, key, value,
+        std::array<std::pair<const char*, GraphMode>, 3>{
+            {{"coarse", GraphMode::Coarse}, {"fine", GraphMode::Fine}, {"mono", GraphMode::Mono}}});
+  if (key == "deadlines")
+    return choose(o.deadlines, key, value,
+                  std::array<std::pair<const char*, DeadlineMode>, 4>{
+                      {{"none", DeadlineMode::None},
+                       {"end-to-end", DeadlineMode::EndToEnd},
+                       {"proportional", DeadlineMode::Proportional},
+                       {"equal", DeadlineMode::Equal}}});
+  if (key == "reassign") return choose(o.reassign, key, value, kBool);
+  if (key == "merge") return choose(o.merge, key, value, kBool);
+  if (key == "batching") return choose(o.batching, key, value, kBool);
+  if (key == "sync")
+    return choose(o.sync, key, value,
+                  std::array<std::pair<const char*, SyncMode>, 2>{
+                      {{"per-edge", SyncMode::PerEdge}, {"on-demand", SyncMode::OnDemand}}});
+  if (key == "drop")
+    return choose(
+        o.drop, key, value,
+        std::array<std::pair<const char*, DropMode>, 3>{{{"none", DropMode::None},
+                                                         {"strict", DropMode::Strict},
+                                                         {"hopeless", DropMode::Hopeless}}});
+  if (key == "drop_estimate")
+    return choose(
+        o.drop_estimate, key, value,
+        std::array<std::pair<const char*, EstimateKind>, 4>{{{"mean", EstimateKind::Mean},
+                                                             {"p95", EstimateKind::P95},
+                                                             {"p99", EstimateKind::P99},
+                                                             {"max", EstimateKind::Max}}});
+  if (key == "admission")
+    return choose(o.admission, key, value,
+                  std::array<std::pair<const char*, Admission>, 2>{
+                      {{"none", Admission::None}, {"shed", Admission::Shed}}});
+  if (key == "rank")
+    return choose(
+        o.rank, key, value,
+        std::array<std::pair<const char*, RankMode>, 3>{{{"policy", RankMode::Policy},
+                                                         {"job-deadline", RankMode::JobDeadline},
+                                                         {"overload", RankMode::Overload}}});
+  std::string keys;
+  for (const std::string& k : option_keys()) keys += (keys.empty() ? "" : ", ") + k;
+  return "unknown policy option '" + std::string(key) + "' (options: " + keys + ")";
+}
+
+std::string apply_options(PolicyOptions& o, std::string_view list) {
+  PolicyOptions out = o;  // all or nothing: a bad entry changes nothing
+  while (!list.empty()) {
+    const std::size_t comma = list.find(',');
+    const std::string_view item = list.substr(0, comma);
+    list = comma == std::string_view::npos ? std::string_view{} : list.substr(comma + 1);
+    if (item.empty()) continue;
+    const std::size_t eq = item.find('=');
+    if (eq == std::string_view::npos || eq == 0 || eq + 1 == item.size())
+      return "'" + std::string(item) + "' is not key=value";
+    if (std::string err = set_option(out, item.substr(0, eq), item.substr(eq + 1)); !err.empty())
+      return err;
+  }
+  o = out;
+  return {};
+}
+
+const std::vector<std::string>& option_keys() {
+  static const std::vector<std::string> v{"graph",     "deadlines", "reassign", "merge",
+                                          "batching",  "sync",      "drop",     "drop_estimate",
+                                          "admission", "rank"};
+  return v;
+}
+
+std::string describe(const PolicyOptions& o) {
+  auto yn = [](bool b) { return b ? "yes" : "no"; };
+  return std::string("graph=") + to_string(o.graph) + ",deadlines=" + to_string(o.deadlines) +
+         ",reassign=" + yn(o.reassign) + ",merge=" + yn(o.merge) + ",batching=" + yn(o.batching) +
+         ",sync=" + to_string(o.sync) + ",drop=" + to_string(o.drop) +
+         ",drop_estimate=" + estimate_name(o.drop_estimate) +
+         ",admission=" + to_string(o.admission) + ",rank=" + to_string(o.rank);
+}
+
 std::optional<PolicyOptions> preset_options(std::string_view name) {
-  // §7: every preset is a row of the table.
+  // §7: every preset is a row of the table; red-robust is §15.
   PolicyOptions o;
+  o.reassign = false;
+  o.merge = false;
+  o.batching = false;
+  o.sync = SyncMode::PerEdge;
+  o.drop = DropMode::Strict;
   if (name == "fifo") {
-    o = {GraphMode::Coarse, DeadlineMode::None, false, false, false,
-         SyncMode::PerEdge, DropMode::None};
+    o.graph = GraphMode::Coarse;
+    o.deadlines = DeadlineMode::None;
+    o.drop = DropMode::None;
   } else if (name == "edf") {
-    o = {GraphMode::Coarse, DeadlineMode::EndToEnd, false, false, false,
-         SyncMode::PerEdge, DropMode::Strict};
+    o.graph = GraphMode::Coarse;
+    o.deadlines = DeadlineMode::EndToEnd;
   } else if (name == "mono") {
-    o = {GraphMode::Mono, DeadlineMode::EndToEnd, false,           false,
-         false,           SyncMode::PerEdge,      DropMode::Strict};
+    o.graph = GraphMode::Mono;
+    o.deadlines = DeadlineMode::EndToEnd;
   } else if (name == "red-fg") {
-    o = {GraphMode::Fine, DeadlineMode::Proportional, false,           true,
-         false,           SyncMode::PerEdge,          DropMode::Strict};
+    o.graph = GraphMode::Fine;
+    o.deadlines = DeadlineMode::Proportional;
+    o.merge = true;
   } else if (name == "red-ida") {
-    o = {GraphMode::Fine, DeadlineMode::Proportional, true, true, false, SyncMode::PerEdge,
-         DropMode::Strict};
-  } else if (name == "red" || name == "lst") {
-    o = {GraphMode::Fine, DeadlineMode::Proportional, true, true, true, SyncMode::OnDemand,
-         DropMode::Strict};
+    o.graph = GraphMode::Fine;
+    o.deadlines = DeadlineMode::Proportional;
+    o.reassign = o.merge = true;
+  } else if (name == "red" || name == "lst" || name == "red-robust") {
+    o.graph = GraphMode::Fine;
+    o.deadlines = DeadlineMode::Proportional;
+    o.reassign = o.merge = o.batching = true;
+    o.sync = SyncMode::OnDemand;
+    if (name == "red-robust") {
+      // §15: shed early on an optimistic estimate, finish what was started while overloaded.
+      o.drop = DropMode::Hopeless;
+      o.drop_estimate = EstimateKind::Mean;
+      o.admission = Admission::Shed;
+      o.rank = RankMode::Overload;
+    }
   } else {
     return std::nullopt;
   }
@@ -56,12 +211,14 @@ std::unique_ptr<Policy> make_policy(std::string_view name,
 }
 
 const std::vector<std::string>& default_presets() {
-  static const std::vector<std::string> v{"fifo", "mono", "edf", "red-fg", "red-ida", "red"};
+  static const std::vector<std::string> v{"fifo",    "mono", "edf",       "red-fg",
+                                          "red-ida", "red",  "red-robust"};
   return v;
 }
 
 const std::vector<std::string>& known_policies() {
-  static const std::vector<std::string> v{"fifo", "mono", "edf", "red-fg", "red-ida", "red", "lst"};
+  static const std::vector<std::string> v{"fifo",    "mono", "edf",        "red-fg",
+                                          "red-ida", "red",  "red-robust", "lst"};
   return v;
 }
 

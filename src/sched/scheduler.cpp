@@ -1,6 +1,7 @@
 #include "red/sched/scheduler.hpp"
 
 #include <algorithm>
+#include <array>
 #include <limits>
 #include <string>
 
@@ -36,6 +37,8 @@ const char* to_string(UnitStatus s) noexcept {
       return "out-of-memory";
     case UnitStatus::Cancelled:
       return "cancelled";
+    case UnitStatus::Unfinished:
+      return "unfinished";
   }
   return "?";
 }
@@ -48,6 +51,13 @@ SchedulerConfig SchedulerConfig::from(const Scenario& s) {
   c.estimate = s.scheduler.estimate;
   c.level_cost = s.scheduler.level_cost;
   c.warmup = s.warmup;
+  if (s.device.sync_cost) c.sync_cost = *s.device.sync_cost;
+  return c;
+}
+
+SchedulerConfig SchedulerConfig::from(const Scenario& s, const Profile& p) {
+  SchedulerConfig c = from(s);
+  c.sync_cost = s.device.sync_cost ? *s.device.sync_cost : p.sync_round_trip;
   return c;
 }
 
@@ -59,8 +69,15 @@ struct UnitRt {
   UState state = UState::Blocked;
   int pending = 0;
   int task = -1;
+  int share = 1;  // members of the dispatch running it (its cost is shared among them)
   TimePoint start{0};
 };
+
+constexpr std::size_t kEstimates = 4;  // EstimateKind values
+
+std::size_t idx(EstimateKind k) {
+  return static_cast<std::size_t>(k);
+}
 
 struct Job {
   JobId id = 0;
@@ -94,6 +111,14 @@ struct Job {
   std::vector<Duration> lvl;   // level costs with the running units' remaining costs
   std::vector<double> frac_now;
   Duration remaining{0};  // Σ remaining level costs (critical-path estimate)
+  // §15 demand: work of units not started, by estimate kind, encoders aside (a queued
+  // encoder's cost is shared by the members of its task, read when asked); and the level
+  // costs under the drop estimate, for hopeless checks.
+  std::array<Duration, kEstimates> work_base{};
+  std::vector<int> enc_queued;
+  std::vector<Duration> lvl_drop_base;
+  Duration remaining_drop_base{0};
+  bool started = false;  // a unit of it has started
 };
 
 struct Task {
@@ -141,9 +166,10 @@ struct Lane {
   bool busy = false;
   Dispatch d;
   TimePoint completed_at = kNever;
-  int last_slot = -1;
-  JobId last_job = 0;
-  std::vector<int> last_units;
+  // §6 on-demand: the jobs of the run this lane's handler was handed. Their ready units
+  // follow back to back; the run ends on a round trip or a transition other than Completed.
+  bool run_open = false;
+  std::vector<std::pair<int, JobId>> run_jobs;
 };
 
 struct Key {
@@ -189,6 +215,12 @@ struct Scheduler::Impl {
   std::uint64_t stamp = 1;
   std::uint64_t dispatch_seq = 0;
   TimePoint min_wait = kNever;
+  // §15 overload: live jobs by (deadline, id), for the demand test; whether a release came
+  // since the last admission test; whether the lanes are judged overloaded this round.
+  std::vector<int> by_deadline;
+  bool released_since_admission = false;
+  bool overloaded = false;
+  bool mixed_criticality = false;
   // scratch for batching
   std::vector<std::pair<Key, int>> cand;
   struct Scan {
@@ -224,6 +256,18 @@ struct Scheduler::Impl {
     for (int i = 0; i < sc.operation_count(); ++i)
       if (sc.initial[static_cast<std::size_t>(i)])
         install(i, sc.initial[static_cast<std::size_t>(i)], TimePoint{0}, true);
+    // Criticality orders work only under overload (§5); the demand test that detects it runs
+    // only when criticalities differ somewhere in the scenario, or the policy ranks by it.
+    int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
+    auto see = [&](const std::shared_ptr<const OperationSpec>& op) {
+      if (!op) return;
+      lo = std::min(lo, op->criticality);
+      hi = std::max(hi, op->criticality);
+    };
+    for (const auto& op : sc.initial) see(op);
+    for (const EventSpec& e : sc.events)
+      for (const auto& [i, op] : e.changes) see(op);
+    mixed_criticality = lo < hi;
   }
 
   void notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event) {
@@ -348,6 +392,7 @@ struct Scheduler::Impl {
     j.dependent_ids.clear();
     j.stamp = 0;
     j.dirty = true;
+    j.started = false;
     j.frame.assign(sensors.size(), 0);
     j.frame_time.assign(sensors.size(), now);
     for (int sn : g.sensors) {
@@ -379,6 +424,10 @@ struct Scheduler::Impl {
     o.last_job = j.id;
     ++o.inflight;
     ++s.in_flight_;
+    by_deadline.insert(std::upper_bound(by_deadline.begin(), by_deadline.end(), slot,
+                                        [this](int a, int b) { return earlier(a, b); }),
+                       slot);
+    released_since_admission = true;
     if (opt.drop != DropMode::None) {
       deadlines.push_back({j.deadline, {slot, j.id}});
       std::push_heap(deadlines.begin(), deadlines.end(), std::greater<>{});
@@ -394,6 +443,9 @@ struct Scheduler::Impl {
     j.ended = true;
     --s.in_flight_;
     --ops[static_cast<std::size_t>(j.op)].inflight;
+    const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
+                                     [this](int a, int b) { return earlier(a, b); });
+    if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);
     if (outcome != JobOutcome::Met && outcome != JobOutcome::Missed) {
       // Abort (§5 strict): queued units leave their tasks; running ones finish and their
       // output is discarded when they return.
@@ -418,6 +470,13 @@ struct Scheduler::Impl {
     if (j.running == 0) free_job(slot);
   }
 
+  // Order of live jobs in by_deadline: end-to-end deadline, then job id.
+  bool earlier(int a, int b) const {
+    const Job& x = jobs[static_cast<std::size_t>(a)];
+    const Job& y = jobs[static_cast<std::size_t>(b)];
+    return x.deadline != y.deadline ? x.deadline < y.deadline : x.id < y.id;
+  }
+
   void free_job(int slot) {
     Job& j = job(slot);
     j.live = false;
@@ -434,22 +493,38 @@ struct Scheduler::Impl {
     const auto levels = static_cast<std::size_t>(g.levels);
     const bool sum = s.config_.level_cost == LevelCost::Sum;
     j.lvl_base.assign(levels, Duration{0});
+    j.lvl_drop_base.assign(levels, Duration{0});
     j.has_base.assign(levels, 0);
     j.running_units.clear();
+    j.enc_queued.clear();
+    j.work_base.fill(Duration{0});
+    j.started = false;
+    const std::size_t drop_k = idx(opt.drop_estimate);
     for (std::size_t i = 0; i < g.units.size(); ++i) {
       const UnitRt& u = j.u[i];
+      const RefinedUnit& ru = g.units[i];
+      if (u.state == UState::Done || u.state == UState::Running) j.started = true;
       if (u.state == UState::Done || u.state == UState::Cancelled) continue;
-      const auto h = static_cast<std::size_t>(g.units[i].height);
+      const auto h = static_cast<std::size_t>(ru.height);
       j.has_base[h] = 1;
       if (u.state == UState::Running) {
         j.running_units.push_back(static_cast<int>(i));
         continue;
       }
-      const Duration c = g.units[i].estimate;
+      const Duration c = ru.estimate;
       j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
+      const Duration cd = ru.costs[drop_k];
+      j.lvl_drop_base[h] = sum ? j.lvl_drop_base[h] + cd : std::max(j.lvl_drop_base[h], cd);
+      if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
+        j.enc_queued.push_back(static_cast<int>(i));
+      } else {
+        for (std::size_t k = 0; k < kEstimates; ++k) j.work_base[k] += ru.costs[k];
+      }
     }
     j.remaining_base = Duration{0};
     for (Duration l : j.lvl_base) j.remaining_base += l;
+    j.remaining_drop_base = Duration{0};
+    for (Duration l : j.lvl_drop_base) j.remaining_drop_base += l;
     if (opt.reassign && j.running_units.empty()) shares(j, j.lvl_base, j.has_base, j.frac);
   }
 
@@ -535,6 +610,112 @@ struct Scheduler::Impl {
     if (j.running_units.empty()) return j.remaining_base;
     eval(j, now);
     return j.remaining;
+  }
+
+  // The same critical-path estimate under the drop estimate (§15: optimistic, so that a
+  // job that can still make it is kept).
+  Duration remaining_for_drop(Job& j, TimePoint now) {
+    if (opt.drop_estimate == s.config_.estimate) return remaining_work(j, now);
+    refresh(j);
+    Duration cp = j.remaining_drop_base;
+    const bool sum = s.config_.level_cost == LevelCost::Sum;
+    const std::size_t k = idx(opt.drop_estimate);
+    const RefinedGraph& g = *j.g;
+    for (std::size_t a = 0; a < j.running_units.size(); ++a) {
+      const auto ua = static_cast<std::size_t>(j.running_units[a]);
+      const Duration ra = residual(j, ua, now, k);
+      if (sum) {
+        cp += ra;
+        continue;
+      }
+      // Max per height: the first running unit of a height stands for all of them there.
+      const int h = g.units[ua].height;
+      bool first = true;
+      Duration top = ra;
+      for (std::size_t b = 0; b < j.running_units.size(); ++b) {
+        const auto ub = static_cast<std::size_t>(j.running_units[b]);
+        if (g.units[ub].height != h) continue;
+        if (b < a) first = false;
+        top = std::max(top, residual(j, ub, now, k));
+      }
+      if (first) cp += std::max(Duration{0}, top - j.lvl_drop_base[static_cast<std::size_t>(h)]);
+    }
+    return cp;
+  }
+
+  // Remaining cost of a running unit under estimate kind k (§4: c(x) − elapsed, at least 0).
+  Duration residual(const Job& j, std::size_t unit, TimePoint now, std::size_t k) const {
+    const Duration c = j.g->units[unit].costs[k];
+    const TimePoint start = j.u[unit].start;
+    return now > start ? std::max(Duration{0}, c - (now - start)) : c;
+  }
+
+  // §15 demand: the lane time a job still needs under estimate kind k. A queued encoder run
+  // is shared by the members of its task and a running unit by the members of its dispatch,
+  // so shared encoder runs are counted once.
+  Duration work_left(Job& j, TimePoint now, std::size_t k) {
+    refresh(j);
+    Duration w = j.work_base[k];
+    for (int u : j.enc_queued) {
+      const UnitRt& ur = j.u[static_cast<std::size_t>(u)];
+      const auto members = std::max<std::size_t>(1, task(ur.task).members.size());
+      w += j.g->units[static_cast<std::size_t>(u)].costs[k] / static_cast<std::int64_t>(members);
+    }
+    for (int u : j.running_units) {
+      const auto ui = static_cast<std::size_t>(u);
+      w += residual(j, ui, now, k) / std::max(1, j.u[ui].share);
+    }
+    return w;
+  }
+
+  // The demand test (§15): taking live jobs by deadline, the first whose deadline comes
+  // before the lanes can do the work due by it (its own and every earlier job's) under
+  // estimate kind k; -1 when all of it fits. A position in by_deadline.
+  int first_overrun(TimePoint now, std::size_t k) {
+    const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
+    Duration due{0};
+    for (std::size_t i = 0; i < by_deadline.size(); ++i) {
+      Job& j = job(by_deadline[i]);
+      due += work_left(j, now, k);
+      if (due > (j.deadline - now) * lane_count) return static_cast<int>(i);
+    }
+    return -1;
+  }
+
+  // Admission (§15 "shed early, shed little"): while the work due by some deadline exceeds
+  // what the lanes can do by then (on the optimistic drop estimate), reject one unstarted
+  // job due by then: the least critical, then the one whose removal saves the most work,
+  // then the latest. On one lane this is Moore and Hodgson's rule (1968: drop the longest
+  // job when a deadline is overrun), which minimizes the number of late jobs.
+  void admit(TimePoint now) {
+    const std::size_t k = idx(opt.drop_estimate);
+    for (;;) {
+      const int over = first_overrun(now, k);
+      if (over < 0) return;
+      int victim = -1;
+      Duration victim_work{0};
+      int victim_crit = 0;
+      for (int i = 0; i <= over; ++i) {
+        const int slot = by_deadline[static_cast<std::size_t>(i)];
+        Job& j = job(slot);
+        refresh(j);
+        if (j.started) continue;
+        const int crit = ops[static_cast<std::size_t>(j.op)].criticality;
+        const Duration w = work_left(j, now, k);
+        const bool better = victim < 0 || crit < victim_crit ||
+                            (crit == victim_crit && w > victim_work) ||
+                            (crit == victim_crit && w == victim_work);  // later deadline wins
+        if (better) {
+          victim = slot;
+          victim_work = w;
+          victim_crit = crit;
+        }
+      }
+      if (victim < 0) return;  // only started jobs are due by then: hopeless checks decide
+      job(victim).reason = "rejected at release";
+      ++s.stats_.rejected;
+      end_job(victim, JobOutcome::Dropped, now);
+    }
   }
 
   // ---- tasks --------------------------------------------------------------------------
@@ -660,7 +841,17 @@ struct Scheduler::Impl {
       const Key mk{0, j.release, j.op, j.seq, ru.node, unit};
       if (mk < best) best = mk;
     }
-    best.rank = s.policy_->rank(v, now);
+    v.overloaded = overloaded;
+    // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
+    // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
+    // batching is checked against.
+    if (opt.rank == RankMode::JobDeadline || (opt.rank == RankMode::Overload && overloaded)) {
+      TaskView by_job = v;
+      by_job.deadline = v.job_deadline;
+      best.rank = s.policy_->rank(by_job, now);
+    } else {
+      best.rank = s.policy_->rank(v, now);
+    }
     return best;
   }
 
@@ -684,12 +875,19 @@ struct Scheduler::Impl {
     return best;
   }
 
+  // A merge wait until `until` is taken only if every member's slack still covers it; the
+  // run after the wait pays a round trip (the handler parked meanwhile).
   bool slack_covers(Task& k, TimePoint now, TimePoint until) {
     for (auto [slot, unit] : k.members) {
       Job& j = job(slot);
-      if (j.deadline - now - remaining_work(j, now) < until - now) return false;
+      if (j.deadline - now - remaining_work(j, now) - round_trip_cost(true) < until - now)
+        return false;
     }
     return true;
+  }
+
+  Duration round_trip_cost(bool round_trip) const {
+    return round_trip ? s.config_.sync_cost : Duration{0};
   }
 
   Duration batch_estimate(const Task& k, int b) const {
@@ -704,17 +902,36 @@ struct Scheduler::Impl {
     return std::min(s.config_.max_batch, p != nullptr ? p->max_batch() : 1);
   }
 
+  // §6 on-demand: the task continues the run the lane's handler holds — its last unit
+  // completed just now and the task is ready work of a job of the run (a merged encoder's
+  // member heads, a job's ready units of a height, their successors) — so the handler goes
+  // on without a round trip. Anything else, or per-edge synchronization, pays one.
   bool on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const {
-    if (opt.sync != SyncMode::OnDemand || lane.completed_at != now || lane.last_slot < 0)
-      return false;
+    if (opt.sync != SyncMode::OnDemand || lane.completed_at != now || !lane.run_open) return false;
     for (auto [slot, unit] : k.members) {
-      const Job& j = jobs[static_cast<std::size_t>(slot)];
-      if (slot != lane.last_slot || j.id != lane.last_job) continue;
-      for (int p : j.g->units[static_cast<std::size_t>(unit)].preds)
-        if (std::find(lane.last_units.begin(), lane.last_units.end(), p) != lane.last_units.end())
-          return true;
+      const JobId id = jobs[static_cast<std::size_t>(slot)].id;
+      for (const auto& [rs, rid] : lane.run_jobs)
+        if (rs == slot && rid == id) return true;
     }
     return false;
+  }
+
+  // The idle lane for a task (§6 placement): one whose run it continues, else one without
+  // an open run (keeping open runs for their own work), else the first idle lane; -1 if none.
+  int choose_lane(const Task& k, TimePoint now) const {
+    int fallback = -1;
+    bool fallback_open = true;
+    for (std::size_t i = 0; i < lanes.size(); ++i) {
+      const Lane& l = lanes[i];
+      if (l.busy) continue;
+      if (on_demand_continuation(l, k, now)) return static_cast<int>(i);
+      const bool open = l.run_open && l.completed_at == now;
+      if (fallback < 0 || (fallback_open && !open)) {
+        fallback = static_cast<int>(i);
+        fallback_open = open;
+      }
+    }
+    return fallback;
   }
 
   void start_dispatch(int lane_index, TimePoint now, TimePoint deadline) {
@@ -733,6 +950,9 @@ struct Scheduler::Impl {
     d.decided_at = now;
     d.start = now;
     d.round_trip = !on_demand_continuation(lane, first, now);
+    // A round trip starts a new run: the handler is handed these jobs' work (§6).
+    if (d.round_trip) lane.run_jobs.clear();
+    lane.run_open = false;
     for (int t : batch) {
       Task& k = task(t);
       d.task_begin.push_back(static_cast<int>(d.members.size()));
@@ -753,6 +973,10 @@ struct Scheduler::Impl {
         j.dirty = true;
         u.task = -1;
         u.start = now;
+        u.share = static_cast<int>(k.members.size());
+        if (std::find(lane.run_jobs.begin(), lane.run_jobs.end(),
+                      std::pair<int, JobId>{slot, j.id}) == lane.run_jobs.end())
+          lane.run_jobs.emplace_back(slot, j.id);
         ++j.running;
         const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
         Member m;
@@ -791,17 +1015,17 @@ struct Scheduler::Impl {
     out.push_back(&d);
   }
 
-  // Picks work for one idle lane; false when nothing can start now.
-  bool pick(int lane_index, TimePoint now) {
+  // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
+  bool pick(TimePoint now) {
     for (;;) {
       // One scan ranks every ready task (the policy's key, and the deadline batching
       // orders by); a merge wait then only moves to the next best entry of the scan.
       scanned.clear();
-      // Criticality (§5): under overload — some ready job cannot, by estimate, finish its
-      // remaining work by its deadline — ready work of the most critical operations goes
-      // first and lower-criticality work waits, so it is shed first. With equal
-      // criticalities (the default) nothing changes.
-      bool overload = false;
+      // Criticality (§5): under overload — the demand test finds more work due than the
+      // lanes can do, or some ready job cannot, by estimate, finish alone by its deadline —
+      // ready work of the most critical operations goes first and lower-criticality work
+      // waits, so it is shed first. With equal criticalities (the default) nothing changes.
+      bool overload = overloaded;
       int top = std::numeric_limits<int>::min();
       for (int t : ready) {
         if (task(t).wait_until > now) continue;
@@ -817,6 +1041,7 @@ struct Scheduler::Impl {
         return shed_a != shed_b ? shed_b : a.key < b.key;
       };
       int best = -1;
+      int lane_index = -1;
       const Scan* best_scan = nullptr;
       TimePoint best_deadline{};
       bool rescan = false;
@@ -833,10 +1058,17 @@ struct Scheduler::Impl {
         }
         if (best < 0) return false;
         Task& k = task(best);
+        lane_index = choose_lane(k, now);
+        if (lane_index < 0) return false;
+        const Duration rt = round_trip_cost(
+            !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
         if (opt.drop == DropMode::Hopeless) {
+          // §5 hopeless, on the drop estimate and with the round trip this dispatch pays.
           for (const auto& [slot, unit] : k.members) {
             Job& j = job(slot);
-            if (now + remaining_work(j, now) > j.deadline) {
+            if (now + rt + remaining_for_drop(j, now) > j.deadline) {
+              j.reason = "hopeless";
+              ++s.stats_.hopeless;
               end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again
               rescan = true;
               break;
@@ -858,6 +1090,8 @@ struct Scheduler::Impl {
       }
       if (rescan) continue;
       Task& k = task(best);
+      const Duration rt = round_trip_cost(
+          !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
       batch.clear();
       batch.push_back(best);
       TimePoint deadline = best_deadline;
@@ -886,10 +1120,11 @@ struct Scheduler::Impl {
           const int b = static_cast<int>(batch.size()) + 1;
           if (b > limit) break;
           // Batch only when it is cheaper than running one by one and, by estimate, still
-          // meets the earliest member deadline (§3 inter-DAG batching).
+          // meets the earliest member deadline once the round trip it pays is over (§3
+          // inter-DAG batching).
           const Duration cb = batch_estimate(k, b);
           const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
-          if (cb >= single * b || now + cb > dl) break;
+          if (cb >= single * b || now + rt + cb > dl) break;
           batch.push_back(t);
           deadline = dl;
         }
@@ -969,8 +1204,8 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
   RED_ASSERT(lane.busy);
   lane.busy = false;
   lane.completed_at = now;
-  lane.last_slot = -1;
-  lane.last_units.clear();
+  // §6: a transition other than Completed ends the run; the next dispatch pays a round trip.
+  lane.run_open = status == UnitStatus::Completed;
   const Dispatch& d = lane.d;
   for (Observer* ob : m.observers) ob->on_unit_end(d, now, status);
   for (const Member& mb : d.members) {
@@ -994,9 +1229,6 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
     u.state = UState::Done;
     j.dirty = true;
     --j.unfinished;
-    lane.last_slot = mb.slot;
-    lane.last_job = j.id;
-    lane.last_units.push_back(mb.unit);
     for (int sx : j.g->units[static_cast<std::size_t>(mb.unit)].succs) {
       UnitRt& su = j.u[static_cast<std::size_t>(sx)];
       if (--su.pending == 0 && su.state == UState::Blocked) m.make_ready(mb.slot, sx);
@@ -1039,23 +1271,28 @@ void Scheduler::advance(TimePoint now) {
     std::pop_heap(h.begin(), h.end(), std::greater<>{});
     h.pop_back();
     Job& j = m.job(slot);
-    if (j.live && !j.ended && j.id == id) m.end_job(slot, JobOutcome::Dropped, now);
+    if (j.live && !j.ended && j.id == id) {
+      j.reason = "deadline passed";
+      m.end_job(slot, JobOutcome::Dropped, now);
+    }
   }
 }
 
 std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   Impl& m = *impl_;
   m.out.clear();
+  ++m.stamp;  // one scheduling point: deadlines are re-assigned from now
+  // §15: admission right after releases; the demand test that tells overload, when the
+  // policy or the scenario's criticalities use it.
+  if (m.opt.admission == Admission::Shed && m.released_since_admission) m.admit(now);
+  m.released_since_admission = false;
   int idle = 0;
   for (const Lane& l : m.lanes) idle += l.busy ? 0 : 1;
   if (idle > 0 && !m.ready.empty()) {
-    ++m.stamp;  // one scheduling point: deadlines are re-assigned from now
     ++stats_.decisions;
-    for (std::size_t i = 0; i < m.lanes.size(); ++i) {
-      if (m.lanes[i].busy) continue;
-      if (!m.pick(static_cast<int>(i), now)) break;
-      --idle;
-    }
+    m.overloaded = (m.opt.rank == RankMode::Overload || m.mixed_criticality) &&
+                   m.first_overrun(now, idx(config_.estimate)) >= 0;
+    while (idle > 0 && m.pick(now)) --idle;
   }
   // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed
   // after every round from the waits that end after now, so a wait that is over (its member
@@ -1086,6 +1323,14 @@ TimePoint Scheduler::next_wakeup() const {
 
 void Scheduler::finish(TimePoint end) {
   Impl& m = *impl_;
+  // Units still running when the run ends get their row, cut at the end (REPORTS.md: one
+  // row per unit that started).
+  for (Lane& l : m.lanes) {
+    if (!l.busy) continue;
+    l.busy = false;
+    for (Observer* ob : m.observers)
+      ob->on_unit_end(l.d, std::max(end, l.d.start), UnitStatus::Unfinished);
+  }
   for (std::size_t i = 0; i < m.jobs.size(); ++i) {
     Job& j = m.jobs[i];
     if (!j.live || j.ended) continue;

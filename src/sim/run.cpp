@@ -4,17 +4,20 @@
 
 namespace red {
 
-std::optional<PolicyOptions> with_sync(const std::string& policy, std::optional<SyncMode> sync) {
+std::optional<PolicyOptions> policy_options(const Scenario& s, const std::string& policy,
+                                            std::optional<SyncMode> sync) {
   auto o = preset_options(policy);
-  if (!o || !sync) return std::nullopt;
-  o->sync = *sync;
+  if (!o) return std::nullopt;
+  // Validated by the loader and the CLI; a bad entry would leave the preset unchanged.
+  (void)apply_options(*o, s.scheduler.policy_with);
+  if (sync) o->sync = *sync;
   return o;
 }
 
 Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
                                     std::uint64_t seed, const std::vector<Observer*>& extra,
                                     bool keep_units, std::optional<SyncMode> sync) {
-  auto pol = make_policy(policy, with_sync(policy, sync));
+  auto pol = make_policy(policy, policy_options(s, policy, sync));
   if (!pol) {
     std::string known;
     for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;

@@ -33,7 +33,7 @@ Simulator::Simulator(const Scenario& scenario, const Profile& profile,
                      std::unique_ptr<Policy> policy, SimOptions options)
     : scenario_(scenario),
       options_(options),
-      scheduler_(scenario, profile, std::move(policy), SchedulerConfig::from(scenario)),
+      scheduler_(scenario, profile, std::move(policy), SchedulerConfig::from(scenario, profile)),
       sampler_(scenario, profile, options.seed, slowdown_of(scenario)),
       sync_cost_(scenario.device.sync_cost ? *scenario.device.sync_cost : profile.sync_round_trip) {
 }

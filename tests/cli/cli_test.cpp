@@ -246,7 +246,8 @@ TEST_F(Cli, CompareRunsEveryPresetOnTheSameReleases) {
                           quote(out.string()));
   ASSERT_TRUE(r.exited);
   ASSERT_EQ(r.code, 0) << r.err;
-  const std::vector<std::string> presets{"fifo", "mono", "edf", "red-fg", "red-ida", "red"};
+  const std::vector<std::string> presets{"fifo",    "mono", "edf",       "red-fg",
+                                         "red-ida", "red",  "red-robust"};
   // The table: a row per preset, and ratio columns against edf.
   const auto rows = lines_of(r.out);
   for (const std::string& name : presets) {
@@ -265,7 +266,7 @@ TEST_F(Cli, CompareRunsEveryPresetOnTheSameReleases) {
   const json j = json::parse(read_text(out / "summary.json"));
   EXPECT_EQ(j.at("schema"), 1);
   EXPECT_EQ(j.at("baseline"), "edf");
-  ASSERT_EQ(j.at("policies").size(), 6u);
+  ASSERT_EQ(j.at("policies").size(), presets.size());
   for (std::size_t i = 0; i < presets.size(); ++i) {
     const json& p = j.at("policies")[i];
     EXPECT_EQ(p.at("name"), presets[i]);
@@ -286,7 +287,7 @@ TEST_F(Cli, CompareRunsEveryPresetOnTheSameReleases) {
     ASSERT_GE(f.size(), 4u);
     releases[f[0]].insert({f[1], f[2], f[3]});
   }
-  ASSERT_EQ(releases.size(), 6u);
+  ASSERT_EQ(releases.size(), presets.size());
   for (const std::string& name : presets) {
     EXPECT_EQ(releases[name].size(), j.at("policies")[0].at("jobs").get<std::size_t>()) << name;
     EXPECT_EQ(releases[name], releases["edf"]) << name;

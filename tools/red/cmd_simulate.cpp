@@ -42,12 +42,12 @@ std::optional<SyncMode> parse_sync(const std::string& v) {
 void print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
                       const std::vector<PolicyRun>& real, std::optional<SyncMode> sync) {
   fmt::print("simulator prediction with the same profile ({}):\n", p.source);
-  fmt::print("{:<8} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}\n", "policy", "miss% real", "miss% sim",
-             "mean ms real", "mean ms sim", "QoE real", "QoE sim");
+  fmt::print("{:<10} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}\n", "policy", "miss% real",
+             "miss% sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim");
   for (const PolicyRun& r : real) {
     auto sim = simulate_policy(s, p, r.metrics.name, seed, {}, false, sync);
     if (!sim) continue;
-    fmt::print("{:<8} {:>10.2f} {:>10.2f} {:>12.2f} {:>12.2f} {:>8.3f} {:>8.3f}\n", r.metrics.name,
+    fmt::print("{:<10} {:>10.2f} {:>10.2f} {:>12.2f} {:>12.2f} {:>8.3f} {:>8.3f}\n", r.metrics.name,
                100 * r.metrics.miss_rate, 100 * sim->metrics.miss_rate, r.metrics.latency.mean,
                sim->metrics.latency.mean, r.metrics.qoe, sim->metrics.qoe);
   }
@@ -172,6 +172,7 @@ void add_common(CLI::App* cmd, RunArgs& a) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", a.out,
                   "Directory for summary.json, jobs.csv, units.csv, trace.json and plots");
+  add_with_option(cmd, a.scenario);
   cmd->add_option("--sync", a.sync,
                   "Synchronization: per-edge or on-demand (default: each policy's own, §7)")
       ->check(CLI::IsMember({"per-edge", "on-demand"}));
@@ -197,7 +198,8 @@ void register_simulate(CLI::App& app, int& exit_code) {
   CLI::App* cmd = app.add_subcommand("simulate", "Discrete-event simulation of one policy");
   add_common(cmd, *a);
   cmd->add_option("--policy", a->policy,
-                  "Policy preset: fifo, mono, edf, red-fg, red-ida, red, lst");
+                  "Policy preset: fifo, mono, edf, red-fg, red-ida, red, red-robust, lst")
+      ->capture_default_str();
   cmd->callback([a, &exit_code] { exit_code = run_policies(*a, {a->policy}, false); });
 }
 
@@ -208,7 +210,7 @@ void register_compare(CLI::App& app, int& exit_code) {
   add_common(cmd, *a);
   add_real(cmd, *a);
   cmd->add_option("--policies", a->policies,
-                  "Comma-separated presets (default: fifo,mono,edf,red-fg,red-ida,red)");
+                  "Comma-separated presets (default: fifo,mono,edf,red-fg,red-ida,red,red-robust)");
   cmd->add_option("--backend", a->backend,
                   "sim (simulator), torch (real LibTorch inference) or synthetic (real time, "
                   "profiled unit times)")
@@ -227,11 +229,13 @@ void register_compare(CLI::App& app, int& exit_code) {
 void register_run(CLI::App& app, int& exit_code) {
   auto a = std::make_shared<RunArgs>();
   a->backend = "torch";
+  a->policy = "red-robust";  // §15: the flagship on a real robot
   CLI::App* cmd = app.add_subcommand("run", "Real execution in real time (LibTorch inference)");
   add_common(cmd, *a);
   add_real(cmd, *a);
   cmd->add_option("--policy", a->policy,
-                  "Policy preset: fifo, mono, edf, red-fg, red-ida, red, lst");
+                  "Policy preset: fifo, mono, edf, red-fg, red-ida, red, red-robust, lst")
+      ->capture_default_str();
   cmd->add_option("--backend", a->backend,
                   "torch (real inference) or synthetic (spends profiled unit times)")
       ->check(CLI::IsMember({"torch", "synthetic"}))

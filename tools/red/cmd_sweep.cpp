@@ -84,6 +84,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
   cmd->add_option("--seed", a->seed, "Random seed (default: the scenario's)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", a->out, "Directory for sweep.json, sweep.csv, plots and index.html");
+  add_with_option(cmd, a->scenario);
   cmd->callback([a, &exit_code] {
     auto sw = parse_sweep(a->sweep);
     if (!sw) {
@@ -141,11 +142,11 @@ void register_sweep(CLI::App& app, int& exit_code) {
     }
     progress.finish();  // the line stays up across the sweep's runs
     auto table = [&](const char* title, auto get) {
-      std::string out = fmt::format("{} by {}\n{:<8}", title, key, "policy");
+      std::string out = fmt::format("{} by {}\n{:<10}", title, key, "policy");
       for (double v : values) out += fmt::format(" {:>9g}", v);
       out += '\n';
       for (std::size_t i = 0; i < names.size(); ++i) {
-        out += fmt::format("{:<8}", names[i]);
+        out += fmt::format("{:<10}", names[i]);
         for (const PolicyMetrics& m : results[i]) out += fmt::format(" {:>9.3f}", get(m));
         out += '\n';
       }

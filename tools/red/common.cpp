@@ -43,7 +43,20 @@ Expected<Scenario> load(const ScenarioArgs& a) {
       return Error{"", 0, "--set " + key + ": '" + val + "' is not a number"};
     if (auto err = apply_override(s.value(), key, v)) return *err;
   }
+  for (const std::string& w : a.with) {
+    PolicyOptions check;
+    if (std::string err = apply_options(check, w); !err.empty())
+      return Error{"", 0, "--with " + w + ": " + err};
+    std::string& all = s.value().scheduler.policy_with;
+    all += (all.empty() || w.empty() ? "" : ",") + w;
+  }
   return s;
+}
+
+void add_with_option(CLI::App* cmd, ScenarioArgs& a) {
+  cmd->add_option("--with", a.with,
+                  "Policy options key=value,… for every policy run (graph, deadlines, reassign, "
+                  "merge, batching, sync, drop, drop_estimate, admission, rank; docs/CLI.md)");
 }
 
 std::string gnuplot_command(const std::string& configured) {

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
 #include "red/core/expected.hpp"
 #include "red/observe/progress.hpp"
 #include "red/observe/trace.hpp"
@@ -24,7 +26,11 @@ struct ScenarioArgs {
   std::string path;
   std::optional<std::string> profile;
   std::vector<std::string> sets;  ///< key=value overrides
+  std::vector<std::string> with;  ///< policy options "key=value,…" (--with), after the scenario's
 };
+
+/// Adds --with to a command that reads a scenario.
+void add_with_option(CLI::App* cmd, ScenarioArgs& a);
 
 /// Prints `file:line: message` on stderr.
 inline void print_error(const Error& e) {

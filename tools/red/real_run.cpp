@@ -47,7 +47,7 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
 Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::string& policy,
                              Backend& backend, const RealRunOptions& o,
                              const std::vector<Observer*>& extra, RuntimeReport* out) {
-  auto pol = make_policy(policy, with_sync(policy, o.sync));
+  auto pol = make_policy(policy, policy_options(s, policy, o.sync));
   if (!pol) return Error{"", 0, "unknown policy '" + policy + "'"};
   RuntimeOptions ro;
   ro.realtime = o.realtime;

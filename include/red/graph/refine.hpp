@@ -6,6 +6,7 @@
 /// Also the static part of §4: heights, level costs and static intermediate deadlines,
 /// computed once per graph version and cached.
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -50,7 +51,9 @@ struct RefinedUnit {
   std::vector<int> preds;
   std::vector<int> succs;
   int height = 0;
-  Duration estimate{0};       ///< c(x) under the scheduler's EstimateKind
+  Duration estimate{0};  ///< c(x) under the scheduler's EstimateKind
+  /// c(x) under every EstimateKind, indexed by it (overload checks use an optimistic one).
+  std::array<Duration, 4> costs{};
   std::vector<int> produces;  ///< nodes whose output this unit produces (empty: Encoder)
 };
 
@@ -83,6 +86,12 @@ struct CostModel {
 
   [[nodiscard]] Duration encoder() const;
   [[nodiscard]] Duration head(int h) const;
+  /// The same model with another estimate kind.
+  [[nodiscard]] CostModel with(EstimateKind k) const {
+    CostModel c = *this;
+    c.estimate = k;
+    return c;
+  }
   [[nodiscard]] static Duration plain(const PlainCost& c, EstimateKind k);
 };
 

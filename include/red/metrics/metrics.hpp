@@ -7,6 +7,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "red/scenario/scenario.hpp"
@@ -57,6 +58,12 @@ struct PolicyMetrics {
   std::int64_t completed = 0, met = 0, missed = 0, dropped = 0, skipped = 0, failed = 0,
                unfinished = 0;
   double miss_rate = 0, drop_rate = 0, qoe = 0;
+  double on_time = 0;  ///< met / jobs: the share of released jobs that met their deadline
+  /// Dropped, skipped and failed jobs by reason ("deadline passed", "hopeless", "rejected at
+  /// release", "max_inflight", or the failure).
+  std::map<std::string, std::int64_t> drop_reasons;
+  /// Share of the busy lane time spent on jobs that were then dropped or failed (§15).
+  double wasted_lane_fraction = 0;
   LatencySummary latency;
   std::int64_t encoder_runs = 0, encoder_runs_saved = 0;
   std::int64_t sync_round_trips = 0, dispatches = 0, merge_waits = 0;
@@ -107,7 +114,8 @@ class MetricsCollector final : public Observer {
                merge_waits_ = 0;
   std::map<int, std::int64_t> batches_;
   std::vector<std::int64_t> head_outputs_;
-  std::vector<TimePoint> started_;  // per lane: start of the running unit
+  std::vector<TimePoint> started_;             // per lane: start of the running unit
+  std::unordered_map<JobId, Duration> spent_;  // lane time per job (shared units split)
 };
 
 /// Fills ratio_* of every entry against the entry named `baseline` (if present).

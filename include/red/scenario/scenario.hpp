@@ -113,6 +113,9 @@ struct SchedulerSpec {
   LevelCost level_cost = LevelCost::Max;
   int max_batch = 4;
   double qoe_lambda = 1.0;
+  /// Policy options the scenario sets for every policy run on it ("key=value,…", keys of
+  /// red::option_keys(): graph, deadlines, reassign, … — ablations, §15); validated.
+  std::string policy_with;
 };
 
 /// Background load during a run (the ROS 2 case study's interference).

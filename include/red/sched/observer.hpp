@@ -28,7 +28,13 @@ enum class JobOutcome : std::uint8_t {
 const char* to_string(JobOutcome o) noexcept;
 
 /// How a unit execution ended (the handler's terminal states, §6).
-enum class UnitStatus : std::uint8_t { Completed, Failed, OutOfMemory, Cancelled };
+enum class UnitStatus : std::uint8_t {
+  Completed,
+  Failed,
+  OutOfMemory,
+  Cancelled,
+  Unfinished,  ///< still running when the run ended (its row ends at the run's end)
+};
 
 const char* to_string(UnitStatus s) noexcept;
 
@@ -41,9 +47,11 @@ struct JobRecord {
   TimePoint deadline{0};  ///< absolute end-to-end deadline
   TimePoint finish{0};    ///< completion or abort time (Unfinished: end of run)
   JobOutcome outcome = JobOutcome::Unfinished;
-  bool counted = true;      ///< released after the warm-up window
-  Duration frame_age{0};    ///< finish − timestamp of the oldest frame its outputs used
-  std::string_view reason;  ///< for Failed: what failed
+  bool counted = true;    ///< released after the warm-up window
+  Duration frame_age{0};  ///< finish − timestamp of the oldest frame its outputs used
+  /// Why it ended without completing: the failure (Failed), "max_inflight" (Skipped),
+  /// "deadline passed", "hopeless" or "rejected at release" (Dropped).
+  std::string_view reason;
   const RefinedGraph* graph = nullptr;
 };
 

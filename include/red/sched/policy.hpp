@@ -32,8 +32,24 @@ enum class DropMode : std::uint8_t {
   Hopeless,  ///< also abort at dispatch when now + remaining critical path > deadline
 };
 
+/// What the policy ranks ready work by while the scheduler judges the lanes overloaded (§15).
+enum class RankMode : std::uint8_t {
+  Policy,       ///< always the policy's own deadlines (the paper's presets)
+  JobDeadline,  ///< always the job's end-to-end deadline: finish what was started
+  Overload,     ///< the policy's deadlines, the job's deadline while overloaded (red-robust)
+};
+
+/// Admission control at release (§15).
+enum class Admission : std::uint8_t {
+  None,  ///< every release is admitted (max_inflight aside)
+  Shed,  ///< when the work due by some deadline exceeds the lanes' capacity by then, reject
+         ///< unstarted jobs (least critical, then most work first) until it fits
+};
+
 const char* to_string(SyncMode m) noexcept;
 const char* to_string(DropMode m) noexcept;
+const char* to_string(RankMode m) noexcept;
+const char* to_string(Admission m) noexcept;
 
 /// The mechanisms a policy combines; every column of §7's table is one field.
 struct PolicyOptions {
@@ -44,7 +60,27 @@ struct PolicyOptions {
   bool batching = false;  ///< inter-DAG batching (§3)
   SyncMode sync = SyncMode::PerEdge;
   DropMode drop = DropMode::Strict;
+  /// The cost estimate hopeless aborts and admission judge by: an optimistic one (mean)
+  /// keeps the jobs that can still make it (§15).
+  EstimateKind drop_estimate = EstimateKind::Mean;
+  Admission admission = Admission::None;
+  RankMode rank = RankMode::Policy;
+
+  bool operator==(const PolicyOptions&) const = default;
 };
+
+/// Sets one option from its CLI/scenario spelling (`graph=fine`, `drop=hopeless`, …).
+/// Returns an error message naming the key and the allowed values, or empty on success.
+std::string set_option(PolicyOptions& o, std::string_view key, std::string_view value);
+
+/// Applies "key=value,key=value" (the CLI's --with); error message or empty.
+std::string apply_options(PolicyOptions& o, std::string_view list);
+
+/// The option keys set_option accepts, in documentation order.
+const std::vector<std::string>& option_keys();
+
+/// "graph=fine,deadlines=proportional,…": every option, in option_keys() order.
+std::string describe(const PolicyOptions& o);
 
 /// What a policy sees of a ready task when ranking it.
 struct TaskView {
@@ -54,6 +90,7 @@ struct TaskView {
   Duration remaining{0};      ///< largest remaining critical-path estimate of member jobs
   Duration cost{0};           ///< estimated cost of the task itself
   int criticality = 0;        ///< highest criticality among member operations
+  bool overloaded = false;    ///< the scheduler judges the lanes overloaded now (§15)
 };
 
 /// A scheduling policy. Implementations must be deterministic and allocation-free in rank().
@@ -119,7 +156,8 @@ class LeastSlackPolicy final : public Policy {
 /// The options of a preset (§7 table), or nullopt for an unknown name.
 std::optional<PolicyOptions> preset_options(std::string_view name);
 
-/// A preset policy by name: fifo, mono, edf, red-fg, red-ida, red, lst; nullptr if unknown.
+/// A preset policy by name: fifo, mono, edf, red-fg, red-ida, red, red-robust, lst; nullptr
+/// if unknown.
 /// `overrides` (if given) replaces the preset's options (ablations).
 std::unique_ptr<Policy> make_policy(std::string_view name,
                                     const std::optional<PolicyOptions>& overrides = std::nullopt);

@@ -38,9 +38,15 @@ struct SchedulerConfig {
   EstimateKind estimate = EstimateKind::P99;
   LevelCost level_cost = LevelCost::Max;
   TimePoint warmup{0};
+  /// What one synchronizer round trip costs (§6): every estimate that decides a dispatch
+  /// (batching, merge waits, hopeless aborts) includes the round trip the dispatch pays.
+  Duration sync_cost{0};
 
   /// The settings a scenario gives.
   static SchedulerConfig from(const Scenario& s);
+  /// The settings a scenario gives, with the profile's measured round trip unless the
+  /// scenario sets `device.sync_cost_us`.
+  static SchedulerConfig from(const Scenario& s, const Profile& p);
 };
 
 /// Counters kept by the scheduler itself (everything else is an observer's business).
@@ -50,6 +56,8 @@ struct SchedulerStats {
   std::uint64_t round_trips = 0;  ///< dispatches that needed a synchronizer round trip
   std::uint64_t merge_waits = 0;
   std::uint64_t releases = 0;
+  std::uint64_t rejected = 0;  ///< jobs shed at release by admission (§15)
+  std::uint64_t hopeless = 0;  ///< jobs aborted at dispatch as hopeless
 };
 
 class Scheduler {

@@ -31,8 +31,11 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
                                     bool keep_units = true,
                                     std::optional<SyncMode> sync = std::nullopt);
 
-/// The preset's options with its synchronization mode replaced, or nullopt (no change).
-std::optional<PolicyOptions> with_sync(const std::string& policy, std::optional<SyncMode> sync);
+/// The options a preset runs with on this scenario: the preset's (§7), then the scenario's
+/// `scheduler:` policy options (which include the CLI's --with), then `sync` if given.
+/// nullopt for an unknown preset.
+std::optional<PolicyOptions> policy_options(const Scenario& s, const std::string& policy,
+                                            std::optional<SyncMode> sync = std::nullopt);
 
 /// The profile a run uses: `cli_path` if given, else the scenario's `profile:`, else the
 /// built-in default. Checks that it covers every head the scenario uses.
