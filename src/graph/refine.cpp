@@ -274,6 +274,18 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
     if (only_encoders) g->head_sources.push_back(static_cast<int>(i));
   }
 
+  // Tails, sinks first: the remaining critical path of a job is the longest tail among its
+  // units not started (plus running units' remainders), whatever the lanes do.
+  for (std::size_t i = g->units.size(); i-- > 0;) {
+    RefinedUnit& u = g->units[i];
+    for (std::size_t k = 0; k < u.tail.size(); ++k) {
+      Duration after{0};
+      for (int sx : u.succs)
+        after = std::max(after, g->units[static_cast<std::size_t>(sx)].tail[k]);
+      u.tail[k] = u.costs[k] + after;
+    }
+  }
+
   g->level_cost.assign(static_cast<std::size_t>(g->levels), Duration{0});
   g->override_budget.assign(static_cast<std::size_t>(g->levels), Duration{0});
   for (const RefinedUnit& u : g->units) {

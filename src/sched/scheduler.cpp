@@ -116,9 +116,8 @@ struct Job {
   // costs under the drop estimate, for hopeless checks.
   std::array<Duration, kEstimates> work_base{};
   std::vector<int> enc_queued;
-  std::vector<Duration> lvl_drop_base;
-  Duration remaining_drop_base{0};
-  bool started = false;  // a unit of it has started
+  Duration cp_drop_base{0};  // longest tail among units not started, drop estimate
+  bool started = false;      // a unit of it has started
 };
 
 struct Task {
@@ -493,11 +492,11 @@ struct Scheduler::Impl {
     const auto levels = static_cast<std::size_t>(g.levels);
     const bool sum = s.config_.level_cost == LevelCost::Sum;
     j.lvl_base.assign(levels, Duration{0});
-    j.lvl_drop_base.assign(levels, Duration{0});
     j.has_base.assign(levels, 0);
     j.running_units.clear();
     j.enc_queued.clear();
     j.work_base.fill(Duration{0});
+    j.cp_drop_base = Duration{0};
     j.started = false;
     const std::size_t drop_k = idx(opt.drop_estimate);
     for (std::size_t i = 0; i < g.units.size(); ++i) {
@@ -513,8 +512,7 @@ struct Scheduler::Impl {
       }
       const Duration c = ru.estimate;
       j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
-      const Duration cd = ru.costs[drop_k];
-      j.lvl_drop_base[h] = sum ? j.lvl_drop_base[h] + cd : std::max(j.lvl_drop_base[h], cd);
+      j.cp_drop_base = std::max(j.cp_drop_base, ru.tail[drop_k]);
       if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
         j.enc_queued.push_back(static_cast<int>(i));
       } else {
@@ -523,8 +521,7 @@ struct Scheduler::Impl {
     }
     j.remaining_base = Duration{0};
     for (Duration l : j.lvl_base) j.remaining_base += l;
-    j.remaining_drop_base = Duration{0};
-    for (Duration l : j.lvl_drop_base) j.remaining_drop_base += l;
+
     if (opt.reassign && j.running_units.empty()) shares(j, j.lvl_base, j.has_base, j.frac);
   }
 
@@ -612,33 +609,21 @@ struct Scheduler::Impl {
     return j.remaining;
   }
 
-  // The same critical-path estimate under the drop estimate (§15: optimistic, so that a
-  // job that can still make it is kept).
+  // The job's remaining critical path under the drop estimate (§15: optimistic, so that a
+  // job that can still make it is kept): the longest path through its unfinished units, a
+  // running unit counting its remainder. A lower bound on its response from now on any
+  // number of lanes, unlike the §4 sum of level costs.
   Duration remaining_for_drop(Job& j, TimePoint now) {
-    if (opt.drop_estimate == s.config_.estimate) return remaining_work(j, now);
     refresh(j);
-    Duration cp = j.remaining_drop_base;
-    const bool sum = s.config_.level_cost == LevelCost::Sum;
+    Duration cp = j.cp_drop_base;
     const std::size_t k = idx(opt.drop_estimate);
     const RefinedGraph& g = *j.g;
-    for (std::size_t a = 0; a < j.running_units.size(); ++a) {
-      const auto ua = static_cast<std::size_t>(j.running_units[a]);
-      const Duration ra = residual(j, ua, now, k);
-      if (sum) {
-        cp += ra;
-        continue;
-      }
-      // Max per height: the first running unit of a height stands for all of them there.
-      const int h = g.units[ua].height;
-      bool first = true;
-      Duration top = ra;
-      for (std::size_t b = 0; b < j.running_units.size(); ++b) {
-        const auto ub = static_cast<std::size_t>(j.running_units[b]);
-        if (g.units[ub].height != h) continue;
-        if (b < a) first = false;
-        top = std::max(top, residual(j, ub, now, k));
-      }
-      if (first) cp += std::max(Duration{0}, top - j.lvl_drop_base[static_cast<std::size_t>(h)]);
+    for (int r : j.running_units) {
+      const auto ur = static_cast<std::size_t>(r);
+      Duration after{0};
+      for (int sx : g.units[ur].succs)
+        after = std::max(after, g.units[static_cast<std::size_t>(sx)].tail[k]);
+      cp = std::max(cp, residual(j, ur, now, k) + after);
     }
     return cp;
   }
@@ -1062,8 +1047,10 @@ struct Scheduler::Impl {
         if (lane_index < 0) return false;
         const Duration rt = round_trip_cost(
             !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
-        if (opt.drop == DropMode::Hopeless) {
-          // §5 hopeless, on the drop estimate and with the round trip this dispatch pays.
+        // §5 hopeless, on the drop estimate and with the round trip this dispatch pays. An
+        // overload-aware policy (rank=overload) aborts only while overloaded: with the lanes
+        // to spare, a job that may still make it costs no other job anything.
+        if (opt.drop == DropMode::Hopeless && (opt.rank != RankMode::Overload || overloaded)) {
           for (const auto& [slot, unit] : k.members) {
             Job& j = job(slot);
             if (now + rt + remaining_for_drop(j, now) > j.deadline) {

@@ -54,6 +54,8 @@ struct RefinedUnit {
   Duration estimate{0};  ///< c(x) under the scheduler's EstimateKind
   /// c(x) under every EstimateKind, indexed by it (overload checks use an optimistic one).
   std::array<Duration, 4> costs{};
+  /// Longest path from this unit (included) to a sink, under every EstimateKind.
+  std::array<Duration, 4> tail{};
   std::vector<int> produces;  ///< nodes whose output this unit produces (empty: Encoder)
 };
 

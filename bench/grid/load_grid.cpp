@@ -1,0 +1,262 @@
+/// \file
+/// `red_load_grid`: the overload grid of §15. Every preset on random DAG task sets (chains,
+/// fork-joins, wide DAGs; plain and MIMONet nodes; 1, 2 and 4 lanes) and on the bundled
+/// scenarios, each swept over rate_scale; beside each policy's on-time fraction, the work
+/// bound and the wasted lane time. Prints the table; with --markdown FILE it rewrites the
+/// section between `<!-- load-grid:begin -->` and `<!-- load-grid:end -->` of FILE and
+/// draws docs/plots/load-grid.svg with gnuplot (when present).
+///
+///     red_load_grid [--seeds N] [--duration S] [--markdown docs/BENCHMARKS.md]
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "load_grid.hpp"
+#include "red/core/file.hpp"
+
+namespace {
+
+using red::grid::Point;
+
+const std::vector<std::string> kPolicies{"fifo",    "mono", "edf",       "red-fg",
+                                         "red-ida", "red",  "red-robust"};
+const std::vector<double> kLoads{0.5, 0.8, 1.0, 1.1, 1.3, 1.5, 2.0, 2.5};
+
+struct Cell {
+  double on_time = 0, wasted = 0;
+  int n = 0;
+};
+
+struct Summary {
+  // family (e.g. "plain, 2 lanes") -> load -> policy -> mean on-time / wasted
+  std::map<std::string, std::map<double, std::map<std::string, Cell>>> table;
+  std::map<std::string, std::map<double, Cell>> bound;
+  // worst differences over every point
+  double worst_vs_edf = 1e9, worst_vs_red = 1e9, worst_vs_bound = 1e9;
+  std::string worst_vs_edf_at, worst_vs_red_at, worst_vs_bound_at;
+  double wasted_15 = 0;
+  int wasted_15_n = 0;
+  int points = 0;
+};
+
+void add_point(Summary& sum, const std::string& family, const std::string& label, double load,
+               const std::map<std::string, Point>& pts, double bound) {
+  ++sum.points;
+  for (const auto& [pol, p] : pts) {
+    Cell& c = sum.table[family][load][pol];
+    c.on_time += p.on_time;
+    c.wasted += p.wasted;
+    ++c.n;
+  }
+  Cell& b = sum.bound[family][load];
+  b.on_time += bound;
+  ++b.n;
+  const double robust = pts.at("red-robust").on_time;
+  const std::string at = fmt::format("{} at {:.1f}x", label, load);
+  if (robust - pts.at("edf").on_time < sum.worst_vs_edf) {
+    sum.worst_vs_edf = robust - pts.at("edf").on_time;
+    sum.worst_vs_edf_at = at;
+  }
+  if (robust - pts.at("red").on_time < sum.worst_vs_red) {
+    sum.worst_vs_red = robust - pts.at("red").on_time;
+    sum.worst_vs_red_at = at;
+  }
+  if (load > 1.05 && bound > 0 && robust / bound < sum.worst_vs_bound) {
+    sum.worst_vs_bound = robust / bound;
+    sum.worst_vs_bound_at = at;
+  }
+  if (load == 1.5) {
+    sum.wasted_15 = std::max(sum.wasted_15, pts.at("red-robust").wasted);
+    ++sum.wasted_15_n;
+  }
+}
+
+std::string render(const Summary& sum, int seeds, double duration) {
+  std::string out;
+  out += fmt::format(
+      "Mean on-time fraction (met / released) per family of task sets and load (rate_scale of "
+      "the necessary work: 1.0 fills the lanes), {} seeds per (lanes, shape, nodes) cell, {} s "
+      "simulated each; `bound` is the work bound (§15); `waste` is red-robust's wasted lane "
+      "time.\n\n",
+      seeds, duration);
+  out += "| family | load |";
+  for (const std::string& p : kPolicies) out += " " + p + " |";
+  out += " bound | waste |\n|---|---|";
+  for (std::size_t i = 0; i < kPolicies.size() + 2; ++i) out += "---|";
+  out += "\n";
+  for (const auto& [family, loads] : sum.table) {
+    for (const auto& [load, pols] : loads) {
+      out += fmt::format("| {} | {:.1f} |", family, load);
+      for (const std::string& p : kPolicies) {
+        const Cell& c = pols.at(p);
+        out += fmt::format(" {:.3f} |", c.on_time / c.n);
+      }
+      const Cell& b = sum.bound.at(family).at(load);
+      const Cell& r = pols.at("red-robust");
+      out += fmt::format(" {:.3f} | {:.1f} % |\n", b.on_time / b.n, 100 * r.wasted / r.n);
+    }
+  }
+  out += fmt::format(
+      "\nOver all {} points: red-robust − edf ≥ {:+.4f} (worst: {}); red-robust − red ≥ "
+      "{:+.4f} (worst: {}); past capacity red-robust ≥ {:.3f} × the bound (worst: {}); "
+      "wasted lane time at 1.5× load ≤ {:.1f} %.\n",
+      sum.points, sum.worst_vs_edf, sum.worst_vs_edf_at, sum.worst_vs_red, sum.worst_vs_red_at,
+      sum.worst_vs_bound, sum.worst_vs_bound_at, 100 * sum.wasted_15);
+  return out;
+}
+
+// gnuplot: on-time fraction vs load, one curve per policy, bound dashed; all sets pooled.
+void plot(const Summary& sum, const std::string& svg) {
+  std::map<double, std::map<std::string, Cell>> pooled;
+  std::map<double, Cell> bound;
+  for (const auto& [family, loads] : sum.table)
+    for (const auto& [load, pols] : loads) {
+      for (const auto& [p, c] : pols) {
+        pooled[load][p].on_time += c.on_time;
+        pooled[load][p].n += c.n;
+      }
+      bound[load].on_time += sum.bound.at(family).at(load).on_time;
+      bound[load].n += sum.bound.at(family).at(load).n;
+    }
+  const std::string dat = svg + ".dat";
+  std::ofstream d(dat);
+  d << "load";
+  for (const std::string& p : kPolicies) d << ' ' << p;
+  d << " bound\n";
+  for (const auto& [load, pols] : pooled) {
+    d << load;
+    for (const std::string& p : kPolicies) d << ' ' << pols.at(p).on_time / pols.at(p).n;
+    d << ' ' << bound[load].on_time / bound[load].n << '\n';
+  }
+  d.close();
+  std::string gp = fmt::format(
+      "set terminal svg size 760,440 font 'sans,12' background '#ffffff'\nset output '{}'\n"
+      "set title 'Overload grid: on-time fraction vs load (all task sets)'\n"
+      "set xlabel 'load (necessary work / lane capacity)'\nset ylabel 'on-time fraction'\n"
+      "set key outside right\nset grid\nset yrange [0:1.02]\n",
+      svg);
+  gp += "plot ";
+  for (std::size_t i = 0; i < kPolicies.size(); ++i)
+    gp +=
+        fmt::format("'{}' using 1:{} with linespoints lw 2 title '{}', ", dat, i + 2, kPolicies[i]);
+  gp += fmt::format("'{}' using 1:{} with lines dt 2 lw 2 lc 'black' title 'work bound'\n", dat,
+                    kPolicies.size() + 2);
+  const std::string script = svg + ".gp";
+  std::ofstream(script) << gp;
+  if (std::system(("gnuplot " + script + " 2>/dev/null").c_str()) != 0)
+    std::cerr << "red_load_grid: gnuplot failed or is missing; no plot\n";
+  std::filesystem::remove(dat);
+  std::filesystem::remove(script);
+}
+
+int rewrite_section(const std::string& file, const std::string& body) {
+  std::ifstream in(file);
+  if (!in) {
+    std::cerr << "red_load_grid: cannot read " << file << "\n";
+    return 2;
+  }
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const std::string begin = "<!-- load-grid:begin -->", end = "<!-- load-grid:end -->";
+  const auto b = text.find(begin), e = text.find(end);
+  if (b == std::string::npos || e == std::string::npos || e < b) {
+    std::cerr << "red_load_grid: " << file << " has no " << begin << " ... " << end << " section\n";
+    return 2;
+  }
+  text = text.substr(0, b + begin.size()) + "\n" + body + text.substr(e);
+  std::ofstream(file) << text;
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int seeds = 3;
+  double duration = 4.0;
+  std::string markdown;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::cerr << "red_load_grid: " << a << " needs a value\n";
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--seeds") {
+      seeds = std::atoi(next().c_str());
+    } else if (a == "--duration") {
+      duration = std::atof(next().c_str());
+    } else if (a == "--markdown") {
+      markdown = next();
+    } else {
+      std::cerr << "usage: red_load_grid [--seeds N] [--duration S] [--markdown FILE]\n";
+      return 2;
+    }
+  }
+  if (seeds < 1 || !(duration > 1.0)) {
+    std::cerr << "red_load_grid: --seeds must be >= 1 and --duration > 1\n";
+    return 2;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const red::Profile profile = red::default_profile();
+  Summary sum;
+  for (const red::grid::SetSpec& spec : red::grid::grid_sets(seeds, duration)) {
+    const std::string family = fmt::format("{}, {} lane{}", red::grid::to_string(spec.nodes),
+                                           spec.lanes, spec.lanes > 1 ? "s" : "");
+    const std::string label = fmt::format("{} {} seed {} on {} lane(s)", to_string(spec.nodes),
+                                          to_string(spec.shape), spec.seed, spec.lanes);
+    for (double load : kLoads) {
+      const red::Scenario s = red::grid::set_scenario(spec, profile, load);
+      std::map<std::string, Point> pts;
+      for (const std::string& p : kPolicies) pts[p] = red::grid::evaluate(s, profile, p);
+      add_point(sum, family, label, load, pts, red::grid::work_bound(s, profile));
+    }
+  }
+  // The bundled scenarios, swept over the same loads (rate_scale of their own rates).
+  for (const char* name : {"minibench-tight", "minibench-loose", "case-dynamic", "case-async"}) {
+    auto base = red::load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/" + name + ".yaml");
+    if (!base) {
+      std::cerr << base.error().to_string() << "\n";
+      return 1;
+    }
+    auto p = red::resolve_profile(*base, std::nullopt);
+    if (!p) return 1;
+    for (double load : kLoads) {
+      red::Scenario s = *base;
+      if (auto err = red::apply_override(s, "rate_scale", load)) continue;
+      std::map<std::string, Point> pts;
+      for (const std::string& pol : kPolicies) pts[pol] = red::grid::evaluate(s, *p, pol);
+      add_point(sum, std::string("bundled ") + name, name, load, pts, red::grid::work_bound(s, *p));
+    }
+  }
+  const std::string table = render(sum, seeds, duration);
+  std::cout << table;
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::cerr << fmt::format("red_load_grid: {} points in {:.1f} s\n", sum.points, wall);
+  if (!markdown.empty()) {
+    const std::string dir = std::filesystem::path(markdown).parent_path().string();
+    const std::string svg = (dir.empty() ? std::string(".") : dir) + "/plots/load-grid.svg";
+    std::filesystem::create_directories(std::filesystem::path(svg).parent_path());
+    plot(sum, svg);
+    const std::string body = fmt::format(
+        "Regenerate with `build/bench/red_load_grid --seeds {} --duration {} --markdown "
+        "docs/BENCHMARKS.md` (simulator, built-in default profile; deterministic).\n\n"
+        "![on-time fraction vs load](plots/load-grid.svg)\n\n{}",
+        seeds, duration, table);
+    return rewrite_section(markdown, body);
+  }
+  return 0;
+}
