@@ -459,5 +459,50 @@ TEST_F(Cli, SyncOptionSelectsPerEdgeOrOnDemand) {
   expect_bad_input("simulate " + scenario("minibench-tight.yaml") + " --sync sometimes", "--sync");
 }
 
+TEST_F(Cli, WithSetsPolicyOptionsForAblations) {
+  auto summary = [&](const std::string& args) {
+    const fs::path out = dir_ / "with";
+    fs::remove_all(out);
+    const RunResult r =
+        red("simulate " + scenario("minibench-tight.yaml") + " --set rate_scale=2 " + args +
+            " --trace-events 0 --out " + quote(out.string()));
+    EXPECT_EQ(r.code, 0) << r.err;
+    return json::parse(read_text(out / "summary.json")).at("policies")[0];
+  };
+  // red with red-robust's mechanisms is red-robust, figure for figure.
+  const json robust = summary("--policy red-robust");
+  const json red_with =
+      summary("--policy red --with drop=hopeless,admission=shed,rank=overload,drop_estimate=mean");
+  EXPECT_EQ(robust.at("on_time"), red_with.at("on_time"));
+  EXPECT_EQ(robust.at("drop_reasons"), red_with.at("drop_reasons"));
+  // ... and red-robust without them is red.
+  const json red = summary("--policy red");
+  const json robust_without =
+      summary("--policy red-robust --with drop=strict --with admission=none,rank=policy");
+  EXPECT_EQ(red.at("on_time"), robust_without.at("on_time"));
+  EXPECT_EQ(red.at("latency_ms"), robust_without.at("latency_ms"));
+
+  expect_bad_input("simulate " + scenario("minibench-tight.yaml") + " --with drop=sometimes",
+                   "'sometimes' is not one of: none, strict, hopeless");
+  expect_bad_input("compare " + scenario("minibench-tight.yaml") + " --with colour=red",
+                   "unknown policy option 'colour'");
+  expect_bad_input("simulate " + scenario("minibench-tight.yaml") + " --with merge", "key=value");
+}
+
+TEST_F(Cli, ScenarioSchedulerSectionSetsPolicyOptions) {
+  const fs::path path = dir_ / "opts.yaml";
+  std::ofstream(path) << "name: opts\nduration_s: 1\nscheduler:\n  gamma_ms: 10\n"
+                         "  admission: sideways\noperations:\n  - name: a\n    rate_hz: 10\n"
+                         "    deadline_ms: 50\n    nodes: {A: {cost_ms: 1}}\n";
+  expect_bad_input("validate " + quote(path.string()), path.string() + ":5: ");
+  expect_bad_input("simulate " + quote(path.string()), "'sideways' is not one of: none, shed");
+}
+
+TEST_F(Cli, RunDefaultsToRedRobust) {
+  const RunResult r = red("run --help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_TRUE(contains(r.out, "--policy TEXT=red-robust")) << r.out;
+}
+
 }  // namespace
 }  // namespace red
