@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build, profile the built-in MIMONet on this
 # machine, and run the paper's minibenchmark on real LibTorch inference, comparing edf,
-# red-fg, red-ida and red (beside the fifo and mono baselines) on the identical workload.
+# red-fg, red-ida, red and red-robust (beside the fifo and mono baselines) on the identical
+# workload.
 # Prints the table (and the simulator's prediction beside it) and writes the report to
 # out/minibench-tight/ (summary.json, jobs.csv, units.csv, trace.json, plots, index.html).
 # Without LibTorch it falls back to the simulator.
