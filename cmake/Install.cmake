@@ -164,7 +164,7 @@ set(CPACK_DEBIAN_PACKAGE_SECTION science)
 # Run-time libraries come from dpkg-shlibdeps; what find_package(red) and red.pc need to
 # build against the package is listed by hand.
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
-set(RED_DEB_DEPENDS "libfmt-dev, pkg-config")
+set(RED_DEB_DEPENDS "libfmt-dev")
 if(RED_CORE_TYPE STREQUAL "STATIC_LIBRARY")
   string(APPEND RED_DEB_DEPENDS ", libyaml-cpp-dev, nlohmann-json3-dev")
 endif()

@@ -6,20 +6,24 @@
 # program with `pkg-config --cflags --libs red`, and builds the .deb and inspects it. A
 # missing install rule fails here. Called by scripts/test.sh; takes about a minute.
 #
-#     scripts/check-install.sh            # as in CI
-#     RED_STAGE=/tmp/stage scripts/check-install.sh
+#     scripts/check-install.sh                     # as in CI (static red_core)
+#     RED_STAGE=/tmp/stage scripts/check-install.sh   # elsewhere
+#     RED_SHARED=ON scripts/check-install.sh          # with BUILD_SHARED_LIBS=ON
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 STAGE=${RED_STAGE:-$ROOT/build-stage}
 PREFIX=$STAGE/prefix
+SHARED=${RED_SHARED:-OFF}
+[[ $SHARED =~ ^(ON|OFF)$ ]] || { echo "check-install: RED_SHARED must be ON or OFF" >&2; exit 2; }
 JOBS=$(nproc)
 fail() { echo "check-install: $*" >&2; exit 1; }
 
 echo "== install: configure and build the core into $PREFIX"
 rm -rf "$PREFIX" "$STAGE/examples" "$STAGE/pc"
 cmake -S . -B "$STAGE/build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRED_TORCH=OFF \
-  -DRED_BUILD_TESTS=OFF -DRED_BUILD_BENCH=OFF -DCMAKE_INSTALL_PREFIX="$PREFIX" >/dev/null
+  -DRED_BUILD_TESTS=OFF -DRED_BUILD_BENCH=OFF -DBUILD_SHARED_LIBS="$SHARED" \
+  -DCMAKE_INSTALL_PREFIX="$PREFIX" >/dev/null
 cmake --build "$STAGE/build" -j"$JOBS"
 cmake --install "$STAGE/build" >/dev/null
 
@@ -28,10 +32,17 @@ VERSION=$(sed -n 's/^project(red VERSION \([0-9.]*\).*/\1/p' CMakeLists.txt)
 [ -n "$VERSION" ] || fail "cannot read the version from CMakeLists.txt"
 LIBDIR=$(cmake -L -N "$STAGE/build" 2>/dev/null | sed -n 's/^CMAKE_INSTALL_LIBDIR:PATH=//p')
 LIBDIR=${LIBDIR:-lib}
+if [ "$SHARED" = ON ]; then
+  CORE_LIB=$LIBDIR/libred_core.so.$VERSION
+  SONAME=$(objdump -p "$PREFIX/$CORE_LIB" | awk '$1 == "SONAME" {print $2}')
+  [ "$SONAME" = "libred_core.so.${VERSION%.*}" ] || fail "SONAME is '$SONAME', not libred_core.so.${VERSION%.*}"
+else
+  CORE_LIB=$LIBDIR/libred_core.a
+fi
 for f in bin/red \
          include/red/version.hpp include/red/runtime/backend.hpp include/red/sched/policy.hpp \
          include/red/scenario/builder.hpp \
-         "$LIBDIR/libred_core.a" \
+         "$CORE_LIB" \
          "$LIBDIR/cmake/red/redConfig.cmake" "$LIBDIR/cmake/red/redConfigVersion.cmake" \
          "$LIBDIR/cmake/red/red-core-targets.cmake" "$LIBDIR/pkgconfig/red.pc" \
          share/red/scenarios/minibench-tight.yaml share/doc/red/README.md \
@@ -98,7 +109,7 @@ int main() {
 EOF
 # shellcheck disable=SC2086  # FLAGS is a list of flags
 g++ -std=c++20 -o "$STAGE/pc/pc_check" "$STAGE/pc/main.cpp" $FLAGS
-"$STAGE/pc/pc_check"
+LD_LIBRARY_PATH="$PREFIX/$LIBDIR" "$STAGE/pc/pc_check"  # a shared red_core is not on the loader path
 
 echo "== install: .deb (cpack -G DEB)"
 (cd "$STAGE/build" && cpack -G DEB >/dev/null)
@@ -107,12 +118,18 @@ INFO=$(dpkg-deb -I "$DEB")
 echo "$INFO" | grep -q "^ Package: red$" || fail "$DEB: no Package: red"
 echo "$INFO" | grep -q "^ Version: $VERSION$" || fail "$DEB: version is not $VERSION"
 echo "$INFO" | grep "^ Depends:" || fail "$DEB: no Depends"
-for dep in libfmt-dev libyaml-cpp libstdc++6; do
+for dep in libfmt-dev libyaml-cpp libstdc++6; do  # -dev and run-time (dpkg-shlibdeps)
   echo "$INFO" | grep "^ Depends:" | grep -q "$dep" || fail "$DEB: Depends lacks $dep"
 done
 CONTENTS=$(dpkg-deb -c "$DEB")
 for f in ./usr/bin/red ./usr/include/red/runtime/backend.hpp ./usr/share/red/scenarios/minibench-tight.yaml \
-         /cmake/red/redConfig.cmake /pkgconfig/red.pc /libred_core.a; do
+         /cmake/red/redConfig.cmake /pkgconfig/red.pc "/$(basename "$CORE_LIB")"; do
   echo "$CONTENTS" | grep -q -- "$f" || fail "$DEB: does not contain $f"
 done
+
+echo "== install: API documentation (Doxygen, target red_docs)"
+cmake --build "$STAGE/build" --target red_docs
+[ -s "$STAGE/build/docs/api/html/index.html" ] || fail "red_docs wrote no index.html"
+[ -e "$STAGE/build/docs/api/html/examples.html" ] || fail "red_docs did not link the examples"
+echo "doxygen warnings (undocumented members): $(wc -l <"$STAGE/build/docs/doxygen-warnings.log")"
 echo "check-install: ok ($DEB)"

@@ -40,11 +40,12 @@ class CriticalSlackPolicy final : public red::Policy {
 
   [[nodiscard]] std::string_view name() const noexcept override { return "crit-slack"; }
   [[nodiscard]] const red::PolicyOptions& options() const noexcept override { return options_; }
-  /// Smallest first. One criticality level outweighs any slack up to ~292 years / 2^20.
+  /// Smallest first. Slack is clamped to +-1.2 h, so one criticality level outweighs any
+  /// slack (criticalities up to +-2^19 cannot overflow).
   [[nodiscard]] std::int64_t rank(const red::TaskView& t,
                                   red::TimePoint now) const noexcept override {
     const std::int64_t slack = (t.job_deadline - now - t.remaining).count();
-    constexpr std::int64_t kLevel = std::int64_t{1} << 43;  // ~2.4 h of slack in ns
+    constexpr std::int64_t kLevel = std::int64_t{1} << 43;  // 2.4 h in ns
     return std::clamp(slack, -kLevel / 2, kLevel / 2 - 1) - std::int64_t{t.criticality} * kLevel;
   }
 

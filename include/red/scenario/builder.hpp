@@ -87,7 +87,9 @@ class ScenarioBuilder {
   /// A scenario named `name`.
   explicit ScenarioBuilder(std::string name);
   ~ScenarioBuilder();
+  /// Moves the whole builder; references from operation() stay valid.
   ScenarioBuilder(ScenarioBuilder&&) noexcept;
+  /// Moves the whole builder; references from operation() stay valid.
   ScenarioBuilder& operator=(ScenarioBuilder&&) noexcept;
   ScenarioBuilder(const ScenarioBuilder&) = delete;
   ScenarioBuilder& operator=(const ScenarioBuilder&) = delete;
