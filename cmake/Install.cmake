@@ -63,6 +63,9 @@ function(red_install_library target component)
           LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime NAMELINK_COMPONENT dev
           RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
   foreach(dir IN LISTS arg_HEADERS)
+    if(NOT IS_DIRECTORY ${dir})
+      message(FATAL_ERROR "red_install_library(${target}): no header directory ${dir}")
+    endif()
     install(DIRECTORY ${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev
             FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h")
   endforeach()
@@ -106,8 +109,13 @@ if(TARGET red_torch)
                       DEPENDENCIES ${RED_TORCH_DEPENDENCIES})
 endif()
 if(TARGET red_dds)
-  red_install_library(red_dds dds HEADERS ${PROJECT_SOURCE_DIR}/bridges/dds/include
-                      DEPENDENCIES CycloneDDS)
+  # The DDS bridge (bridges/dds). If red_dds links another in-tree library, that library
+  # needs its own red_install_library() line first, or install(EXPORT) stops the configure.
+  set(RED_DDS_HEADERS "")
+  if(IS_DIRECTORY ${PROJECT_SOURCE_DIR}/bridges/dds/include)
+    set(RED_DDS_HEADERS HEADERS ${PROJECT_SOURCE_DIR}/bridges/dds/include)
+  endif()
+  red_install_library(red_dds dds ${RED_DDS_HEADERS} DEPENDENCIES CycloneDDS)
 endif()
 
 # ---- the program, scenarios, docs, examples ----------------------------------------------

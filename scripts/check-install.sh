@@ -73,7 +73,7 @@ for ex in custom_backend own_loop; do
   echo "-- $ex"
   timeout 60 "$STAGE/examples/$ex/$ex" 0.5
 done
-# An unsatisfiable version request fails.
+# Version and component requests: 99.0 and an unknown component fail, 0.1 succeeds.
 mkdir -p "$STAGE/examples/version"
 cat >"$STAGE/examples/version/CMakeLists.txt" <<'EOF'
 cmake_minimum_required(VERSION 3.25)
@@ -82,11 +82,17 @@ find_package(red 99.0 QUIET)
 if(red_FOUND)
   message(FATAL_ERROR "find_package(red 99.0) accepted version ${red_VERSION}")
 endif()
-find_package(red 0.1 REQUIRED)
-message(STATUS "red ${red_VERSION}")
+find_package(red 0.1 QUIET COMPONENTS no_such_component)
+if(red_FOUND)
+  message(FATAL_ERROR "find_package(red COMPONENTS no_such_component) succeeded")
+endif()
+find_package(red 0.1 REQUIRED COMPONENTS core)
+if(NOT TARGET red::core OR NOT red_VERSION VERSION_EQUAL "${EXPECTED_VERSION}")
+  message(FATAL_ERROR "find_package(red 0.1): no red::core, or version ${red_VERSION}")
+endif()
 EOF
 cmake -S "$STAGE/examples/version" -B "$STAGE/examples/version/build" \
-  -DCMAKE_PREFIX_PATH="$PREFIX" >/dev/null
+  -DCMAKE_PREFIX_PATH="$PREFIX" -DEXPECTED_VERSION="$VERSION" >/dev/null
 
 echo "== install: pkg-config"
 export PKG_CONFIG_PATH="$PREFIX/$LIBDIR/pkgconfig"
