@@ -11,8 +11,10 @@
 #
 # which installs it, exports it as red::dds (component `dds` of the package, loaded when
 # its DEPENDENCIES are found), adds the alias red::dds in this build and gives it the
-# project's VERSION and SOVERSION. Plain include directories under the source or build
-# tree are made build-only; the installed ones are ${CMAKE_INSTALL_INCLUDEDIR}.
+# project's VERSION and SOVERSION. It is built position-independent, so that even the
+# static library can go into a user's shared library (a ROS 2 plugin, a Python module).
+# Plain include directories under the source or build tree are made build-only; the
+# installed ones are ${CMAKE_INSTALL_INCLUDEDIR}.
 
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
@@ -45,6 +47,9 @@ function(red_install_library target component)
   endif()
   # Include directories in the source or build tree are for this build only.
   get_target_property(dirs ${target} INTERFACE_INCLUDE_DIRECTORIES)
+  if(NOT dirs)
+    set(dirs "")
+  endif()
   set(relocatable "")
   foreach(dir IN LISTS dirs)
     string(FIND "${dir}/" "${PROJECT_SOURCE_DIR}/" in_source)
