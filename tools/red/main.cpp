@@ -10,7 +10,7 @@
 int main(int argc, char** argv) {
   CLI::App app{"RED: real-time scheduling of multi-task DNN inference for robots"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "red " + std::string(red::kVersion) + "\n");
+  app.set_version_flag("--version", "red " + std::string(red::kVersion));
   int exit_code = red::cli::kOk;
   red::cli::register_validate(app, exit_code);
   red::cli::register_simulate(app, exit_code);
