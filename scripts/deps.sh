@@ -7,7 +7,7 @@ PACKAGES=(
   build-essential g++ cmake ninja-build pkg-config clang-format
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
-  gnuplot-nox
+  gnuplot-nox doxygen
   libtorch-dev python3-torch
   cyclonedds-dev cyclonedds-tools
 )

@@ -26,3 +26,6 @@ cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DRED_TORCH=OFF -DRED
   -DRED_SANITIZE=thread >/dev/null
 cmake --build build-tsan -j"$JOBS" --target red_tests
 TSAN_OPTIONS=halt_on_error=1 build-tsan/tests/red_tests --gtest_filter='*Runtime*'
+
+echo "== install: staging install, examples built against it, pkg-config, .deb"
+scripts/check-install.sh

@@ -5,11 +5,12 @@
 #include <string>
 
 #include "commands.hpp"
+#include "red/version.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"RED: real-time scheduling of multi-task DNN inference for robots"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "red 0.1.0\n");
+  app.set_version_flag("--version", "red " + std::string(red::kVersion));
   int exit_code = red::cli::kOk;
   red::cli::register_validate(app, exit_code);
   red::cli::register_simulate(app, exit_code);
