@@ -174,8 +174,9 @@ class SvgWriter {
     std::string out = fmt::format(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" class=\"red-timeline\" width=\"{:.0f}\" "
         "height=\"{:.0f}\" viewBox=\"0 0 {:.0f} {:.0f}\" data-from-ms=\"{}\" data-to-ms=\"{}\" "
+        "data-left=\"{:.0f}\" data-px-per-ms=\"{:.9g}\" "
         "font-family=\"DejaVu Sans, Arial, Helvetica, sans-serif\" font-size=\"10\">\n",
-        l_.total_width(), y, l_.total_width(), y, ms6(w_.from), ms6(w_.to));
+        l_.total_width(), y, l_.total_width(), y, ms6(w_.from), ms6(w_.to), kLeft, l_.px_per_ms);
     out += "<title>" + html_escape(w_.title) + "</title>\n";
     out +=
         "<defs><pattern id=\"red-hatch\" width=\"6\" height=\"6\" patternUnits=\"userSpaceOnUse\" "
@@ -224,7 +225,7 @@ class SvgWriter {
                     "fill=\"#333\"/>",
                     x, y + 3, x, y + 5),
         "job: release to deadline, response over it");
-    key(cross(x + 7, y + 6, "miss"), "miss (late or no result)");
+    key(cross(x + 7, y + 6, "key"), "miss (late or no result)");
     key(fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
                     "stroke=\"#444\" stroke-dasharray=\"4,3\"/>",
                     x + 7, y - 2, x + 7, y + 14),
@@ -311,6 +312,12 @@ class SvgWriter {
         "missed</text>\n",
         y, l_.total_width(), kPolicyTitleH, y + 16, html_escape(r.policy), kLeft, y + 16, jobs,
         misses);
+    // The name again every 1200 px, for a reader scrolled far to the right.
+    for (double x = kLeft + 1200; x + 200 < l_.total_width(); x += 1200)
+      out += fmt::format(
+          "<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"13\" font-weight=\"bold\" "
+          "fill=\"#555\">{}</text>\n",
+          x, y + 16, html_escape(r.policy));
     y += kPolicyTitleH;
     const double top = y;
     const int lanes = std::max(1, s_.device.lanes);

@@ -61,7 +61,8 @@ std::vector<TimelineWindow> default_timeline_windows(const Scenario& s,
 /// The timeline of `runs` over `window` as a standalone SVG document (also valid inline
 /// in HTML). Deterministic for the same inputs. Every unit that overlaps the window is a
 /// `<g class="unit">` with data-policy, data-dispatch, data-lane, data-start-ms and
-/// data-end-ms (units.csv's values), so tests and tools can check it.
+/// data-end-ms (units.csv's values), so tests and tools can check it; the root carries
+/// data-from-ms, data-to-ms, data-left and data-px-per-ms (x = left + (t − from) · scale).
 std::string timeline_svg(const Scenario& s, const std::vector<TimelineRun>& runs,
                          const TimelineWindow& window);
 
