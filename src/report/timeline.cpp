@@ -289,7 +289,8 @@ class SvgWriter {
           "y1=\"{:.1f}\" x2=\"{:.2f}\" y2=\"{:.1f}\" stroke=\"#444\" stroke-width=\"1.2\" "
           "stroke-dasharray=\"5,3\"/><text x=\"{:.2f}\" y=\"{:.1f}\" fill=\"#222\" "
           "font-weight=\"bold\">event {}: {}</text></g>\n",
-          i, ms6(at), x, y0, x, y1, x + 4, y0 + 10, i, html_escape(s_.events[i].kind));
+          i, ms6(at), x, y0 - kPolicyTitleH + 4, x, y1, x + 4, y0 - 7, i,
+          html_escape(s_.events[i].kind));
     }
     return out;
   }
@@ -576,18 +577,19 @@ std::vector<TimelineWindow> default_timeline_windows(const Scenario& s,
     }
   }
   if (worst == nullptr) return out;
-  // Centred on the moment it missed: its deadline, or its finish when that is earlier
-  // (a skipped release).
+  // The moment it missed: its deadline, or its finish when that is earlier (a skipped
+  // release). The window starts 0.3 s before it, so that the miss and what led to it are
+  // in view when the page opens (the drawing scrolls sideways), and runs 1.7 s after.
   const TimePoint at = std::min(worst->deadline, worst->finish);
-  TimePoint from = std::max(s.warmup, at - span / 2);
-  TimePoint to = std::min(end, from + span);
+  TimePoint from = std::max(s.warmup, at - std::chrono::milliseconds{300});
+  const TimePoint to = std::min(end, from + span);
   from = std::max(s.warmup, std::min(from, to - span));
   const std::string what =
-      fmt::format("{} {}#{} ({})", worst_policy, s.operation_name(worst->operation), worst->seq,
-                  to_string(worst->outcome));
-  const Duration margin = std::chrono::milliseconds{250};
-  if (at >= out.front().from + margin && at + margin <= out.front().to) {
-    // Already well inside the first window: one drawing shows both.
+      fmt::format("{} {}#{} ({} at {:.3f} s)", worst_policy, s.operation_name(worst->operation),
+                  worst->seq, to_string(worst->outcome), to_s(at));
+  if (from == out.front().from) {
+    // The same start: one drawing shows both.
+    out.front().to = std::max(out.front().to, to);
     out.front().title += ", with the worst miss, " + what;
     return out;
   }

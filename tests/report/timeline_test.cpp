@@ -245,27 +245,39 @@ TEST(Timeline, MergeWaitsAreDrawnWhenRecorded) {
   EXPECT_EQ(svg.find("merge waits not recorded"), std::string::npos);
 }
 
+// The moment the worst miss of the runs missed: lowest QoE (no result: 0), earliest on ties.
+TimePoint worst_miss(const Runs& r) {
+  const JobRow* worst = nullptr;
+  auto score = [](const JobRow& j) { return j.outcome == JobOutcome::Missed ? j.qoe : 0.0; };
+  for (const PolicyRun& run : r.runs)
+    for (const JobRow& j : run.jobs) {
+      if (j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Unfinished) continue;
+      if (worst == nullptr || score(j) < score(*worst) ||
+          (score(j) == score(*worst) && j.release < worst->release))
+        worst = &j;
+    }
+  EXPECT_NE(worst, nullptr);
+  return worst == nullptr ? TimePoint{0} : std::min(worst->deadline, worst->finish);
+}
+
 TEST(Timeline, DefaultWindowsAreTheStartAndTheWorstMiss) {
-  const Runs r = simulate("minibench-tight.yaml", {"edf", "red"});
+  // edf misses once detection joins at 3 s: a second window, from 0.3 s before the miss.
+  const Runs r = simulate("case-dynamic.yaml", {"edf", "red"});
   const auto w = default_timeline_windows(r.scenario, r.timeline);
   ASSERT_EQ(w.size(), 2u);
   EXPECT_EQ(w[0].from, r.scenario.warmup);
   EXPECT_EQ(w[0].to, r.scenario.warmup + std::chrono::seconds{2});
   EXPECT_EQ(w[1].to - w[1].from, std::chrono::seconds{2});
-  // The worst miss (lowest QoE, earliest on ties) lies in the second window.
-  const JobRow* worst = nullptr;
-  for (const PolicyRun& run : r.runs)
-    for (const JobRow& j : run.jobs) {
-      if (j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Unfinished) continue;
-      const double q = j.outcome == JobOutcome::Missed ? j.qoe : 0.0;
-      const double wq =
-          worst == nullptr ? 2.0 : (worst->outcome == JobOutcome::Missed ? worst->qoe : 0.0);
-      if (q < wq || (q == wq && j.release < worst->release)) worst = &j;
-    }
-  ASSERT_NE(worst, nullptr);
-  const TimePoint at = std::min(worst->deadline, worst->finish);
-  EXPECT_LE(w[1].from, at);
-  EXPECT_GE(w[1].to, at);
+  const TimePoint at = worst_miss(r);
+  EXPECT_EQ(w[1].from, at - std::chrono::milliseconds{300});
+  EXPECT_EQ(w[1].name, "timeline_worst_miss");
+
+  // edf misses from the start of minibench-tight: one window shows both.
+  const Runs tight = simulate("minibench-tight.yaml", {"edf"});
+  const auto one = default_timeline_windows(tight.scenario, tight.timeline);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one[0].from, tight.scenario.warmup);
+  EXPECT_LE(worst_miss(tight), one[0].to);
 
   // Without a miss: the start only.
   const Runs calm = simulate("case-async.yaml", {"red"});

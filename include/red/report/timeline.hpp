@@ -54,7 +54,8 @@ Expected<std::pair<Duration, Duration>> parse_timeline_window(const std::string&
 
 /// The default windows: the first 2 s after the warm-up and the 2 s around the worst miss
 /// of any run (the miss with the lowest QoE, a job without a result scoring 0; the
-/// earliest on ties), merged into one window when they overlap. No miss: the first only.
+/// earliest on ties), from 0.3 s before it; one window when both start at the warm-up's
+/// end. No miss: the first only.
 std::vector<TimelineWindow> default_timeline_windows(const Scenario& s,
                                                      const std::vector<TimelineRun>& runs);
 
