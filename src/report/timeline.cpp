@@ -548,8 +548,11 @@ Expected<std::pair<Duration, Duration>> parse_timeline_window(const std::string&
     return Error{"", 0, "--timeline: FROM and TO must be numbers of seconds, got '" + text + "'"};
   if (*from < 0) return Error{"", 0, "--timeline: FROM must be 0 or more, got '" + text + "'"};
   if (*to <= *from) return Error{"", 0, "--timeline: TO must be after FROM, got '" + text + "'"};
-  if (*to - *from > 600)
-    return Error{"", 0, "--timeline: a window of at most 600 s, got '" + text + "'"};
+  if (*to - *from > 60)
+    return Error{
+        "", 0,
+        "--timeline: a window of at most 60 s (the drawing would be unreadable and huge), got '" +
+            text + "'"};
   return std::pair<Duration, Duration>{from_s(*from), from_s(*to)};
 }
 

@@ -299,7 +299,7 @@ TEST(Timeline, ParsesWindows) {
   EXPECT_EQ(w->second, std::chrono::milliseconds{4500});
   EXPECT_TRUE(parse_timeline_window("0:0.001").has_value());
   for (const char* bad : {"", "2", ":", "2:", ":4", "4:2", "2:2", "-1:2", "a:b", "1:2:3", "1 :2",
-                          "nan:1", "1:inf", "1e400:1e401", "0:601"}) {
+                          "nan:1", "1:inf", "1e400:1e401", "0:60.5"}) {
     auto e = parse_timeline_window(bad);
     ASSERT_FALSE(e.has_value()) << bad;
     EXPECT_NE(e.error().message.find("--timeline"), std::string::npos) << bad;

@@ -48,8 +48,8 @@ struct TimelineWindow {
   std::string title;  ///< what it shows, for captions
 };
 
-/// Parses `--timeline FROM:TO` (seconds, FROM ≥ 0, TO > FROM, e.g. "2.5:4"). Error: what is
-/// wrong with the text.
+/// Parses `--timeline FROM:TO` (seconds, FROM ≥ 0, FROM < TO ≤ FROM + 60, e.g. "2.5:4"). Error:
+/// what is wrong with the text.
 Expected<std::pair<Duration, Duration>> parse_timeline_window(const std::string& text);
 
 /// The default windows: the first 2 s after the warm-up and the 2 s around the worst miss
