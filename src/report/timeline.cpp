@@ -414,7 +414,7 @@ class SvgWriter {
         "data-round-trip=\"{}\"><title>{}</title>",
         html_escape(policy), u.dispatch, u.lane, ms6(u.start), ms6(u.end), to_string(u.kind),
         u.members, u.round_trip ? 1 : 0, html_escape(tip));
-    if (u.round_trip) {
+    if (u.round_trip && u.start >= l_.from) {
       // The round trip to the synchronizer: a dark mark from the decision to the start,
       // at least wide enough to see.
       const double rx = std::min(l_.x(u.decided), x0 - 2.0);
