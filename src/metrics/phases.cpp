@@ -64,7 +64,12 @@ std::vector<PhaseSpan> workload_phases(const Scenario& s, TimePoint end) {
   out.push_back({s.warmup, std::max(end, s.warmup), {}});
   for (std::size_t i = 0; i < s.events.size(); ++i) {
     const TimePoint at = s.events[i].at;
-    if (at <= s.warmup || at >= end) continue;  // no job of the measured window is before it
+    if (at <= s.warmup) {
+      // Before the measured window: its effect is in the first phase.
+      out.front().events.push_back(static_cast<int>(i));
+      continue;
+    }
+    if (at >= end) continue;
     if (at == out.back().from) {
       out.back().events.push_back(static_cast<int>(i));  // events at the same time: one phase
       continue;
@@ -116,11 +121,15 @@ std::string phase_label(const Scenario& s, const PhaseSpan& span) {
 std::string phase_table(const Scenario& s, const std::vector<std::string>& policies,
                         const std::vector<std::vector<PhaseMetrics>>& phases) {
   std::string out;
+  // No completed job, no latency: "-" rather than a 0 that reads as instant.
+  auto latency = [](double ms, const PhaseFigures& f) {
+    return f.completed > 0 ? fmt::format("{:.2f}", ms) : std::string("-");
+  };
   auto row = [&](const PhaseMetrics& ph, const std::string& op, const PhaseFigures& f) {
     out += fmt::format(
-        "{:>7.3f} {:>7.3f}  {:<12} {:>6} {:>7.2f} {:>7.2f} {:>6.3f} {:>8.2f} {:>8.2f}  {}\n",
+        "{:>7.3f} {:>7.3f}  {:<12} {:>6} {:>7.2f} {:>7.2f} {:>6.3f} {:>8} {:>8}  {}\n",
         to_s(ph.span.from), to_s(ph.span.to), op, f.jobs, 100.0 * f.miss_rate, 100.0 * f.drop_rate,
-        f.qoe, f.latency_p50_ms, f.latency_p99_ms, phase_label(s, ph.span));
+        f.qoe, latency(f.latency_p50_ms, f), latency(f.latency_p99_ms, f), phase_label(s, ph.span));
   };
   for (std::size_t i = 0; i < policies.size() && i < phases.size(); ++i) {
     out += fmt::format("phases of {} (jobs by release time):\n", policies[i]);

@@ -102,7 +102,8 @@ HtmlSection phase_section(const Scenario& s, const std::vector<std::string>& pol
     auto add = [&](const PhaseMetrics& ph, const std::string& op, const PhaseFigures& f) {
       t.rows.push_back({phase_label(s, ph.span), span_text(ph.span), op, std::to_string(f.jobs),
                         num(100.0 * f.miss_rate, 2), num(100.0 * f.drop_rate, 2), num(f.qoe, 3),
-                        num(f.latency_p50_ms, 2), num(f.latency_p99_ms, 2)});
+                        f.completed > 0 ? num(f.latency_p50_ms, 2) : "-",
+                        f.completed > 0 ? num(f.latency_p99_ms, 2) : "-"});
     };
     for (const PhaseMetrics& ph : phases[i]) {
       for (const auto& [op, f] : ph.operations) add(ph, op, f);

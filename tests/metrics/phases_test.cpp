@@ -59,6 +59,8 @@ TEST(Phases, EventsAtOneTimeOpenOnePhaseAndEventsBeforeTheWarmUpNone) {
   s.events = {early, s.events[0], twin, s.events[1]};  // 0.2, 3, 3, 6 s
   const auto p = workload_phases(s, from_s(9.0));
   ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p[0].from, s.warmup);
+  EXPECT_EQ(p[0].events, std::vector<int>{0});  // before the warm-up's end: in the first
   EXPECT_EQ(p[1].events, (std::vector<int>{1, 2}));
   EXPECT_EQ(phase_label(s, p[1]), "after add_nodes, remove_nodes (events 1, 2)");
   s.events.clear();
@@ -108,6 +110,7 @@ TEST(Phases, CountsAddUpToTheRunsTotals) {
     const PolicyMetrics& m = run->metrics;
     const auto phases = phase_metrics(s, run->jobs, run->result.end);
     ASSERT_EQ(phases.size(), 19u) << policy;  // the warm-up (1 s) swallows the event at 1 s
+    EXPECT_EQ(phases.front().span.events, std::vector<int>{0});
     std::int64_t jobs = 0, completed = 0, missed = 0, dropped = 0, unfinished = 0;
     for (std::size_t i = 0; i < phases.size(); ++i) {
       const PhaseMetrics& ph = phases[i];

@@ -23,7 +23,9 @@ namespace red {
 struct PhaseSpan {
   TimePoint from{0};
   TimePoint to{0};
-  std::vector<int> events;  ///< indices into Scenario::events; empty for the first phase
+  /// Indices into Scenario::events of the events that opened it; for the first phase, those
+  /// at or before the end of the warm-up (usually none).
+  std::vector<int> events;
 };
 
 /// The figures of a set of jobs (one operation, or all) in one phase.
@@ -43,15 +45,16 @@ struct PhaseMetrics {
   std::vector<std::pair<std::string, PhaseFigures>> operations;
 };
 
-/// The phases of a run that ended at `end`: the first starts at the warm-up's end, and a
-/// new one starts at each distinct workload event time after it and before `end`.
+/// The phases of a run that ended at `end`: the first starts at the warm-up's end (with the
+/// events at or before it), and a new one starts at each distinct workload event time
+/// after it and before `end`.
 std::vector<PhaseSpan> workload_phases(const Scenario& s, TimePoint end);
 
 /// Figures of `jobs` (rows of one policy's run) per phase of `workload_phases(s, end)`.
 std::vector<PhaseMetrics> phase_metrics(const Scenario& s, const std::vector<JobRow>& jobs,
                                         TimePoint end);
 
-/// "before event 0", "after event 0 (add_nodes)", ...: a short name for a phase.
+/// A short name for a phase: "start", "whole run" (no events), "after add_nodes (event 0)".
 std::string phase_label(const Scenario& s, const PhaseSpan& span);
 
 /// The phase table printed by `--phases`: one block per policy, one row per (phase,
