@@ -50,7 +50,9 @@ std::vector<std::string> common_notes() {
       "Miss rate counts jobs that finished after their deadline or were dropped (skipped and "
       "failed jobs count as dropped), over the jobs released after the warm-up window. QoE is "
       "the mean per job of 1 / (1 + e^lambda * max(0, R - D)); a dropped job scores 0.",
-      "The timeline (trace.json) opens in the Perfetto UI: go to https://ui.perfetto.dev and "
+      "The Timeline section above draws the schedule offline (plots/timeline*.svg hold the "
+      "same drawings). The full trace (trace.json) opens in the Perfetto UI: go to "
+      "https://ui.perfetto.dev and "
       "drag the file in (the file stays on this computer), or open chrome://tracing in "
       "Chrome and load it. Each policy is one process; its tracks are the lanes (every unit "
       "execution, click one for its jobs, batch and merged members), per operation the "
