@@ -120,6 +120,22 @@ def main():
         fail("the rendered DOM has %d unit boxes, index.html %d"
              % (dom.count('<g class="unit"'), units))
 
+    # The standalone SVG files are well-formed XML (a browser shows a parser error
+    # otherwise) and hold the same boxes as the page.
+    svg_units = 0
+    for name in sorted(os.listdir(os.path.join(out, "plots"))):
+        if not (name.startswith("timeline") and name.endswith(".svg")):
+            continue
+        cmd, profile = chromium_command()
+        r = subprocess.run(cmd + ["--dump-dom", "file://" + os.path.join(out, "plots", name)],
+                           capture_output=True, text=True, timeout=300)
+        shutil.rmtree(profile, ignore_errors=True)
+        if r.returncode != 0 or "parsererror" in r.stdout or "error on line" in r.stdout:
+            fail("plots/%s does not render as SVG: %s" % (name, (r.stdout + r.stderr)[-2000:]))
+        svg_units += r.stdout.count('<g class="unit"')
+    if svg_units != units:
+        fail("plots/timeline*.svg have %d unit boxes, index.html %d" % (svg_units, units))
+
     # The screenshot: not blank, the timeline's boxes visible.
     if os.path.exists(shot):
         os.remove(shot)
