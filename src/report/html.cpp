@@ -20,8 +20,7 @@ figure{margin:1em 0}figure img{max-width:100%;border:1px solid #eee}
 figcaption{font-size:.9em;color:#555}
 .note{background:#fff8e1;border-left:4px solid #f0c36d;padding:.4em .8em}
 code{background:#f3f3f3;padding:0 .2em}
-.timeline{overflow-x:auto;border:1px solid #ddd;margin:.4em 0}.timeline svg{display:block}
-details{margin:.4em 0}summary{cursor:pointer;font-weight:600})";
+.timeline{overflow-x:auto;border:1px solid #ddd;margin:.4em 0}.timeline svg{display:block})";
 
 std::string num(double v, int decimals) {
   return fmt::format("{:.{}f}", v, decimals);
