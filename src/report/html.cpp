@@ -19,7 +19,8 @@ tbody tr:nth-child(even){background:#fafafa}
 figure{margin:1em 0}figure img{max-width:100%;border:1px solid #eee}
 figcaption{font-size:.9em;color:#555}
 .note{background:#fff8e1;border-left:4px solid #f0c36d;padding:.4em .8em}
-code{background:#f3f3f3;padding:0 .2em})";
+code{background:#f3f3f3;padding:0 .2em}
+.timeline{overflow-x:auto;border:1px solid #ddd;margin:.4em 0}.timeline svg{display:block})";
 
 std::string num(double v, int decimals) {
   return fmt::format("{:.{}f}", v, decimals);
@@ -48,7 +49,9 @@ std::vector<std::string> common_notes() {
       "Miss rate counts jobs that finished after their deadline or were dropped (skipped and "
       "failed jobs count as dropped), over the jobs released after the warm-up window. QoE is "
       "the mean per job of 1 / (1 + e^lambda * max(0, R - D)); a dropped job scores 0.",
-      "The timeline (trace.json) opens in the Perfetto UI: go to https://ui.perfetto.dev and "
+      "The Timeline section above draws the schedule offline (plots/timeline*.svg hold the "
+      "same drawings). The full trace (trace.json) opens in the Perfetto UI: go to "
+      "https://ui.perfetto.dev and "
       "drag the file in (the file stays on this computer), or open chrome://tracing in "
       "Chrome and load it. Each policy is one process; its tracks are the lanes (every unit "
       "execution, click one for its jobs, batch and merged members), per operation the "
@@ -103,6 +106,13 @@ std::string render_html(const HtmlPage& page) {
   if (!page.tables.empty()) {
     out += "<h2>Results</h2>\n";
     for (const HtmlTable& t : page.tables) out += render_table(t);
+  }
+  for (const HtmlSection& s : page.sections) {
+    out += "<section id=\"" + html_escape(s.id) + "\">\n<h2>" + html_escape(s.heading) + "</h2>\n";
+    for (const std::string& p : s.paragraphs) out += "<p>" + html_escape(p) + "</p>\n";
+    for (const HtmlTable& t : s.tables) out += render_table(t);
+    for (const std::string& h : s.raw_html) out += h;
+    out += "</section>\n";
   }
   out += "<h2>Plots</h2>\n";
   if (!page.plots_note.empty())

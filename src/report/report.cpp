@@ -1,5 +1,6 @@
 #include "red/report/report.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -26,9 +27,37 @@ nlohmann::json opt(const std::optional<double>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
 }
 
+nlohmann::ordered_json phase_figures(const PhaseFigures& f) {
+  return {{"jobs", f.jobs},
+          {"completed", f.completed},
+          {"missed", f.missed},
+          {"dropped", f.dropped},
+          {"unfinished", f.unfinished},
+          {"miss_rate", f.miss_rate},
+          {"drop_rate", f.drop_rate},
+          {"qoe", f.qoe},
+          {"latency_ms", {{"p50", f.latency_p50_ms}, {"p99", f.latency_p99_ms}}}};
+}
+
+nlohmann::ordered_json phases_json(const std::vector<PhaseMetrics>& phases) {
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const PhaseMetrics& ph : phases) {
+    nlohmann::ordered_json p = {{"from_s", std::round(to_s(ph.span.from) * 1e6) / 1e6},
+                                {"to_s", std::round(to_s(ph.span.to) * 1e6) / 1e6},
+                                {"events", ph.span.events}};
+    p.update(phase_figures(ph.all));
+    nlohmann::ordered_json ops = nlohmann::ordered_json::object();
+    for (const auto& [name, f] : ph.operations) ops[name] = phase_figures(f);
+    p["operations"] = ops;
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
 }  // namespace
 
-std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics>& policies) {
+std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics>& policies,
+                         const std::vector<std::vector<PhaseMetrics>>& phases) {
   nlohmann::ordered_json j;
   j["schema"] = 1;
   j["scenario"] = h.scenario;
@@ -37,7 +66,8 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
   j["seed"] = h.seed;
   j["profile"] = h.profile_source;
   j["policies"] = nlohmann::ordered_json::array();
-  for (const PolicyMetrics& m : policies) {
+  for (std::size_t i = 0; i < policies.size(); ++i) {
+    const PolicyMetrics& m = policies[i];
     nlohmann::ordered_json p;
     p["name"] = m.name;
     p["jobs"] = m.jobs;
@@ -79,6 +109,7 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
     p["ratios"] = {{"miss_rate", opt(m.ratio_miss)},
                    {"latency_mean", opt(m.ratio_latency)},
                    {"qoe", opt(m.ratio_qoe)}};
+    if (i < phases.size()) p["phases"] = phases_json(phases[i]);
     j["policies"].push_back(std::move(p));
   }
   return j.dump(2) + "\n";

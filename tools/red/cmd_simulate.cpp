@@ -12,7 +12,9 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "real_run.hpp"
+#include "red/metrics/phases.hpp"
 #include "red/report/report.hpp"
+#include "red/report/timeline.hpp"
 
 namespace red::cli {
 
@@ -28,7 +30,9 @@ struct RunArgs {
   std::optional<std::uint64_t> seed;
   std::optional<std::string> out;
   std::size_t trace_events = kDefaultTraceEvents;
-  std::string sync;  ///< empty: the policy's own
+  std::string sync;                     ///< empty: the policy's own
+  std::optional<std::string> timeline;  ///< --timeline FROM:TO (seconds)
+  bool phases = false;                  ///< --phases: print the figures per workload phase
 };
 
 std::optional<SyncMode> parse_sync(const std::string& v) {
@@ -74,6 +78,26 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       print_error(Error{"", 0, "unknown policy '" + n + "' (known: " + known + ")"});
       return kBadInput;
     }
+  }
+  std::optional<std::pair<Duration, Duration>> timeline;
+  if (a.timeline) {
+    auto w = parse_timeline_window(*a.timeline);
+    if (!w) {
+      print_error(w.error());
+      return kBadInput;
+    }
+    if (!a.out) {
+      print_error(Error{"", 0, "--timeline: the timeline is drawn into --out DIR; give --out"});
+      return kBadInput;
+    }
+    if (w->first >= s->duration) {
+      print_error(Error{"", 0,
+                        fmt::format("--timeline: FROM ({:g} s) is not before the end of the run "
+                                    "({:g} s, duration_s)",
+                                    to_s(w->first), to_s(s->duration))});
+      return kBadInput;
+    }
+    timeline = *w;
   }
   const std::uint64_t seed = a.seed ? *a.seed : s->seed;
   const bool sim = a.backend == "sim";
@@ -133,6 +157,15 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
   if (!sim) print_prediction(*s, *p, seed, runs, real.sync);
+  if (a.phases) {
+    std::vector<std::string> names_run;
+    std::vector<std::vector<PhaseMetrics>> phases;
+    for (const PolicyRun& r : runs) {
+      names_run.push_back(r.metrics.name);
+      phases.push_back(phase_metrics(*s, r.jobs, r.result.end));
+    }
+    fmt::print("{}", phase_table(*s, names_run, phases));
+  }
   if (!table) {
     const PolicyMetrics& m = metrics.front();
     fmt::print(
@@ -152,6 +185,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     OutputOptions o;
     for (const auto& t : traces) o.traces.push_back(t.get());
     o.index_html = table;  // red compare
+    o.timeline = timeline;
     OutputReport written;
     if (auto e = write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written)) {
       print_error(*e);
@@ -179,6 +213,11 @@ void add_common(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--trace-events", a.trace_events,
                   "Most events in trace.json, over all policies (0: no trace.json)")
       ->capture_default_str();
+  cmd->add_option("--timeline", a.timeline,
+                  "Window of the timeline drawn under --out, FROM:TO in seconds (default: the "
+                  "first 2 s after the warm-up and the 2 s around the worst miss)");
+  cmd->add_flag("--phases", a.phases,
+                "Print jobs, miss and drop rate, QoE and latency per workload phase");
 }
 
 // Options of the real backends (compare --backend torch, run).

@@ -10,6 +10,7 @@
 #include "red/report/html.hpp"
 #include "red/report/plots.hpp"
 #include "red/report/report.hpp"
+#include "red/report/schedule_html.hpp"
 #include "red/scenario/loader.hpp"
 
 namespace red::cli {
@@ -97,7 +98,9 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
   h.backend = backend;
   h.seed = seed;
   h.profile_source = p.source;
-  if (auto e = write_file(dir, "summary.json", summary_json(h, metrics))) return e;
+  std::vector<std::vector<PhaseMetrics>> phases;
+  for (const PolicyRun& run : runs) phases.push_back(phase_metrics(s, run.jobs, run.result.end));
+  if (auto e = write_file(dir, "summary.json", summary_json(h, metrics, phases))) return e;
   if (auto e = write_file(dir, "jobs.csv", jobs_csv(s, jobs))) return e;
   if (auto e = write_file(dir, "units.csv", units_csv(s, units))) return e;
   r.files = {"summary.json", "jobs.csv", "units.csv"};
@@ -137,6 +140,35 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     }
   }
 
+  // The schedule itself (plots/timeline*.svg), drawn from units.csv and jobs.csv, with the
+  // merge waits the traces recorded.
+  std::vector<std::vector<TimelineWait>> waits(runs.size());
+  std::vector<TimelineRun> timeline_runs;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    TimelineRun t{runs[i].metrics.name, &runs[i].units,    &runs[i].jobs, nullptr,
+                  std::nullopt,         runs[i].result.end};
+    if (i < options.traces.size() && options.traces[i] != nullptr) {
+      for (const auto& w : options.traces[i]->waits())
+        waits[i].push_back({w.at, w.until, w.sensor});
+      t.waits = &waits[i];
+      if (options.traces[i]->truncated()) t.waits_cut = options.traces[i]->truncated_at();
+    }
+    timeline_runs.push_back(std::move(t));
+  }
+  std::vector<TimelineWindow> windows;
+  if (options.timeline)
+    windows.push_back({options.timeline->first, options.timeline->second, "timeline",
+                       fmt::format("Timeline: {:g} to {:g} s", to_s(options.timeline->first),
+                                   to_s(options.timeline->second))});
+  else
+    windows = default_timeline_windows(s, timeline_runs);
+  auto timelines = write_timelines(dir, s, timeline_runs, windows);
+  if (!timelines) return timelines.error();
+  for (const std::string& f : timelines->files) {
+    r.files.push_back(f);
+    ++r.images;
+  }
+
   if (options.index_html) {
     std::vector<HtmlLink> links = {
         {"summary.json", "the summary of every policy (schema in docs/REPORTS.md)"},
@@ -144,8 +176,12 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
         {"units.csv", "one row per unit execution"}};
     if (!processes.empty())
       links.push_back({"trace.json", "the timeline: drag into https://ui.perfetto.dev"});
-    if (auto e = write_file(dir, "index.html", render_html(compare_page(h, metrics, plots, links))))
-      return e;
+    HtmlPage page = compare_page(h, metrics, plots, links);
+    std::vector<std::string> names;
+    for (const PolicyMetrics& m : metrics) names.push_back(m.name);
+    page.sections.push_back(phase_section(s, names, phases));
+    page.sections.push_back(timelines->section);
+    if (auto e = write_file(dir, "index.html", render_html(page))) return e;
     r.files.push_back("index.html");
   }
   return std::nullopt;

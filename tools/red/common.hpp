@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -51,6 +52,8 @@ struct OutputOptions {
   bool index_html = false;  ///< index.html (red compare)
   /// gnuplot command; empty: $RED_GNUPLOT, else "gnuplot" ("none" writes no images).
   std::string gnuplot;
+  /// The timeline's window (`--timeline FROM:TO`); none: the default windows.
+  std::optional<std::pair<Duration, Duration>> timeline;
 };
 
 /// What write_outputs wrote, relative to its directory.

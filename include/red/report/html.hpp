@@ -30,11 +30,22 @@ struct HtmlLink {
   std::string note;  ///< what the file holds
 };
 
+/// A section of its own after the results: a heading, an introduction, tables and HTML
+/// made by RED itself (inline SVG), inserted as it is.
+struct HtmlSection {
+  std::string id;  ///< anchor
+  std::string heading;
+  std::vector<std::string> paragraphs;  ///< plain text
+  std::vector<HtmlTable> tables;
+  std::vector<std::string> raw_html;  ///< trusted markup written by RED (never user text)
+};
+
 /// Everything a page shows.
 struct HtmlPage {
   std::string title;
   std::vector<std::pair<std::string, std::string>> facts;  ///< scenario, backend, seed, ...
   std::vector<HtmlTable> tables;
+  std::vector<HtmlSection> sections;  ///< after the results, before the plots
   std::vector<PlotFile> plots;
   std::string plots_note;  ///< why plots are missing, if they are
   std::vector<HtmlLink> files;

@@ -9,6 +9,7 @@
 
 #include "red/core/expected.hpp"
 #include "red/metrics/metrics.hpp"
+#include "red/metrics/phases.hpp"
 #include "red/scenario/scenario.hpp"
 
 namespace red {
@@ -22,8 +23,10 @@ struct SummaryHeader {
   std::string profile_source;  ///< "builtin-default", "measured" or a path
 };
 
-/// summary.json text: deterministic for the same inputs (byte-identical).
-std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics>& policies);
+/// summary.json text: deterministic for the same inputs (byte-identical). `phases[i]`, when
+/// given, becomes the "phases" array of policy i (docs/REPORTS.md).
+std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics>& policies,
+                         const std::vector<std::vector<PhaseMetrics>>& phases = {});
 
 /// Rows of one policy's run, for the CSV writers.
 template <typename Row>
