@@ -405,6 +405,10 @@ struct Runtime::Impl {
         // Per-edge: a handler that completed waits here for its next unit (a round trip).
         const Dispatch* none = decide(now, -1, completed, completed_at);
         RED_ASSERT(none == nullptr);
+        // Releases are over and nothing is in flight: done. (Checked again here, after the
+        // round: frames that arrived with the end of the scenario release nothing, and no
+        // one would wake the loop before the drain limit.)
+        if (!releasing && sched.jobs_in_flight() == 0) break;
         wake = sched.next_wakeup();
         if (releasing) wake = std::min(wake, scenario.duration);
         wake = std::min(wake, hard_stop);

@@ -89,10 +89,15 @@ TEST_P(RuntimeTest, EveryReleasedJobEndsExactlyOnce) {
   EXPECT_GT(r.metrics.completed, 0);
   EXPECT_EQ(r.report.failures, 0U);
   EXPECT_FALSE(r.report.decision_us.empty());
+  // The run ends when the scenario's releases are over and nothing is in flight, not at the
+  // drain limit (5 s past the end) when the last frames arrive with the end of the
+  // scenario. (Not a timing figure: a run that waits for the drain limit ends 5 s late.)
+  EXPECT_LT(r.report.end, std::chrono::milliseconds{600} + std::chrono::seconds{2});
 }
 
 INSTANTIATE_TEST_SUITE_P(Presets, RuntimeTest,
-                         ::testing::Values("fifo", "mono", "edf", "red-fg", "red-ida", "red"));
+                         ::testing::Values("fifo", "mono", "edf", "red-fg", "red-ida", "red",
+                                           "red-robust"));
 
 TEST(Runtime, FailingUnitsFailTheirJobsAndTheRuntimeGoesOn) {
   std::atomic<int> n{0};
@@ -130,6 +135,37 @@ TEST(Runtime, OnDemandDecidesAtUnitBoundariesPerEdgeDoesNot) {
   EXPECT_EQ(ida.report.local_decisions, 0U);
   EXPECT_LT(red.report.stats.round_trips, red.report.stats.dispatches);
   EXPECT_EQ(ida.report.stats.round_trips, ida.report.stats.dispatches);
+}
+
+// A frame that arrives with the end of the scenario releases nothing; the run must still
+// end then, not wait for the drain limit (5 s) with nothing in flight.
+TEST(Runtime, RunEndsWhenTheLastFrameComesWithTheEnd) {
+  auto s = parse_scenario(R"(
+name: end
+duration_s: 0.5
+warmup_s: 0.1
+sensors:
+  camera: {rate_hz: 20}
+operations:
+  - name: chain
+    trigger: camera
+    deadline_ms: 40
+    nodes:
+      A: {cost_ms: 5}
+      B: {cost: {mean_ms: 8, p99_ms: 10}}
+    edges: [[A, B]]
+)",
+                          "end.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  const Profile p = default_profile();
+  SyntheticBackend backend(*s, p, 1, {});
+  RuntimeOptions ro;
+  ro.realtime = false;
+  for (const char* policy : {"edf", "red", "red-robust"}) {
+    Runtime rt(*s, p, make_policy(policy), backend, ro);
+    const RuntimeReport report = rt.run();
+    EXPECT_LT(report.end, std::chrono::milliseconds{500} + std::chrono::seconds{2}) << policy;
+  }
 }
 
 TEST(Runtime, HandlerStatesHaveNames) {
