@@ -428,12 +428,21 @@ class SvgWriter {
       out += fmt::format(
           "<rect x=\"{:.2f}\" y=\"{:.2f}\" width=\"{:.2f}\" height=\"{:.2f}\" fill=\"{}\"/>", x0,
           by + band * static_cast<double>(i), x1 - x0, band, op_color(ops[i]));
-    const bool bad = u.status != UnitStatus::Completed;
+    // Failed, out-of-memory and cancelled units: a red dashed outline; a unit cut by the
+    // end of the run (unfinished): a grey dotted one.
+    const bool cut = u.status == UnitStatus::Unfinished;
+    const bool bad = u.status != UnitStatus::Completed && !cut;
     out += fmt::format(
         "<rect x=\"{:.2f}\" y=\"{:.1f}\" width=\"{:.2f}\" height=\"{:.1f}\" fill=\"none\" "
         "stroke=\"{}\" stroke-width=\"{}\"{}/>",
-        x0, by, x1 - x0, bh, bad ? "#d00000" : "#333", bad ? "1.5" : "0.6",
-        bad ? " stroke-dasharray=\"3,2\"" : "");
+        x0, by, x1 - x0, bh,
+        bad   ? "#d00000"
+        : cut ? "#777"
+              : "#333",
+        bad || cut ? "1.5" : "0.6",
+        bad   ? " stroke-dasharray=\"3,2\""
+        : cut ? " stroke-dasharray=\"1,2\""
+              : "");
     // The label if it fits: the node (kind or head) with ×N for merged runs and batches,
     // else shorter forms of it.
     const std::vector<std::string> forms = label_forms(s_, u, label);
