@@ -46,6 +46,9 @@ struct RuntimeOptions {
   Duration spin = std::chrono::microseconds{50};   ///< spin before parking
   Duration drain_limit = std::chrono::seconds{5};  ///< after the scenario ends
   bool interference = true;                        ///< run the scenario's background load
+  /// Frames come from push_frame() (e.g. a DDS node) instead of the synthetic cameras;
+  /// releases end at stop() or at the scenario's duration, whichever comes first.
+  bool external_frames = false;
 };
 
 /// What a real run measured, besides what observers saw.
@@ -76,6 +79,16 @@ class Runtime {
   void add_observer(Observer* o);
   /// Runs the scenario in real time (duration, then draining); blocks until done.
   RuntimeReport run();
+
+  /// External-frame mode: frame `frame` of `sensor` arrived now, a release (§14). Frame ids
+  /// of one sensor must increase. Thread-safe; ignored before run() starts and after
+  /// releases ended. Returns false when ignored.
+  bool push_frame(int sensor, std::uint64_t frame);
+  /// Ends releases now (then in-flight jobs drain, as at the scenario's end). Thread-safe,
+  /// async-signal-unsafe; may be called before run().
+  void stop();
+  /// Decision times (μs) recorded since the `from`-th one; thread-safe (for live reports).
+  [[nodiscard]] std::vector<double> decision_us_since(std::size_t from) const;
 
  private:
   struct Impl;
