@@ -11,6 +11,9 @@ PACKAGES=(
   libtorch-dev python3-torch
   cyclonedds-dev cyclonedds-tools
 )
+# node and npm run the independent ROS 2 serializer of the DDS wire test (§14,
+# scripts/npm-oracle.sh); a node installed another way (NodeSource bundles npm) is kept.
+command -v npm >/dev/null || PACKAGES+=(nodejs npm)
 
 missing=()
 for p in "${PACKAGES[@]}"; do
