@@ -17,6 +17,10 @@ int main(int argc, char** argv) {
   red::cli::register_sweep(app, exit_code);
   red::cli::register_run(app, exit_code);
   red::cli::register_profile(app, exit_code);
+#ifdef RED_HAVE_DDS
+  red::cli::register_node(app, exit_code);
+  red::cli::register_camera(app, exit_code);
+#endif
   // Name an unknown command (CLI11 alone says only that a subcommand is required).
   std::string known;
   bool found = argc < 2 || argv[1][0] == '-';
