@@ -58,6 +58,10 @@ void fill(Arena&, const json& j, Twist& m) {
   fill(j["linear"], m.linear_);
   fill(j["angular"], m.angular_);
 }
+void fill(Arena& a, const json& j, TwistStamped& m) {
+  fill(a, j["header"], m.header_);
+  fill(a, j["twist"], m.twist_);
+}
 void fill(Arena& a, const json& j, Detection2DArray& m) {
   fill(a, j["header"], m.header_);
   auto& dets = a.detections.emplace_back(j["detections"].size());
@@ -147,6 +151,11 @@ std::vector<std::pair<std::string, json>> samples() {
   s.push_back({"geometry_msgs/Twist",
                {{"linear", {{"x", 1.5}, {"y", -0.0}, {"z", 1e-300}}},
                 {"angular", {{"x", 0.0}, {"y", 3.25}, {"z", -0.125}}}}});
+  s.push_back({"geometry_msgs/TwistStamped",
+               {{"header", header(7, 999999999, "base_link")},
+                {"twist",
+                 {{"linear", {{"x", 0.5}, {"y", 0.0}, {"z", 0.0}}},
+                  {"angular", {{"x", 0.0}, {"y", 0.0}, {"z", 0.75}}}}}}});
   s.push_back({"vision_msgs/Detection2DArray",
                {{"header", header(12, 34, "cam")},
                 {"detections",
@@ -186,6 +195,7 @@ std::vector<std::pair<std::string, json>> samples() {
 const dds_topic_descriptor_t* descriptor(const std::string& type) {
   if (type == "sensor_msgs/Image") return &sensor_msgs_msg_dds__Image__desc;
   if (type == "geometry_msgs/Twist") return &geometry_msgs_msg_dds__Twist__desc;
+  if (type == "geometry_msgs/TwistStamped") return &geometry_msgs_msg_dds__TwistStamped__desc;
   if (type == "vision_msgs/Detection2DArray") return &vision_msgs_msg_dds__Detection2DArray__desc;
   if (type == "diagnostic_msgs/DiagnosticArray")
     return &diagnostic_msgs_msg_dds__DiagnosticArray__desc;
@@ -196,6 +206,7 @@ const dds_topic_descriptor_t* descriptor(const std::string& type) {
 void fill_any(Arena& a, const std::string& type, const json& j, void* storage) {
   if (type == "sensor_msgs/Image") fill(a, j, *static_cast<Image*>(storage));
   if (type == "geometry_msgs/Twist") fill(a, j, *static_cast<Twist*>(storage));
+  if (type == "geometry_msgs/TwistStamped") fill(a, j, *static_cast<TwistStamped*>(storage));
   if (type == "vision_msgs/Detection2DArray") fill(a, j, *static_cast<Detection2DArray*>(storage));
   if (type == "diagnostic_msgs/DiagnosticArray")
     fill(a, j, *static_cast<DiagnosticArray*>(storage));

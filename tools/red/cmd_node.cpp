@@ -140,7 +140,8 @@ int run_node(const NodeArgs& a) {
     if (head < 0) continue;
     const auto kind = dds::output_kind(s->model.heads[static_cast<std::size_t>(head)]);
     std::cerr << fmt::format("red node:   out {} ({})\n", topic,
-                             kind == dds::OutputKind::Velocity ? "geometry_msgs/msg/Twist"
+                             kind == dds::OutputKind::Velocity
+                                 ? "geometry_msgs/msg/Twist, and TwistStamped on <topic>/stamped"
                              : kind == dds::OutputKind::Detections
                                  ? "vision_msgs/msg/Detection2DArray"
                                  : "sensor_msgs/msg/Image mono8");

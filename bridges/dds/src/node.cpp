@@ -187,6 +187,18 @@ struct Node::Impl final : Observer {
         break;
       }
       writers[name] = w;
+      if (desc == &geometry_msgs_msg_dds__Twist__desc) {
+        // Twist has no header: the same values with the frame's header beside it.
+        const std::string stamped = name + "/stamped";
+        const dds_entity_t st = dds_create_topic(pp, &geometry_msgs_msg_dds__TwistStamped__desc,
+                                                 dds_topic_name(stamped).c_str(), nullptr, nullptr);
+        const dds_entity_t sw = st < 0 ? st : dds_create_writer(pp, st, out_qos, nullptr);
+        if (sw < 0) {
+          result = fail("cannot publish " + stamped, sw);
+          break;
+        }
+        writers[stamped] = sw;
+      }
     }
     if (result) {
       const dds_entity_t topic =
@@ -371,6 +383,12 @@ struct Node::Impl final : Observer {
         t.linear_.x_ = mean / 255.0;
         t.angular_.z_ = (right - left) / half / 255.0;
         dds_write(wit->second, &t);
+        if (const auto sit = writers.find(wit->first + "/stamped"); sit != writers.end()) {
+          TwistStamped ts{};
+          hv.fill(ts.header_);
+          ts.twist_ = t;
+          dds_write(sit->second, &ts);
+        }
         std::lock_guard lock(frames_mu);
         ++counters.twists;
         break;

@@ -25,6 +25,7 @@ using Header = std_msgs_msg_dds__Header_;
 using Image = sensor_msgs_msg_dds__Image_;
 using Vector3 = geometry_msgs_msg_dds__Vector3_;
 using Twist = geometry_msgs_msg_dds__Twist_;
+using TwistStamped = geometry_msgs_msg_dds__TwistStamped_;
 using Detection2D = vision_msgs_msg_dds__Detection2D_;
 using Detection2DArray = vision_msgs_msg_dds__Detection2DArray_;
 using ObjectHypothesisWithPose = vision_msgs_msg_dds__ObjectHypothesisWithPose_;

@@ -33,8 +33,9 @@ namespace red::dds {
 /// The policy `red node` runs when none is given (the one place to change it).
 inline constexpr const char* kDefaultNodePolicy = "red";
 
-/// What a node publishes for a head: by head name, `steer` a Twist (Velocity), `det` a
-/// Detection2DArray, any other head a mono8 mask Image.
+/// What a node publishes for a head: by head name, `steer` a Twist (Velocity; and a
+/// TwistStamped with the frame's header on `<topic>/stamped`, since Twist has none), `det`
+/// a Detection2DArray, any other head a mono8 mask Image.
 enum class OutputKind : std::uint8_t { Mask, Velocity, Detections };
 OutputKind output_kind(const std::string& head) noexcept;
 
