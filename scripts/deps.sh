@@ -10,6 +10,7 @@ PACKAGES=(
   gnuplot-nox
   libtorch-dev python3-torch
   cyclonedds-dev cyclonedds-tools
+  libfastrtps-dev fastddsgen
 )
 # node and npm run the independent ROS 2 serializer of the DDS wire test (§14,
 # scripts/npm-oracle.sh); a node installed another way (NodeSource bundles npm) is kept.
