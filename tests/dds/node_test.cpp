@@ -4,8 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <signal.h>
+#include <sys/types.h>
+
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <functional>
@@ -224,6 +228,73 @@ TEST(DdsNode, CameraToNodeToListenersWithMatchingStampsAndDiagnostics) {
   // Every good frame the node received was accepted: bad ones cost nothing else.
   EXPECT_EQ(last_diag["red: node/frames"], last_diag["red: node/released"]);
   EXPECT_GE(std::stoul(last_diag["red: node/frames"]), sent.size() - 2);
+}
+
+TEST(DdsNode, ASilentCameraIsReportedTheNodeResumesAndSigtermStopsItCleanly) {
+  const int domain = test_domain();
+  auto dom = Domain::open(domain, "");
+  ASSERT_TRUE(dom.has_value()) << dom.error().to_string();
+  const dds_entity_t pp = (*dom)->participant();
+  struct Diag {
+    std::uint64_t frames = 0;
+    std::string silent;
+  };
+  std::vector<Diag> diags;
+  std::uint64_t lanes = 0;
+  std::vector<Listener> ls;
+  ls.push_back(
+      {make_reader(pp, &diagnostic_msgs_msg_dds__DiagnosticArray__desc, "/diagnostics", true),
+       [&](const void* p) {
+         const auto& m = *static_cast<const DiagnosticArray*>(p);
+         Diag d;
+         for (std::uint32_t i = 0; i < m.status_._length; ++i)
+           for (std::uint32_t k = 0; k < m.status_._buffer[i].values_._length; ++k) {
+             const KeyValue& kv = m.status_._buffer[i].values_._buffer[k];
+             if (std::string(kv.key_) == "frames") d.frames = std::stoull(kv.value_);
+             if (std::string(kv.key_) == "silent_sensors") d.silent = kv.value_;
+           }
+         diags.push_back(d);
+       }});
+  ls.push_back({make_reader(pp, &sensor_msgs_msg_dds__Image__desc, "/red/drive/L", true),
+                [&](const void*) { ++lanes; }});
+  const auto poll_for = [&](std::chrono::milliseconds how_long) {
+    const auto end = std::chrono::steady_clock::now() + how_long;
+    while (std::chrono::steady_clock::now() < end) {
+      for (Listener& l : ls) drain(l);
+      std::this_thread::sleep_for(std::chrono::milliseconds{20});
+    }
+  };
+  const std::string dir = ::testing::TempDir() + "red_node_out_" + std::to_string(domain);
+  const std::string pid = dir + ".pid", rc = dir + ".rc", err = dir + ".err";
+  std::remove(rc.c_str());
+  const std::string d = " --domain " + std::to_string(domain);
+  // No --duration: the node runs until a signal.
+  Command node("sh -c \"" + kRed + " node '" + kScenario + "' --backend synthetic --out '" + dir +
+               "'" + d + " 2> '" + err + "' & echo \\$! > '" + pid + "'; wait \\$!; echo \\$? > '" +
+               rc + "'\"");
+  const std::string camera =
+      kRed + " camera --rate 20 --count 20 --size 32x24" + d + " 2>/dev/null";
+  ASSERT_EQ(exit_code(std::system(camera.c_str())), 0);
+  poll_for(std::chrono::milliseconds{2500});  // > 3 periods of silence, > 1 diagnostics period
+  const std::uint64_t lanes_before = lanes;
+  ASSERT_FALSE(diags.empty()) << test::read_text(err);
+  EXPECT_GT(diags.back().frames, 0U);
+  EXPECT_EQ(diags.back().silent, "camera") << "a camera that stopped is reported silent";
+  const std::uint64_t frames_before = diags.back().frames;
+  // The camera comes back: releases and outputs resume.
+  ASSERT_EQ(exit_code(std::system(camera.c_str())), 0);
+  poll_for(std::chrono::milliseconds{1500});
+  EXPECT_GT(lanes, lanes_before);
+  EXPECT_GT(diags.back().frames, frames_before);
+  const pid_t p = static_cast<pid_t>(std::stol(test::read_text(pid)));
+  ASSERT_GT(p, 0);
+  ASSERT_EQ(kill(p, SIGTERM), 0);
+  EXPECT_EQ(node.join(), 0);
+  EXPECT_EQ(test::read_text(rc), "0\n") << test::read_text(err);
+  EXPECT_NE(test::read_text(err).find("red node: "), std::string::npos);
+  EXPECT_NE(test::read_text(dir + "/summary.json").find("\"jobs\""), std::string::npos)
+      << "SIGTERM still writes the summary";
+  EXPECT_FALSE(test::read_text(dir + "/jobs.csv").empty());
 }
 
 int run(const std::string& args) {
