@@ -462,11 +462,14 @@ RuntimeReport Runtime::run() {
   return impl_->run();
 }
 
-bool Runtime::push_frame(int sensor, std::uint64_t frame) {
+bool Runtime::push_frame(int sensor, std::uint64_t frame, const FrameView* pixels) {
   Impl& m = *impl_;
   if (!m.accepting.load(std::memory_order_acquire)) return false;
   if (sensor < 0 || static_cast<std::size_t>(sensor) >= m.scenario.sensors.size()) return false;
-  m.backend.on_frame(sensor, frame);
+  if (pixels != nullptr)
+    m.backend.on_external_frame(sensor, frame, *pixels);
+  else
+    m.backend.on_frame(sensor, frame);
   m.post({InEvent::Frame, sensor, frame, m.clock.now(), UnitStatus::Completed, {}});
   return true;
 }

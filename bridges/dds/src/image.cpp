@@ -68,4 +68,24 @@ void to_gray(const Image& img, int width, int height, GrayFrame& out) {
   }
 }
 
+void to_rgb(const Image& img, int width, int height, std::vector<std::uint8_t>& out) {
+  out.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3U);
+  const int ch = channels(img.encoding_);
+  const bool bgr = std::strcmp(img.encoding_, "bgr8") == 0;
+  std::uint8_t* o = out.data();
+  for (int y = 0; y < height; ++y) {
+    const std::uint64_t sy =
+        static_cast<std::uint64_t>(y) * img.height_ / static_cast<std::uint64_t>(height);
+    const std::uint8_t* row = img.data_._buffer + sy * img.step_;
+    for (int x = 0; x < width; ++x, o += 3) {
+      const std::uint64_t sx =
+          static_cast<std::uint64_t>(x) * img.width_ / static_cast<std::uint64_t>(width);
+      const std::uint8_t* p = row + sx * static_cast<std::uint64_t>(ch);
+      o[0] = ch == 1 ? p[0] : (bgr ? p[2] : p[0]);
+      o[1] = ch == 1 ? p[0] : p[1];
+      o[2] = ch == 1 ? p[0] : (bgr ? p[0] : p[2]);
+    }
+  }
+}
+
 }  // namespace red::dds

@@ -116,6 +116,7 @@ struct Node::Impl final : Observer {
   std::deque<Output> queue;
   bool publishing = true;
   std::atomic<bool> receiving{true};
+  std::vector<std::uint8_t> rgb;  // the receive thread's model-input buffer
 
   Impl(const Scenario& s, const Profile& p, Backend& b, NodeOptions o)
       : scenario(s), profile(p), backend(b), options(std::move(o)) {
@@ -244,7 +245,18 @@ struct Node::Impl final : Observer {
       ++st.frames;
       ++counters.frames;
     }
-    if (runtime->push_frame(static_cast<int>(sensor), id)) {
+    // The backend gets the frame's pixels at the model's input size (one channel or RGB).
+    FrameView px{w, h, 1, nullptr};
+    GrayFrame gray;
+    if (in.empty() || in[0] != 1) {
+      to_rgb(img, w, h, rgb);
+      px.channels = 3;
+      px.data = rgb.data();
+    } else {
+      to_gray(img, w, h, gray);
+      px.data = gray.pixels.data();
+    }
+    if (runtime->push_frame(static_cast<int>(sensor), id, &px)) {
       std::lock_guard lock(frames_mu);
       ++counters.released;
     }

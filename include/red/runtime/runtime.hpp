@@ -80,10 +80,11 @@ class Runtime {
   /// Runs the scenario in real time (duration, then draining); blocks until done.
   RuntimeReport run();
 
-  /// External-frame mode: frame `frame` of `sensor` arrived now, a release (§14). Frame ids
-  /// of one sensor must increase. Thread-safe; ignored before run() starts and after
-  /// releases ended. Returns false when ignored.
-  bool push_frame(int sensor, std::uint64_t frame);
+  /// External-frame mode: frame `frame` of `sensor` arrived now, a release (§14); its
+  /// pixels, when given, go to the backend (Backend::on_external_frame). Frame ids of one
+  /// sensor must increase. Thread-safe; ignored before run() starts and after releases
+  /// ended. Returns false when ignored.
+  bool push_frame(int sensor, std::uint64_t frame, const FrameView* pixels = nullptr);
   /// Ends releases now (then in-flight jobs drain, as at the scenario's end). Thread-safe,
   /// async-signal-unsafe; may be called before run().
   void stop();

@@ -36,4 +36,8 @@ struct GrayFrame {
 /// Converts a checked image to luminance, resized (nearest neighbour) to width × height.
 void to_gray(const Image& img, int width, int height, GrayFrame& out);
 
+/// Converts a checked image to interleaved RGB (mono8 replicated), resized (nearest
+/// neighbour) to width × height: the model input a backend gets.
+void to_rgb(const Image& img, int width, int height, std::vector<std::uint8_t>& out);
+
 }  // namespace red::dds
