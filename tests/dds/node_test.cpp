@@ -335,5 +335,24 @@ TEST(DdsNodeCli, RemapsAndQosFilesAreUsed) {
   EXPECT_EQ(text.find("/camera/image_raw"), std::string::npos) << text;
 }
 
+TEST(DdsNodeCli, ScenarioTopicsAreUsedAndRemapsStillApply) {
+  const std::string path = ::testing::TempDir() + "topics.yaml";
+  std::ofstream(path) << "name: topics\nduration_s: 1\nmodel: {builtin: mimonet, heads: [lane, "
+                         "steer]}\nsensors:\n  front: {rate_hz: 10, topic: /front/image}\n"
+                         "operations:\n  - name: drive\n    trigger: front\n    deadline_ms: "
+                         "100\n    nodes:\n      L: {head: lane, sensor: front, topic: /lanes}\n"
+                         "      C: {head: steer, sensor: front}\n";
+  const std::string err = ::testing::TempDir() + "topics.err";
+  const int code = exit_code(
+      std::system((kRed + " node '" + path + "' --backend synthetic --duration 0.2 --domain " +
+                   std::to_string(test_domain()) + " --remap /lanes:=/lane_mask 2> '" + err + "'")
+                      .c_str()));
+  const std::string text = test::read_text(err);
+  EXPECT_EQ(code, 0) << text;
+  EXPECT_NE(text.find("in  /front/image (sensor front"), std::string::npos) << text;
+  EXPECT_NE(text.find("out /lane_mask ("), std::string::npos) << text;
+  EXPECT_NE(text.find("out /red/drive/C ("), std::string::npos) << text;
+}
+
 }  // namespace
 }  // namespace red::dds

@@ -23,11 +23,13 @@ OutputKind output_kind(const std::string& head) noexcept {
 NodeTopics node_topics(const Scenario& s, const Remaps& remaps) {
   NodeTopics t;
   for (const SensorSpec& sensor : s.sensors)
-    t.sensors.push_back(remaps.apply("/" + sensor.name + "/image_raw"));
+    t.sensors.push_back(
+        remaps.apply(sensor.topic.empty() ? "/" + sensor.name + "/image_raw" : sensor.topic));
   const auto add = [&](int op, const OperationSpec& spec) {
     for (const NodeSpec& n : spec.nodes) {
       const auto key = std::make_pair(op, n.name);
-      t.nodes[key] = remaps.apply("/red/" + s.operation_name(op) + "/" + n.name);
+      t.nodes[key] =
+          remaps.apply(n.topic.empty() ? "/red/" + s.operation_name(op) + "/" + n.name : n.topic);
       t.heads[key] = n.head;
     }
   };
