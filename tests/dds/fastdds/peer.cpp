@@ -15,6 +15,7 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <functional>
@@ -25,6 +26,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "diagnostic_msgsPubSubTypes.h"
 #include "geometry_msgsPubSubTypes.h"
@@ -41,17 +43,26 @@ using Stamp = std::pair<int32_t, uint32_t>;
 
 struct Output {
   DataReader* reader = nullptr;
-  std::function<bool(DataReader*, Stamp&)> take;  // false when no sample
+  std::function<bool(DataReader*, Stamp&, double&)> take;  // false when no sample
   std::uint64_t count = 0, matched_stamps = 0;
+  std::vector<double> latency_ms;  // received (wall clock) - frame stamp
 };
 
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
+}
+
 template <typename T>
-std::function<bool(DataReader*, Stamp&)> taker(std::function<Stamp(const T&)> stamp) {
-  return [stamp](DataReader* r, Stamp& s) {
+std::function<bool(DataReader*, Stamp&, double&)> taker(std::function<Stamp(const T&)> stamp) {
+  return [stamp](DataReader* r, Stamp& s, double& received_s) {
     T msg;
     SampleInfo info;
     if (r->take_next_sample(&msg, &info) != ReturnCode_t::RETCODE_OK) return false;
     s = info.valid_data ? stamp(msg) : Stamp{-1, 0};
+    // When the sample arrived (wall clock), not when it was taken.
+    received_s = info.reception_timestamp.seconds() + info.reception_timestamp.nanosec() * 1e-9;
     return true;
   };
 }
@@ -149,10 +160,14 @@ int main(int argc, char** argv) {
   const auto poll = [&] {
     for (auto& [name, o] : outputs) {
       Stamp s;
-      while (o.take(o.reader, s)) {
+      double received_s = 0;
+      while (o.take(o.reader, s, received_s)) {
         if (s.first == -1) continue;
         ++o.count;
-        if (sent.count(s) != 0) ++o.matched_stamps;
+        if (sent.count(s) != 0) {
+          ++o.matched_stamps;
+          o.latency_ms.push_back((received_s - s.first - s.second * 1e-9) * 1e3);
+        }
       }
     }
     diagnostic_msgs::msg::dds_::DiagnosticArray_ d;
@@ -216,7 +231,10 @@ int main(int argc, char** argv) {
                            {"diagnostics", diag_count},
                            {"diagnostic_values", diag_values}};
   for (const auto& [name, o] : outputs)
-    report["outputs"][name] = {{"count", o.count}, {"matched_stamps", o.matched_stamps}};
+    report["outputs"][name] = {{"count", o.count},
+                               {"matched_stamps", o.matched_stamps},
+                               {"latency_ms_p50", percentile(o.latency_ms, 0.5)},
+                               {"latency_ms_p99", percentile(o.latency_ms, 0.99)}};
   std::cout << report.dump() << std::endl;
   pp->delete_contained_entities();
   DomainParticipantFactory::get_instance()->delete_participant(pp);
