@@ -407,6 +407,10 @@ struct Runtime::Impl {
             completed_at = std::min(completed_at, e.t);
           } else if (releasing) {
             sched.on_frame(e.index, e.frame, now);
+            if (options.external_frames) {
+              std::lock_guard rl(report_mu);
+              report.frame_release_us.push_back(to_us(clock.now() - e.t));
+            }
           }
         }
         batch.clear();

@@ -169,6 +169,7 @@ TEST(Runtime, ExternalFramesAreTheReleasesAndStopEndsThem) {
   for (const auto& row : metrics.jobs()) ++per_op[row.operation];
   // The triggered operation got exactly one release per accepted frame.
   EXPECT_EQ(per_op[0], 10);
+  EXPECT_EQ(report.frame_release_us.size(), 10U) << "one arrival-to-release time per frame";
   EXPECT_EQ(acc.ended.size(), acc.released.size());
   EXPECT_GT(m.completed, 0);
 }

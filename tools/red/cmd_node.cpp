@@ -179,6 +179,10 @@ int run_node(const NodeArgs& a) {
       c.frames, c.released, rejected, reasons, c.masks, c.twists, c.detections, c.diagnostics,
       c.jobs_without_output);
   print_runtime_report(a.policy, report);
+  std::cerr << fmt::format(
+      "red node: frame received -> released p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
+      percentile(report.frame_release_us, 0.5), percentile(report.frame_release_us, 0.99),
+      report.frame_release_us.size());
   if (a.out) {
     PolicyRun run;
     run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -58,6 +58,7 @@ struct RuntimeReport {
   std::vector<std::string> realtime;       ///< one line per knob: applied or why not
   std::vector<double> decision_us;         ///< time of each scheduling decision (dispatch())
   std::vector<double> handoff_us;          ///< unit completion -> next unit started on that lane
+  std::vector<double> frame_release_us;    ///< external frame pushed -> handed to the scheduler
   std::uint64_t wakeups = 0;               ///< times the global synchronizer woke
   std::uint64_t local_decisions = 0;       ///< decisions taken by handlers (on-demand)
   std::uint64_t failures = 0;              ///< units that ended Failed or OutOfMemory
