@@ -478,6 +478,10 @@ bool Runtime::push_frame(int sensor, std::uint64_t frame, const FrameView* pixel
   return true;
 }
 
+bool Runtime::accepting_frames() const noexcept {
+  return impl_->accepting.load(std::memory_order_acquire);
+}
+
 void Runtime::stop() {
   impl_->stop_requested.store(true, std::memory_order_release);
   impl_->wake_global();

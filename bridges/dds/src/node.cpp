@@ -267,6 +267,9 @@ struct Node::Impl final : Observer {
   void receive_main() {
     std::vector<void*> samples(8, nullptr);
     std::vector<dds_sample_info_t> infos(8);
+    // Frames that arrive before the runtime accepts them wait in the readers' history.
+    while (receiving.load(std::memory_order_acquire) && !runtime->accepting_frames())
+      std::this_thread::sleep_for(std::chrono::milliseconds{1});
     while (receiving.load(std::memory_order_acquire)) {
       dds_waitset_wait(waitset, nullptr, 0, DDS_MSECS(100));
       for (std::size_t s = 0; s < readers.size(); ++s) {
@@ -362,8 +365,9 @@ struct Node::Impl final : Observer {
   // left/right balance, det the box around the brightest pixels.
   void publish(const Output& o, GrayFrame& g, const HeaderValue& hv) {
     const std::string& head = scenario.model.heads[static_cast<std::size_t>(o.head)];
-    const auto key = std::make_pair(o.operation, o.node);
-    const auto wit = writers.find(topics.nodes[key]);
+    const auto topic = topics.nodes.find(std::make_pair(o.operation, o.node));
+    if (topic == topics.nodes.end()) return;
+    const auto wit = writers.find(topic->second);
     if (wit == writers.end()) return;
     double mean = 0;
     for (std::uint8_t p : g.pixels) mean += p;

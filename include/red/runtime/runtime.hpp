@@ -86,6 +86,8 @@ class Runtime {
   /// sensor must increase. Thread-safe; ignored before run() starts and after releases
   /// ended. Returns false when ignored.
   bool push_frame(int sensor, std::uint64_t frame, const FrameView* pixels = nullptr);
+  /// Whether push_frame() would be accepted now (run() started, releases not ended).
+  [[nodiscard]] bool accepting_frames() const noexcept;
   /// Ends releases now (then in-flight jobs drain, as at the scenario's end). Thread-safe,
   /// async-signal-unsafe; may be called before run().
   void stop();
