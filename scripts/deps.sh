@@ -11,6 +11,7 @@ PACKAGES=(
   libtorch-dev python3-torch
   cyclonedds-dev cyclonedds-tools
   libfastrtps-dev fastddsgen
+  libpng-dev libjpeg-dev
 )
 # node and npm run the independent ROS 2 serializer of the DDS wire test (§14,
 # scripts/npm-oracle.sh); a node installed another way (NodeSource bundles npm) is kept.

@@ -287,6 +287,9 @@ void register_camera(CLI::App& app, int& exit_code) {
   cmd->add_option("--size", a->size, "Frame size WxH")->capture_default_str();
   cmd->add_option("--encoding", a->o.encoding, "rgb8, bgr8 or mono8")->capture_default_str();
   cmd->add_option("--frame-id", a->o.frame_id, "header.frame_id")->capture_default_str();
+  cmd->add_option("--from", a->o.from_dir,
+                  "Publish the PNG/JPEG images of this directory (name order, looped; their own "
+                  "size) instead of synthetic frames");
   cmd->add_option("--count", a->count, "Stop after this many frames (default: never)");
   cmd->add_option("--duration", a->duration_s, "Stop after this many seconds")
       ->check(CLI::PositiveNumber);

@@ -4,6 +4,7 @@
 #include <thread>
 #include <vector>
 
+#include "red/dds/image_files.hpp"
 #include "red/dds/messages.hpp"
 
 namespace red::dds {
@@ -45,6 +46,13 @@ Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool
     return Error{"", 0, "--encoding must be rgb8, bgr8 or mono8, not '" + o.encoding + "'"};
   if (!valid_ros_topic(o.topic))
     return Error{"", 0, "--topic '" + o.topic + "' is not an absolute ROS 2 topic name"};
+  std::vector<std::string> files;
+  if (!o.from_dir.empty()) {
+    auto f = image_files(o.from_dir);
+    if (!f) return f.error();
+    files = std::move(*f);
+    if (auto first = read_image(files.front()); !first) return first.error();
+  }
   auto domain = Domain::open(o.domain, o.config);
   if (!domain) return domain.error();
   const dds_entity_t pp = (*domain)->participant();
@@ -61,6 +69,9 @@ Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool
     dds_publication_matched_status_t st;
     if (dds_get_publication_matched_status(writer, &st) == DDS_RETCODE_OK && st.current_count > 0) {
       report.matched = true;
+      // The reader learns of this writer a moment after the writer of the reader; best
+      // effort drops what arrives in between.
+      std::this_thread::sleep_for(std::chrono::milliseconds{200});
       break;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds{20});
@@ -77,14 +88,36 @@ Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool
     if (o.duration && std::chrono::steady_clock::now() - start >= *o.duration) break;
     std::this_thread::sleep_until(next);
     next += period;
-    draw(data, o.width, o.height, ch, o.encoding == "bgr8", k);
+    int w = o.width, h = o.height;
+    if (files.empty()) {
+      draw(data, w, h, ch, o.encoding == "bgr8", k);
+    } else {
+      auto file = read_image(files[k % files.size()]);
+      if (!file) return file.error();
+      w = file->width;
+      h = file->height;
+      data.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) *
+                  static_cast<std::size_t>(ch));
+      for (std::size_t i = 0, n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h); i < n;
+           ++i) {
+        const std::uint8_t* p = file->rgb.data() + 3 * i;
+        if (ch == 1) {
+          data[i] = static_cast<std::uint8_t>((p[0] * 77U + p[1] * 150U + p[2] * 29U) >> 8U);
+        } else {
+          const bool bgr = o.encoding == "bgr8";
+          data[3 * i] = bgr ? p[2] : p[0];
+          data[3 * i + 1] = p[1];
+          data[3 * i + 2] = bgr ? p[0] : p[2];
+        }
+      }
+    }
     Image img{};
     stamp_now(img.header_.stamp_.sec_, img.header_.stamp_.nanosec_);
     img.header_.frame_id_ = borrow(o.frame_id);
-    img.height_ = static_cast<std::uint32_t>(o.height);
-    img.width_ = static_cast<std::uint32_t>(o.width);
+    img.height_ = static_cast<std::uint32_t>(h);
+    img.width_ = static_cast<std::uint32_t>(w);
     img.encoding_ = borrow(o.encoding);
-    img.step_ = static_cast<std::uint32_t>(o.width * ch);
+    img.step_ = static_cast<std::uint32_t>(w * ch);
     borrow(img.data_, data);
     if (const dds_return_t rc = dds_write(writer, &img); rc < 0)
       return Error{"", 0, "publishing on " + o.topic + " failed: " + dds_strretcode(rc)};

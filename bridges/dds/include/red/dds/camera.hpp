@@ -1,8 +1,9 @@
 #pragma once
 /// \file
 /// `red camera` (§14): publishes sensor_msgs/Image frames at a rate, for demos and tests
-/// (the paper's simulated camera node). Frames are synthetic: a gradient with a bright
-/// square that moves, so that every output of `red node` changes with the frame.
+/// (the paper's simulated camera node). Frames are synthetic -- a gradient with a bright
+/// square that moves, so that every output of `red node` changes with the frame -- or the
+/// PNG/JPEG images of a directory, in name order, in a loop.
 
 #include <atomic>
 #include <cstdint>
@@ -23,6 +24,7 @@ struct CameraOptions {
   int height = 480;
   std::string encoding = "rgb8";  ///< rgb8, bgr8 or mono8
   std::string frame_id = "camera";
+  std::string from_dir;  ///< publish these images (their own size) instead of synthetic ones
   std::optional<std::uint64_t> count;  ///< stop after this many frames
   std::optional<Duration> duration;    ///< stop after this long
   int domain = 0;
