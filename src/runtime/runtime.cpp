@@ -447,6 +447,8 @@ struct Runtime::Impl {
       report.stats = sched.stats();
     }
     if (options.realtime) munlockall();
+    // decision_us_since() may read the report from another thread until now.
+    std::lock_guard lock(report_mu);
     report.resident_bytes_after = resident_bytes();
     return std::move(report);
   }
