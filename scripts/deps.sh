@@ -11,7 +11,12 @@ PACKAGES=(
   chromium
   libtorch-dev python3-torch
   cyclonedds-dev cyclonedds-tools
+  libfastrtps-dev fastddsgen
+  libpng-dev libjpeg-dev
 )
+# node and npm run the independent ROS 2 serializer of the DDS wire test (§14,
+# scripts/npm-oracle.sh); a node installed another way (NodeSource bundles npm) is kept.
+command -v npm >/dev/null || PACKAGES+=(nodejs npm)
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -5,6 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/deps.sh
+scripts/npm-oracle.sh
 JOBS=$(nproc)
 
 echo "== formatting (.clang-format)"
@@ -16,14 +17,14 @@ ctest --test-dir build --output-on-failure -j"$JOBS"
 
 echo "== build and test under address,undefined sanitizers (core, no LibTorch)"
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF \
-  -DRED_SANITIZE=address,undefined >/dev/null
+  -DRED_SANITIZE=address,undefined -DRED_DDS=OFF >/dev/null
 cmake --build build-asan -j"$JOBS"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j"$JOBS"
 
 echo "== build and test the real-time runtime under the thread sanitizer"
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF \
-  -DRED_SANITIZE=thread >/dev/null
+  -DRED_SANITIZE=thread -DRED_DDS=OFF >/dev/null
 cmake --build build-tsan -j"$JOBS" --target red_tests
 TSAN_OPTIONS=halt_on_error=1 build-tsan/tests/red_tests --gtest_filter='*Runtime*'
 

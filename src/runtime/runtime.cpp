@@ -108,9 +108,11 @@ struct Runtime::Impl {
   std::vector<std::unique_ptr<Handler>> handlers;
   std::atomic<bool> stopping{false};
   std::atomic<bool> cameras_on{true};
+  std::atomic<bool> accepting{false};  // external frames: between run() start and release end
+  std::atomic<bool> stop_requested{false};
 
   RuntimeReport report;
-  std::mutex report_mu;
+  mutable std::mutex report_mu;
 
   Impl(const Scenario& s, const Profile& p, std::unique_ptr<Policy> policy, Backend& b,
        RuntimeOptions o)
@@ -360,23 +362,30 @@ struct Runtime::Impl {
             [this, &load_on] { interference_main(scenario.interference->intensity, load_on); });
     }
     clock.reset();
-    std::thread camera([this] { camera_main(); });
+    std::thread camera;
+    if (options.external_frames) {
+      accepting.store(true, std::memory_order_release);
+    } else {
+      camera = std::thread([this] { camera_main(); });
+    }
 
     std::vector<InEvent> batch;
     std::vector<int> completed;
     bool releasing = true;
     std::uint64_t seen = 0;
-    const TimePoint hard_stop = scenario.duration + options.drain_limit;
+    TimePoint hard_stop = scenario.duration + options.drain_limit;
     for (;;) {
       TimePoint wake;
       {
         std::lock_guard lock(sched_mu);
         TimePoint now = advance_now(clock.now());
-        if (releasing && now >= scenario.duration) {
+        if (releasing && (now >= scenario.duration || stop_requested.load())) {
           releasing = false;
           cameras_on.store(false, std::memory_order_release);
-          sched.apply_events(scenario.duration - Duration{1});
+          accepting.store(false, std::memory_order_release);
+          sched.apply_events(std::min(now, scenario.duration - Duration{1}));
           sched.stop_releases();
+          hard_stop = std::min(hard_stop, now + options.drain_limit);
         }
         {
           // What is in the inbox now is handled in this round; anything posted after the
@@ -398,6 +407,10 @@ struct Runtime::Impl {
             completed_at = std::min(completed_at, e.t);
           } else if (releasing) {
             sched.on_frame(e.index, e.frame, now);
+            if (options.external_frames) {
+              std::lock_guard rl(report_mu);
+              report.frame_release_us.push_back(to_us(clock.now() - e.t));
+            }
           }
         }
         batch.clear();
@@ -420,7 +433,8 @@ struct Runtime::Impl {
       });
     }
     cameras_on.store(false, std::memory_order_release);
-    camera.join();
+    accepting.store(false, std::memory_order_release);
+    if (camera.joinable()) camera.join();
     stopping.store(true, std::memory_order_release);
     for (auto& h : handlers) {
       { std::lock_guard lock(h->mu); }
@@ -446,6 +460,8 @@ struct Runtime::Impl {
       report.stats = sched.stats();
     }
     if (options.realtime) munlockall();
+    // decision_us_since() may read the report from another thread until now.
+    std::lock_guard lock(report_mu);
     report.resident_bytes_after = resident_bytes();
     return std::move(report);
   }
@@ -463,6 +479,34 @@ void Runtime::add_observer(Observer* o) {
 
 RuntimeReport Runtime::run() {
   return impl_->run();
+}
+
+bool Runtime::push_frame(int sensor, std::uint64_t frame, const FrameView* pixels) {
+  Impl& m = *impl_;
+  if (!m.accepting.load(std::memory_order_acquire)) return false;
+  if (sensor < 0 || static_cast<std::size_t>(sensor) >= m.scenario.sensors.size()) return false;
+  if (pixels != nullptr)
+    m.backend.on_external_frame(sensor, frame, *pixels);
+  else
+    m.backend.on_frame(sensor, frame);
+  m.post({InEvent::Frame, sensor, frame, m.clock.now(), UnitStatus::Completed, {}});
+  return true;
+}
+
+bool Runtime::accepting_frames() const noexcept {
+  return impl_->accepting.load(std::memory_order_acquire);
+}
+
+void Runtime::stop() {
+  impl_->stop_requested.store(true, std::memory_order_release);
+  impl_->wake_global();
+}
+
+std::vector<double> Runtime::decision_us_since(std::size_t from) const {
+  std::lock_guard lock(impl_->report_mu);
+  const auto& d = impl_->report.decision_us;
+  if (from >= d.size()) return {};
+  return {d.begin() + static_cast<std::ptrdiff_t>(from), d.end()};
 }
 
 }  // namespace red

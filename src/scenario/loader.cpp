@@ -12,6 +12,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -206,6 +207,23 @@ std::string text(const Val& v) {
   if (!v.node.IsScalar() || v.node.Scalar().empty())
     fail(v.line, at(v.what) + "must be a non-empty string" + got(v.node));
   return v.node.Scalar();
+}
+
+/// An absolute ROS 2 topic name (`/a/b_1`: letters, digits, `_`, tokens not starting with a
+/// digit, no `//`, no trailing `/`), for `red node` (§14).
+std::string ros_topic(const Val& v) {
+  const std::string t = text(v);
+  bool ok = t.size() >= 2 && t.front() == '/' && t.back() != '/';
+  for (std::size_t i = 1; ok && i < t.size(); ++i) {
+    const char c = t[i], prev = t[i - 1];
+    ok = (std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '/') &&
+         !(c == '/' && prev == '/') &&
+         !(prev == '/' && std::isdigit(static_cast<unsigned char>(c)) != 0);
+  }
+  if (!ok)
+    fail(v.line,
+         at(v.what) + "must be an absolute ROS 2 topic name like /camera/image_raw" + got(v.node));
+  return t;
 }
 
 /// Milliseconds or seconds from a file, bounded so the nanosecond count cannot overflow.
@@ -438,13 +456,14 @@ void Loader::parse_interference(const Val& v) {
 
 void Loader::parse_sensors(const Val& v) {
   for (const auto& e : entries_of(v, "sensor")) {
-    const Fields f(e.value, {"rate_hz", "phase_ms", "jitter_ms"});
+    const Fields f(e.value, {"rate_hz", "phase_ms", "jitter_ms", "topic"});
     SensorSpec sensor;
     sensor.name = e.key;
     sensor.line = e.key_line;
     sensor.rate_hz = rate(f.need("rate_hz"));
     if (const Val* x = f.get("phase_ms")) sensor.phase = ms_value(*x, non_negative(*x));
     if (const Val* x = f.get("jitter_ms")) sensor.jitter = ms_value(*x, non_negative(*x));
+    if (const Val* x = f.get("topic")) sensor.topic = ros_topic(*x);
     s_.sensors.push_back(std::move(sensor));
   }
 }
@@ -474,7 +493,7 @@ NodeSpec Loader::parse_node(const Entry& entry) const {
   const Val& v = entry.value;
   // Problems of the node as a whole are reported where it is named.
   const int line = entry.key_line;
-  const Fields f(v, {"head", "sensor", "cost_ms", "cost", "deadline_ms"});
+  const Fields f(v, {"head", "sensor", "cost_ms", "cost", "deadline_ms", "topic"});
   NodeSpec n;
   n.name = entry.key;
   n.line = line;
@@ -498,6 +517,7 @@ NodeSpec Loader::parse_node(const Entry& entry) const {
       fail(head->line, fmt::format("{}unknown head '{}' (model heads: {})", at(head->what), h,
                                    join(s_.model.heads)));
     n.sensor = sensor_index(*sensor);
+    if (const Val* t = f.get("topic")) n.topic = ros_topic(*t);
   } else if (cost_ms) {
     const Duration c = ms_value(*cost_ms, non_negative(*cost_ms));
     n.cost = PlainCost{c, c};

@@ -4,9 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <map>
 #include <set>
 #include <string>
+#include <thread>
 
 #include "red/metrics/metrics.hpp"
 #include "red/runtime/runtime.hpp"
@@ -166,6 +168,46 @@ operations:
     const RuntimeReport report = rt.run();
     EXPECT_LT(report.end, std::chrono::milliseconds{500} + std::chrono::seconds{2}) << policy;
   }
+}
+
+TEST(Runtime, ExternalFramesAreTheReleasesAndStopEndsThem) {
+  auto s = parse_scenario(kScenario, "rt.yaml");
+  ASSERT_TRUE(s.has_value());
+  s->duration = std::chrono::seconds{60};  // stop() ends it long before
+  const Profile p = default_profile();
+  SyntheticBackend::Options o;
+  o.time_scale = 0.05;
+  SyntheticBackend backend(*s, p, 1, o);
+  RuntimeOptions ro;
+  ro.realtime = false;
+  ro.external_frames = true;
+  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  Accounting acc;
+  MetricsCollector metrics(*s, 1.0);
+  rt.add_observer(&acc);
+  rt.add_observer(&metrics);
+  EXPECT_FALSE(rt.push_frame(0, 0)) << "frames before run() are ignored";
+  std::thread feeder([&rt] {
+    // No synthetic camera: only the frames pushed here release the triggered operation.
+    std::uint64_t accepted = 0;
+    for (std::uint64_t f = 0; accepted < 10 && f < 100000; ++f) {
+      if (rt.push_frame(0, f)) ++accepted;
+      std::this_thread::sleep_for(std::chrono::milliseconds{20});
+    }
+    EXPECT_FALSE(rt.push_frame(7, 1000)) << "an unknown sensor is ignored";
+    rt.stop();
+  });
+  const RuntimeReport report = rt.run();
+  feeder.join();
+  EXPECT_FALSE(rt.push_frame(0, 200000)) << "frames after the run are ignored";
+  const PolicyMetrics m = metrics.summarize("red", report.end);
+  std::map<int, int> per_op;
+  for (const auto& row : metrics.jobs()) ++per_op[row.operation];
+  // The triggered operation got exactly one release per accepted frame.
+  EXPECT_EQ(per_op[0], 10);
+  EXPECT_EQ(report.frame_release_us.size(), 10U) << "one arrival-to-release time per frame";
+  EXPECT_EQ(acc.ended.size(), acc.released.size());
+  EXPECT_GT(m.completed, 0);
 }
 
 TEST(Runtime, HandlerStatesHaveNames) {

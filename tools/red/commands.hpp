@@ -21,5 +21,8 @@ void register_sweep(CLI::App& app, int& exit_code);
 void register_run(CLI::App& app, int& exit_code);
 /// `red profile` (cmd_profile.cpp; needs the LibTorch backend).
 void register_profile(CLI::App& app, int& exit_code);
+/// `red node` and `red camera` (cmd_node.cpp; only with the DDS bridge, RED_HAVE_DDS).
+void register_node(CLI::App& app, int& exit_code);
+void register_camera(CLI::App& app, int& exit_code);
 
 }  // namespace red::cli

@@ -18,6 +18,19 @@ int main(int argc, char** argv) {
   red::cli::register_sweep(app, exit_code);
   red::cli::register_run(app, exit_code);
   red::cli::register_profile(app, exit_code);
+#ifdef RED_HAVE_DDS
+  red::cli::register_node(app, exit_code);
+  red::cli::register_camera(app, exit_code);
+#endif
+#ifndef RED_HAVE_DDS
+  // Known commands of this build's absent DDS bridge (as `red profile` without LibTorch).
+  if (argc >= 2 && (std::string(argv[1]) == "node" || std::string(argv[1]) == "camera")) {
+    std::cerr << "red: '" << argv[1]
+              << "' needs the DDS bridge: install cyclonedds-dev and cyclonedds-tools, then "
+                 "rebuild (docs/ROS2.md)\n";
+    return red::cli::kRunFailure;
+  }
+#endif
   // Name an unknown command (CLI11 alone says only that a subcommand is required).
   std::string known;
   bool found = argc < 2 || argv[1][0] == '-';

@@ -91,6 +91,25 @@ class TorchBackend final : public Backend {
     frames_.put(sensor, frame, model_->make_input(1, seed));
   }
 
+  void on_external_frame(int sensor, std::uint64_t frame, const FrameView& px) override {
+    const auto& in = scenario_.model.input;  // C, H, W
+    if (px.data == nullptr || in.size() != 3 || px.height != in[1] || px.width != in[2] ||
+        (px.channels != 1 && px.channels != 3)) {
+      on_frame(sensor, frame);  // not at the model's size: a synthetic frame instead
+      return;
+    }
+    c10::InferenceMode guard;
+    // A received frame (e.g. over DDS): its pixels, HWC uint8 -> 1 x C x H x W in [0, 1].
+    at::Tensor t =
+        at::from_blob(const_cast<std::uint8_t*>(px.data), {px.height, px.width, px.channels},
+                      at::TensorOptions().dtype(at::kByte))
+            .permute({2, 0, 1})
+            .to(at::kFloat)
+            .div_(255.0);
+    if (px.channels != in[0]) t = t.mean(0, true).expand({in[0], in[1], in[2]});
+    frames_.put(sensor, frame, t.unsqueeze(0).contiguous().to(model_->device()));
+  }
+
   void run(int /*lane*/, const Dispatch& d) override {
     try {
       c10::InferenceMode guard;

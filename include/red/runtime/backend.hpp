@@ -23,6 +23,16 @@ class OutOfMemoryError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Pixels of an external frame (e.g. received over DDS), already at the model's input height
+/// and width: 8-bit, row-major, `channels` interleaved (RGB order, or gray). Borrowed for the
+/// duration of the call only.
+struct FrameView {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  const std::uint8_t* data = nullptr;
+};
+
 /// Executes units. run() is called from the lane's own thread; different lanes call it
 /// concurrently, one lane never twice at once. on_frame() is called from the camera
 /// thread. A failing unit throws; the runtime turns that into a failed job (§6).
@@ -39,6 +49,12 @@ class Backend {
   virtual void init_lane(int /*lane*/) {}
   /// A synthetic camera captured frame `frame` of `sensor`: produce its pixels in memory.
   virtual void on_frame(int /*sensor*/, std::uint64_t /*frame*/) {}
+  /// An external frame arrived with its pixels: keep them as frame `frame` of `sensor`
+  /// (called from the thread that received it). The default ignores the pixels and
+  /// synthesizes the frame as on_frame() does.
+  virtual void on_external_frame(int sensor, std::uint64_t frame, const FrameView& /*pixels*/) {
+    on_frame(sensor, frame);
+  }
   /// Runs one dispatched unit (merged members share one encoder output; a batch runs as
   /// one tensor batch). Throws on failure, OutOfMemoryError when out of memory.
   virtual void run(int lane, const Dispatch& d) = 0;

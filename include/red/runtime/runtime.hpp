@@ -46,6 +46,9 @@ struct RuntimeOptions {
   Duration spin = std::chrono::microseconds{50};   ///< spin before parking
   Duration drain_limit = std::chrono::seconds{5};  ///< after the scenario ends
   bool interference = true;                        ///< run the scenario's background load
+  /// Frames come from push_frame() (e.g. a DDS node) instead of the synthetic cameras;
+  /// releases end at stop() or at the scenario's duration, whichever comes first.
+  bool external_frames = false;
 };
 
 /// What a real run measured, besides what observers saw.
@@ -55,6 +58,7 @@ struct RuntimeReport {
   std::vector<std::string> realtime;       ///< one line per knob: applied or why not
   std::vector<double> decision_us;         ///< time of each scheduling decision (dispatch())
   std::vector<double> handoff_us;          ///< unit completion -> next unit started on that lane
+  std::vector<double> frame_release_us;    ///< external frame pushed -> handed to the scheduler
   std::uint64_t wakeups = 0;               ///< times the global synchronizer woke
   std::uint64_t local_decisions = 0;       ///< decisions taken by handlers (on-demand)
   std::uint64_t failures = 0;              ///< units that ended Failed or OutOfMemory
@@ -76,6 +80,19 @@ class Runtime {
   void add_observer(Observer* o);
   /// Runs the scenario in real time (duration, then draining); blocks until done.
   RuntimeReport run();
+
+  /// External-frame mode: frame `frame` of `sensor` arrived now, a release (§14); its
+  /// pixels, when given, go to the backend (Backend::on_external_frame). Frame ids of one
+  /// sensor must increase. Thread-safe; ignored before run() starts and after releases
+  /// ended. Returns false when ignored.
+  bool push_frame(int sensor, std::uint64_t frame, const FrameView* pixels = nullptr);
+  /// Whether push_frame() would be accepted now (run() started, releases not ended).
+  [[nodiscard]] bool accepting_frames() const noexcept;
+  /// Ends releases now (then in-flight jobs drain, as at the scenario's end). Thread-safe,
+  /// async-signal-unsafe; may be called before run().
+  void stop();
+  /// Decision times (μs) recorded since the `from`-th one; thread-safe (for live reports).
+  [[nodiscard]] std::vector<double> decision_us_since(std::size_t from) const;
 
  private:
   struct Impl;

@@ -29,6 +29,7 @@ struct SensorSpec {
   double rate_hz = 0.0;  ///< > 0
   Duration phase{0};     ///< time of the first frame
   Duration jitter{0};    ///< each frame is late by a uniform amount in [0, jitter]
+  std::string topic;     ///< ROS 2 topic of `red node` (§14), or empty for the default
   int line = 0;          ///< line in the scenario file, for messages
 };
 
@@ -46,6 +47,7 @@ struct NodeSpec {
   int sensor = -1;                ///< index into Scenario::sensors for an inference node, else -1
   std::optional<PlainCost> cost;  ///< set exactly when head == -1
   std::optional<Duration> deadline;  ///< per-node override of its level's budget (§4)
+  std::string topic;  ///< ROS 2 topic of its output in `red node` (§14), or empty: default
   int line = 0;
 
   [[nodiscard]] bool is_plain() const noexcept { return head < 0; }

@@ -1,0 +1,47 @@
+#pragma once
+/// \file
+/// `red camera` (§14): publishes sensor_msgs/Image frames at a rate, for demos and tests
+/// (the paper's simulated camera node). Frames are synthetic -- a gradient with a bright
+/// square that moves, so that every output of `red node` changes with the frame -- or the
+/// PNG/JPEG images of a directory, in name order, in a loop.
+
+#include <atomic>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "red/core/expected.hpp"
+#include "red/core/time.hpp"
+#include "red/dds/ros.hpp"
+
+namespace red::dds {
+
+/// Options of a camera publisher.
+struct CameraOptions {
+  double rate_hz = 30.0;
+  std::string topic = "/camera/image_raw";
+  int width = 640;
+  int height = 480;
+  std::string encoding = "rgb8";  ///< rgb8, bgr8 or mono8
+  std::string frame_id = "camera";
+  std::string from_dir;  ///< publish these images (their own size) instead of synthetic ones
+  std::optional<std::uint64_t> count;  ///< stop after this many frames
+  std::optional<Duration> duration;    ///< stop after this long
+  int domain = 0;
+  std::string config;  ///< Cyclone DDS XML or file:// URI; empty: loopback only
+  EndpointQos qos = QosSettings{}.input;
+  /// Wait up to this long for a subscriber before the first frame (best effort drops
+  /// frames nobody receives yet).
+  Duration wait_for_subscriber = std::chrono::seconds{5};
+};
+
+/// What a camera did.
+struct CameraReport {
+  std::uint64_t published = 0;
+  bool matched = false;  ///< a subscriber was there when publishing began
+};
+
+/// Publishes until `stop`, the count or the duration. Error: bad options, DDS failure.
+Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool>& stop);
+
+}  // namespace red::dds

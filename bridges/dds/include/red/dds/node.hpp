@@ -1,0 +1,106 @@
+#pragma once
+/// \file
+/// `red node` (§14): RED as one ROS 2-compatible node on Cyclone DDS. Each sensor of the
+/// scenario is a subscribed sensor_msgs/Image topic whose frame arrivals are the releases;
+/// the real runtime schedules the scenario's operations under a policy on a backend; each
+/// inference node of a finished job publishes its output with the header of the frame it
+/// was computed on; a DiagnosticArray reports every operation once a period.
+///
+///     red::dds::NodeOptions o;
+///     auto node = red::dds::Node::make(scenario, profile, backend, o);
+///     node.value()->run();  // until stop() or o.duration
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "red/core/expected.hpp"
+#include "red/core/time.hpp"
+#include "red/dds/image.hpp"
+#include "red/dds/ros.hpp"
+#include "red/profile/profile.hpp"
+#include "red/runtime/backend.hpp"
+#include "red/runtime/runtime.hpp"
+#include "red/scenario/scenario.hpp"
+
+namespace red::dds {
+
+/// The policy `red node` runs when none is given (the one place to change it).
+inline constexpr const char* kDefaultNodePolicy = "red-robust";
+
+/// What a node publishes for a head: by head name, `steer` a Twist (Velocity; and a
+/// TwistStamped with the frame's header on `<topic>/stamped`, since Twist has none), `det`
+/// a Detection2DArray, any other head a mono8 mask Image.
+enum class OutputKind : std::uint8_t { Mask, Velocity, Detections };
+OutputKind output_kind(const std::string& head) noexcept;
+
+/// The ROS 2 topics of a node, after remapping.
+struct NodeTopics {
+  std::vector<std::string> sensors;  ///< per sensor: /<sensor>/image_raw
+  /// (operation, node name): /red/<operation>/<node>, every node any snapshot has.
+  std::map<std::pair<int, std::string>, std::string> nodes;
+  /// (operation, node name): the head it runs (-1: a plain node, nothing published).
+  std::map<std::pair<int, std::string>, int> heads;
+  std::string diagnostics = "/diagnostics";
+};
+
+/// Default topic names for `s` with `remaps` applied.
+NodeTopics node_topics(const Scenario& s, const Remaps& remaps);
+
+/// Options of a node.
+struct NodeOptions {
+  std::string policy = kDefaultNodePolicy;
+  int domain = 0;
+  std::string config;  ///< Cyclone DDS XML or file:// URI; empty: loopback only
+  QosSettings qos;
+  Remaps remaps;
+  std::optional<Duration> duration;  ///< stop releasing after this long; none: until stop()
+  bool realtime = false;             ///< SCHED_FIFO, affinity, mlockall (as `red run`)
+  Duration diagnostics_period = std::chrono::seconds{1};
+  /// A sensor with no frame for this many expected periods is reported silent.
+  double silent_periods = 3.0;
+};
+
+/// Counters of a node, for its summary and tests.
+struct NodeCounters {
+  std::uint64_t frames = 0;    ///< images received and accepted
+  std::uint64_t released = 0;  ///< of those, handed to the runtime as releases
+  std::array<std::uint64_t, kRejectKinds> rejected{};                    ///< by Reject
+  std::uint64_t masks = 0, twists = 0, detections = 0, diagnostics = 0;  ///< published
+  std::uint64_t jobs_without_output = 0;  ///< ended dropped/skipped/failed: nothing published
+};
+
+class Node {
+ public:
+  /// Opens the domain and every endpoint. `scenario`, `profile` and `backend` must outlive
+  /// the node. Error: unknown policy, DDS failure (named).
+  static Expected<std::unique_ptr<Node>> make(const Scenario& scenario, const Profile& profile,
+                                              Backend& backend, NodeOptions options);
+  ~Node();
+  Node(const Node&) = delete;
+  Node& operator=(const Node&) = delete;
+
+  /// Adds an observer of the runtime (metrics, trace), before run(); not owned.
+  void add_observer(Observer* o);
+  /// Receives, schedules and publishes until stop() or the duration; then in-flight jobs
+  /// drain. Blocks. Returns the runtime's report.
+  RuntimeReport run();
+  /// Ends the run (thread-safe; e.g. from a signal watcher).
+  void stop();
+  /// A snapshot of the counters (thread-safe).
+  [[nodiscard]] NodeCounters counters() const;
+  /// The topics in use.
+  [[nodiscard]] const NodeTopics& topics() const;
+
+ private:
+  struct Impl;
+  explicit Node(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace red::dds

@@ -1,0 +1,88 @@
+#pragma once
+/// \file
+/// ROS 2 conventions on plain DDS (§14): topic names (`/a/b` is the DDS topic `rt/a/b`),
+/// `--remap from:=to`, the QoS ROS 2 uses (sensor data in, reliable results out) and a
+/// loopback-only Cyclone DDS configuration. The participant of a process lives in Domain.
+
+#include <dds/dds.h>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "red/core/expected.hpp"
+
+namespace red::dds {
+
+/// The DDS topic of a ROS 2 topic: "/camera/image_raw" -> "rt/camera/image_raw".
+std::string dds_topic_name(std::string_view ros_topic);
+
+/// True for a valid absolute ROS 2 topic name ("/a/b_1"; no "//", no trailing "/").
+bool valid_ros_topic(std::string_view name);
+
+/// ROS 2-style remapping rules (`from:=to`), applied to full topic names.
+class Remaps {
+ public:
+  /// Adds "from:=to"; Error names the rule when it is malformed or not a valid topic.
+  Expected<bool> add(const std::string& rule);
+  /// The topic `name` maps to (itself when no rule names it).
+  [[nodiscard]] std::string apply(const std::string& name) const;
+
+ private:
+  std::map<std::string, std::string> rules_;
+};
+
+/// Reliability, history depth and durability of one kind of endpoint.
+struct EndpointQos {
+  bool reliable = true;
+  int depth = 10;
+  bool transient_local = false;
+};
+
+/// The QoS of the node's endpoints (§14): inputs as ROS 2's sensor-data profile, outputs
+/// reliable, keep last 10, volatile.
+struct QosSettings {
+  EndpointQos input{false, 5, false};
+  EndpointQos output{true, 10, false};
+};
+
+/// Reads a QoS override file (YAML: `input:`/`output:` with `reliability: best_effort |
+/// reliable`, `depth: N`, `durability: volatile | transient_local`); keys left out keep
+/// their defaults. Errors name the file, the line and the problem.
+Expected<QosSettings> load_qos_file(const std::string& path);
+
+/// A new dds_qos_t for `q` (caller deletes it with dds_delete_qos).
+dds_qos_t* make_qos(const EndpointQos& q);
+
+/// The loopback-only Cyclone DDS configuration: interface `lo`, no multicast, unicast
+/// discovery to 127.0.0.1, so that nothing leaves the machine.
+std::string loopback_config();
+
+/// A process's DDS domain and participant. `config` is Cyclone DDS XML (or a file://
+/// URI); empty means the loopback configuration. Not copyable.
+class Domain {
+ public:
+  /// Error when the domain or the participant cannot be created (names the domain).
+  static Expected<std::unique_ptr<Domain>> open(int domain_id, const std::string& config);
+  ~Domain();
+  Domain(const Domain&) = delete;
+  Domain& operator=(const Domain&) = delete;
+
+  [[nodiscard]] dds_entity_t participant() const noexcept { return participant_; }
+  [[nodiscard]] int id() const noexcept { return id_; }
+
+ private:
+  Domain(int id, dds_entity_t domain, dds_entity_t participant)
+      : id_(id), domain_(domain), participant_(participant) {}
+  int id_;
+  dds_entity_t domain_;
+  dds_entity_t participant_;
+};
+
+/// The wall-clock time now as a ROS 2 stamp (seconds, nanoseconds).
+void stamp_now(std::int32_t& sec, std::uint32_t& nanosec);
+
+}  // namespace red::dds

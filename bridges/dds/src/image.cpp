@@ -1,0 +1,91 @@
+#include "red/dds/image.hpp"
+
+#include <cstring>
+
+namespace red::dds {
+
+const char* to_string(Reject r) noexcept {
+  switch (r) {
+    case Reject::UnknownEncoding:
+      return "unknown_encoding";
+    case Reject::AbsurdSize:
+      return "absurd_size";
+    case Reject::BadStep:
+      return "bad_step";
+    case Reject::DataSize:
+      return "data_size";
+  }
+  return "?";
+}
+
+namespace {
+
+int channels(const char* encoding) noexcept {
+  if (encoding == nullptr) return 0;
+  if (std::strcmp(encoding, "rgb8") == 0 || std::strcmp(encoding, "bgr8") == 0) return 3;
+  if (std::strcmp(encoding, "mono8") == 0) return 1;
+  return 0;
+}
+
+}  // namespace
+
+std::optional<Reject> check_image(const Image& img) noexcept {
+  const int ch = channels(img.encoding_);
+  if (ch == 0) return Reject::UnknownEncoding;
+  if (img.width_ == 0 || img.height_ == 0 || img.width_ > kMaxImageSide ||
+      img.height_ > kMaxImageSide)
+    return Reject::AbsurdSize;
+  const std::uint64_t row = static_cast<std::uint64_t>(img.width_) * static_cast<std::uint64_t>(ch);
+  if (img.step_ < row) return Reject::BadStep;
+  if (static_cast<std::uint64_t>(img.data_._length) !=
+      static_cast<std::uint64_t>(img.height_) * img.step_)
+    return Reject::DataSize;
+  return std::nullopt;
+}
+
+void to_gray(const Image& img, int width, int height, GrayFrame& out) {
+  out.width = width;
+  out.height = height;
+  out.pixels.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+  const int ch = channels(img.encoding_);
+  const bool bgr = std::strcmp(img.encoding_, "bgr8") == 0;
+  for (int y = 0; y < height; ++y) {
+    const std::uint64_t sy =
+        static_cast<std::uint64_t>(y) * img.height_ / static_cast<std::uint64_t>(height);
+    const std::uint8_t* row = img.data_._buffer + sy * img.step_;
+    for (int x = 0; x < width; ++x) {
+      const std::uint64_t sx =
+          static_cast<std::uint64_t>(x) * img.width_ / static_cast<std::uint64_t>(width);
+      const std::uint8_t* p = row + sx * static_cast<std::uint64_t>(ch);
+      std::uint32_t v = p[0];
+      if (ch == 3) {
+        const std::uint32_t r = bgr ? p[2] : p[0], b = bgr ? p[0] : p[2];
+        v = (r * 77U + p[1] * 150U + b * 29U) >> 8U;  // ITU-R BT.601 luma
+      }
+      out.pixels[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                 static_cast<std::size_t>(x)] = static_cast<std::uint8_t>(v);
+    }
+  }
+}
+
+void to_rgb(const Image& img, int width, int height, std::vector<std::uint8_t>& out) {
+  out.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3U);
+  const int ch = channels(img.encoding_);
+  const bool bgr = std::strcmp(img.encoding_, "bgr8") == 0;
+  std::uint8_t* o = out.data();
+  for (int y = 0; y < height; ++y) {
+    const std::uint64_t sy =
+        static_cast<std::uint64_t>(y) * img.height_ / static_cast<std::uint64_t>(height);
+    const std::uint8_t* row = img.data_._buffer + sy * img.step_;
+    for (int x = 0; x < width; ++x, o += 3) {
+      const std::uint64_t sx =
+          static_cast<std::uint64_t>(x) * img.width_ / static_cast<std::uint64_t>(width);
+      const std::uint8_t* p = row + sx * static_cast<std::uint64_t>(ch);
+      o[0] = ch == 1 ? p[0] : (bgr ? p[2] : p[0]);
+      o[1] = ch == 1 ? p[0] : p[1];
+      o[2] = ch == 1 ? p[0] : (bgr ? p[0] : p[2]);
+    }
+  }
+}
+
+}  // namespace red::dds

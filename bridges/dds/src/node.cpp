@@ -1,0 +1,624 @@
+#include "red/dds/node.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <iostream>
+#include <mutex>
+#include <thread>
+
+#include "red/core/clock.hpp"
+#include "red/metrics/metrics.hpp"
+#include "red/sim/run.hpp"
+#include "red/sched/policy.hpp"
+
+namespace red::dds {
+
+OutputKind output_kind(const std::string& head) noexcept {
+  if (head == "steer") return OutputKind::Velocity;
+  if (head == "det") return OutputKind::Detections;
+  return OutputKind::Mask;
+}
+
+NodeTopics node_topics(const Scenario& s, const Remaps& remaps) {
+  NodeTopics t;
+  for (const SensorSpec& sensor : s.sensors)
+    t.sensors.push_back(
+        remaps.apply(sensor.topic.empty() ? "/" + sensor.name + "/image_raw" : sensor.topic));
+  const auto add = [&](int op, const OperationSpec& spec) {
+    for (const NodeSpec& n : spec.nodes) {
+      const auto key = std::make_pair(op, n.name);
+      t.nodes[key] =
+          remaps.apply(n.topic.empty() ? "/red/" + s.operation_name(op) + "/" + n.name : n.topic);
+      t.heads[key] = n.head;
+    }
+  };
+  for (int i = 0; i < s.operation_count(); ++i)
+    if (s.initial[static_cast<std::size_t>(i)]) add(i, *s.initial[static_cast<std::size_t>(i)]);
+  for (const EventSpec& e : s.events)
+    for (const auto& [op, spec] : e.changes)
+      if (spec) add(op, *spec);
+  t.diagnostics = remaps.apply("/diagnostics");
+  return t;
+}
+
+namespace {
+
+constexpr std::size_t kFrameRing = 32;        // frames kept per sensor for outputs
+constexpr std::size_t kLatencyWindow = 1024;  // latencies kept per operation
+constexpr std::size_t kDecisionWindow = 4096;
+
+struct FrameSlot {
+  std::uint64_t id = ~std::uint64_t{0};
+  HeaderValue header;
+  GrayFrame gray;
+};
+
+struct SensorState {
+  std::vector<FrameSlot> ring{kFrameRing};
+  std::uint64_t next_id = 0;
+  std::uint64_t frames = 0;
+  std::optional<TimePoint> last;  // steady time of the last accepted frame
+};
+
+struct OpStats {
+  std::uint64_t jobs = 0, completed = 0, missed = 0, dropped = 0;
+  double qoe_sum = 0;
+  std::vector<double> latency_ms;  // ring of the last kLatencyWindow
+  std::size_t next = 0;
+};
+
+// One output to publish: a node of a finished job and the frame its head read.
+struct Output {
+  int operation = -1;
+  std::string node;
+  int head = -1;
+  int sensor = -1;
+  std::uint64_t frame = 0;
+};
+
+std::string fmt_double(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+}  // namespace
+
+struct Node::Impl final : Observer {
+  Scenario scenario;
+  const Profile& profile;
+  Backend& backend;
+  NodeOptions options;
+  NodeTopics topics;
+  SteadyClock clock;
+
+  std::unique_ptr<Domain> domain;
+  std::vector<dds_entity_t> readers;            // per sensor
+  std::map<std::string, dds_entity_t> writers;  // by output topic
+  dds_entity_t diag_writer = 0;
+  dds_entity_t waitset = 0;
+  dds_entity_t wake = 0;  // guard condition: stop receiving
+  std::unique_ptr<Runtime> runtime;
+
+  mutable std::mutex frames_mu;  // sensors, counters
+  std::vector<SensorState> sensors;
+  NodeCounters counters;
+
+  // Observer state: touched only from observer callbacks (serialized by the runtime).
+  std::map<JobId, std::vector<Output>> finished_heads;
+
+  std::mutex stats_mu;
+  std::vector<OpStats> stats;
+  std::vector<double> decisions_us;
+  std::size_t decisions_seen = 0;
+
+  std::mutex pub_mu;
+  std::condition_variable pub_cv;
+  std::deque<Output> queue;
+  bool publishing = true;
+  std::atomic<bool> receiving{true};
+  std::vector<std::uint8_t> rgb;  // the receive thread's model-input buffer
+
+  Impl(const Scenario& s, const Profile& p, Backend& b, NodeOptions o)
+      : scenario(s), profile(p), backend(b), options(std::move(o)) {
+    // Frame arrivals are the releases (§14): run until stop() or the given duration.
+    scenario.duration = options.duration.value_or(std::chrono::hours{24 * 365});
+    topics = node_topics(scenario, options.remaps);
+    sensors.resize(scenario.sensors.size());
+    stats.resize(static_cast<std::size_t>(scenario.operation_count()));
+  }
+
+  ~Impl() override {
+    if (domain) {
+      for (dds_entity_t r : readers) dds_delete(r);
+      for (auto& [t, w] : writers) dds_delete(w);
+      if (diag_writer > 0) dds_delete(diag_writer);
+      if (waitset > 0) dds_delete(waitset);
+      if (wake > 0) dds_delete(wake);
+    }
+  }
+
+  Expected<bool> open() {
+    auto d = Domain::open(options.domain, options.config);
+    if (!d) return d.error();
+    domain = std::move(*d);
+    const dds_entity_t pp = domain->participant();
+    const auto fail = [](const std::string& what, dds_return_t rc) {
+      return Error{"", 0, what + ": " + dds_strretcode(rc)};
+    };
+    dds_qos_t* in_qos = make_qos(options.qos.input);
+    dds_qos_t* out_qos = make_qos(options.qos.output);
+    waitset = dds_create_waitset(pp);
+    wake = dds_create_guardcondition(pp);
+    dds_waitset_attach(waitset, wake, -1);
+    Expected<bool> result = true;
+    for (std::size_t i = 0; i < topics.sensors.size() && result; ++i) {
+      const dds_entity_t topic =
+          dds_create_topic(pp, &sensor_msgs_msg_dds__Image__desc,
+                           dds_topic_name(topics.sensors[i]).c_str(), nullptr, nullptr);
+      const dds_entity_t r = topic < 0 ? topic : dds_create_reader(pp, topic, in_qos, nullptr);
+      if (r < 0) {
+        result = fail("cannot subscribe to " + topics.sensors[i], r);
+        break;
+      }
+      dds_set_status_mask(r, DDS_DATA_AVAILABLE_STATUS);
+      dds_waitset_attach(waitset, r, static_cast<dds_attach_t>(i));
+      readers.push_back(r);
+    }
+    for (const auto& [key, name] : topics.nodes) {
+      if (!result) break;
+      const int head = topics.heads[key];
+      if (head < 0 || writers.count(name) != 0) continue;
+      const dds_topic_descriptor_t* desc = &sensor_msgs_msg_dds__Image__desc;
+      switch (output_kind(scenario.model.heads[static_cast<std::size_t>(head)])) {
+        case OutputKind::Velocity:
+          desc = &geometry_msgs_msg_dds__Twist__desc;
+          break;
+        case OutputKind::Detections:
+          desc = &vision_msgs_msg_dds__Detection2DArray__desc;
+          break;
+        case OutputKind::Mask:
+          break;
+      }
+      const dds_entity_t topic =
+          dds_create_topic(pp, desc, dds_topic_name(name).c_str(), nullptr, nullptr);
+      const dds_entity_t w = topic < 0 ? topic : dds_create_writer(pp, topic, out_qos, nullptr);
+      if (w < 0) {
+        result =
+            fail("cannot publish " + name + " (is it remapped onto a topic of another type?)", w);
+        break;
+      }
+      writers[name] = w;
+      if (desc == &geometry_msgs_msg_dds__Twist__desc) {
+        // Twist has no header: the same values with the frame's header beside it.
+        const std::string stamped = name + "/stamped";
+        const dds_entity_t st = dds_create_topic(pp, &geometry_msgs_msg_dds__TwistStamped__desc,
+                                                 dds_topic_name(stamped).c_str(), nullptr, nullptr);
+        const dds_entity_t sw = st < 0 ? st : dds_create_writer(pp, st, out_qos, nullptr);
+        if (sw < 0) {
+          result = fail("cannot publish " + stamped, sw);
+          break;
+        }
+        writers[stamped] = sw;
+      }
+    }
+    if (result) {
+      const dds_entity_t topic =
+          dds_create_topic(pp, &diagnostic_msgs_msg_dds__DiagnosticArray__desc,
+                           dds_topic_name(topics.diagnostics).c_str(), nullptr, nullptr);
+      diag_writer = topic < 0 ? topic : dds_create_writer(pp, topic, out_qos, nullptr);
+      if (diag_writer < 0) result = fail("cannot publish " + topics.diagnostics, diag_writer);
+    }
+    dds_delete_qos(in_qos);
+    dds_delete_qos(out_qos);
+    return result;
+  }
+
+  // ---- receiving: frame arrivals are releases ----
+
+  void reject(std::size_t sensor, Reject why, const Image& img) {
+    std::uint64_t n = 0;
+    {
+      std::lock_guard lock(frames_mu);
+      n = ++counters.rejected[static_cast<std::size_t>(why)];
+    }
+    if (n <= 3 || n % 100 == 0)
+      std::cerr << "red node: rejected an image on " << topics.sensors[sensor] << " ("
+                << to_string(why) << ": encoding '" << (img.encoding_ ? img.encoding_ : "") << "', "
+                << img.width_ << "x" << img.height_ << ", step " << img.step_ << ", "
+                << img.data_._length << " data bytes; " << n << " so far)\n";
+  }
+
+  void accept(std::size_t sensor, const Image& img) {
+    const auto& in = scenario.model.input;
+    const int h = in.size() >= 3 ? static_cast<int>(in[1]) : 192;
+    const int w = in.size() >= 3 ? static_cast<int>(in[2]) : 384;
+    std::uint64_t id = 0;
+    {
+      std::lock_guard lock(frames_mu);
+      SensorState& st = sensors[sensor];
+      id = st.next_id++;
+      FrameSlot& slot = st.ring[id % kFrameRing];
+      slot.id = id;
+      slot.header = HeaderValue::from(img.header_);
+      to_gray(img, w, h, slot.gray);
+      st.last = clock.now();
+      ++st.frames;
+      ++counters.frames;
+    }
+    // The backend gets the frame's pixels at the model's input size (one channel or RGB).
+    FrameView px{w, h, 1, nullptr};
+    GrayFrame gray;
+    if (in.empty() || in[0] != 1) {
+      to_rgb(img, w, h, rgb);
+      px.channels = 3;
+      px.data = rgb.data();
+    } else {
+      to_gray(img, w, h, gray);
+      px.data = gray.pixels.data();
+    }
+    if (runtime->push_frame(static_cast<int>(sensor), id, &px)) {
+      std::lock_guard lock(frames_mu);
+      ++counters.released;
+    }
+  }
+
+  void receive_main() {
+    std::vector<void*> samples(8, nullptr);
+    std::vector<dds_sample_info_t> infos(8);
+    // Frames that arrive before the runtime accepts them wait in the readers' history.
+    while (receiving.load(std::memory_order_acquire) && !runtime->accepting_frames())
+      std::this_thread::sleep_for(std::chrono::milliseconds{1});
+    while (receiving.load(std::memory_order_acquire)) {
+      dds_waitset_wait(waitset, nullptr, 0, DDS_MSECS(100));
+      for (std::size_t s = 0; s < readers.size(); ++s) {
+        for (;;) {
+          std::fill(samples.begin(), samples.end(), nullptr);
+          const dds_return_t n = dds_take(readers[s], samples.data(), infos.data(), samples.size(),
+                                          static_cast<uint32_t>(samples.size()));
+          if (n <= 0) break;
+          for (dds_return_t i = 0; i < n; ++i) {
+            if (!infos[static_cast<std::size_t>(i)].valid_data) continue;
+            const Image& img = *static_cast<const Image*>(samples[static_cast<std::size_t>(i)]);
+            if (auto why = check_image(img))
+              reject(s, *why, img);
+            else
+              accept(s, img);
+          }
+          dds_return_loan(readers[s], samples.data(), n);
+        }
+      }
+    }
+  }
+
+  // ---- observing the runtime (called with the scheduler's lock held) ----
+
+  void on_unit_end(const Dispatch& d, TimePoint, UnitStatus s) override {
+    if (s != UnitStatus::Completed) return;
+    for (const Member& m : d.members) {
+      if (m.graph == nullptr || m.unit < 0) continue;
+      const RefinedUnit& u = m.graph->units[static_cast<std::size_t>(m.unit)];
+      for (int n : u.produces) {
+        const NodeSpec& spec = m.graph->spec->nodes[static_cast<std::size_t>(n)];
+        if (spec.head < 0) continue;
+        finished_heads[m.job].push_back({m.operation, spec.name, spec.head, spec.sensor, m.frame});
+      }
+    }
+  }
+
+  void on_job_end(const JobRecord& j) override {
+    std::vector<Output> outs;
+    if (auto it = finished_heads.find(j.id); it != finished_heads.end()) {
+      outs = std::move(it->second);
+      finished_heads.erase(it);
+    }
+    const bool completed = j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed;
+    {
+      std::lock_guard lock(stats_mu);
+      OpStats& st = stats[static_cast<std::size_t>(j.operation)];
+      if (j.outcome != JobOutcome::Unfinished) ++st.jobs;
+      if (completed) {
+        ++st.completed;
+        const Duration r = j.finish - j.release;
+        st.qoe_sum += qoe_score(r, j.deadline - j.release, scenario.scheduler.qoe_lambda);
+        const double ms = to_ms(r);
+        if (st.latency_ms.size() < kLatencyWindow)
+          st.latency_ms.push_back(ms);
+        else
+          st.latency_ms[st.next++ % kLatencyWindow] = ms;
+      }
+      if (j.outcome == JobOutcome::Missed) ++st.missed;
+      if (j.outcome == JobOutcome::Dropped || j.outcome == JobOutcome::Skipped ||
+          j.outcome == JobOutcome::Failed) {
+        ++st.missed;
+        ++st.dropped;
+      }
+    }
+    // A finished job publishes what it computed; a dropped one (strict) nothing (§14).
+    if (!completed) {
+      std::lock_guard lock(frames_mu);
+      if (j.outcome != JobOutcome::Unfinished) ++counters.jobs_without_output;
+      return;
+    }
+    {
+      std::lock_guard lock(pub_mu);
+      for (Output& o : outs) queue.push_back(std::move(o));
+    }
+    pub_cv.notify_one();
+  }
+
+  // ---- publishing ----
+
+  // The frame a head read, if still kept; copies its header and pixels into `out`.
+  bool frame_of(const Output& o, HeaderValue& header, GrayFrame& gray) {
+    std::lock_guard lock(frames_mu);
+    const FrameSlot& slot = sensors[static_cast<std::size_t>(o.sensor)].ring[o.frame % kFrameRing];
+    if (slot.id != o.frame) return false;
+    header = slot.header;
+    gray = slot.gray;
+    return true;
+  }
+
+  // The published values are computed from the frame by fixed rules (the built-in model's
+  // weights are random, §9): lane a bright-pixel mask, seg four luminance classes, steer the
+  // left/right balance, det the box around the brightest pixels.
+  void publish(const Output& o, GrayFrame& g, const HeaderValue& hv) {
+    const std::string& head = scenario.model.heads[static_cast<std::size_t>(o.head)];
+    const auto topic = topics.nodes.find(std::make_pair(o.operation, o.node));
+    if (topic == topics.nodes.end()) return;
+    const auto wit = writers.find(topic->second);
+    if (wit == writers.end()) return;
+    double mean = 0;
+    for (std::uint8_t p : g.pixels) mean += p;
+    mean /= std::max<double>(1.0, static_cast<double>(g.pixels.size()));
+    switch (output_kind(head)) {
+      case OutputKind::Mask: {
+        std::vector<std::uint8_t> mask(g.pixels.size());
+        const bool classes = head == "seg";
+        for (std::size_t i = 0; i < mask.size(); ++i)
+          mask[i] = classes ? static_cast<std::uint8_t>(g.pixels[i] / 64)
+                            : (g.pixels[i] > mean ? 255 : 0);
+        Image m{};
+        hv.fill(m.header_);
+        m.height_ = static_cast<std::uint32_t>(g.height);
+        m.width_ = static_cast<std::uint32_t>(g.width);
+        m.encoding_ = const_cast<char*>("mono8");
+        m.step_ = static_cast<std::uint32_t>(g.width);
+        borrow(m.data_, mask);
+        dds_write(wit->second, &m);
+        std::lock_guard lock(frames_mu);
+        ++counters.masks;
+        break;
+      }
+      case OutputKind::Velocity: {
+        double left = 0, right = 0;
+        for (int y = 0; y < g.height; ++y)
+          for (int x = 0; x < g.width; ++x)
+            (x < g.width / 2 ? left : right) += g.pixels[static_cast<std::size_t>(y * g.width + x)];
+        const double half = std::max(1.0, static_cast<double>(g.width * g.height) / 2.0);
+        Twist t{};
+        t.linear_.x_ = mean / 255.0;
+        t.angular_.z_ = (right - left) / half / 255.0;
+        dds_write(wit->second, &t);
+        if (const auto sit = writers.find(wit->first + "/stamped"); sit != writers.end()) {
+          TwistStamped ts{};
+          hv.fill(ts.header_);
+          ts.twist_ = t;
+          dds_write(sit->second, &ts);
+        }
+        std::lock_guard lock(frames_mu);
+        ++counters.twists;
+        break;
+      }
+      case OutputKind::Detections: {
+        int x0 = g.width, y0 = g.height, x1 = -1, y1 = -1, n = 0;
+        const double bright = mean + (255.0 - mean) / 2.0;
+        for (int y = 0; y < g.height; ++y)
+          for (int x = 0; x < g.width; ++x)
+            if (g.pixels[static_cast<std::size_t>(y * g.width + x)] > bright) {
+              x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y),
+              y1 = std::max(y1, y), ++n;
+            }
+        Detection2DArray a{};
+        hv.fill(a.header_);
+        std::vector<Detection2D> dets;
+        std::vector<ObjectHypothesisWithPose> hyp(1);
+        const std::string cls = "bright", id;
+        if (n > 0) {
+          const double area = static_cast<double>((x1 - x0 + 1) * (y1 - y0 + 1));
+          hyp[0].hypothesis_.class_id_ = borrow(cls);
+          hyp[0].hypothesis_.score_ = static_cast<double>(n) / area;
+          hyp[0].pose_.pose_.orientation_.w_ = 1.0;
+          Detection2D d{};
+          hv.fill(d.header_);
+          borrow(d.results_, hyp);
+          d.bbox_.center_.position_.x_ = (x0 + x1) / 2.0;
+          d.bbox_.center_.position_.y_ = (y0 + y1) / 2.0;
+          d.bbox_.size_x_ = x1 - x0 + 1;
+          d.bbox_.size_y_ = y1 - y0 + 1;
+          d.id_ = borrow(id);
+          dets.push_back(d);
+        }
+        borrow(a.detections_, dets);
+        dds_write(wit->second, &a);
+        std::lock_guard lock(frames_mu);
+        ++counters.detections;
+        break;
+      }
+    }
+  }
+
+  void publish_diagnostics() {
+    for (double v : runtime->decision_us_since(decisions_seen)) {
+      ++decisions_seen;
+      if (decisions_us.size() < kDecisionWindow)
+        decisions_us.push_back(v);
+      else
+        decisions_us[decisions_seen % kDecisionWindow] = v;
+    }
+    std::deque<std::string> text;  // what the message borrows
+    const auto s = [&text](std::string v) { return borrow(text.emplace_back(std::move(v))); };
+    std::vector<DiagnosticStatus> status;
+    std::deque<std::vector<KeyValue>> values;
+    const auto add = [&](std::uint8_t level, const std::string& name, const std::string& message,
+                         const std::vector<std::pair<std::string, std::string>>& kv) {
+      auto& v = values.emplace_back();
+      for (const auto& [k, x] : kv) v.push_back({s(k), s(x)});
+      DiagnosticStatus st{};
+      st.level_ = level;
+      st.name_ = s(name);
+      st.message_ = s(message);
+      st.hardware_id_ = s("red");
+      borrow(st.values_, v);
+      status.push_back(st);
+    };
+    {
+      std::lock_guard lock(stats_mu);
+      for (std::size_t i = 0; i < stats.size(); ++i) {
+        const OpStats& st = stats[i];
+        const double jobs = static_cast<double>(std::max<std::uint64_t>(1, st.jobs));
+        const double miss = static_cast<double>(st.missed) / jobs;
+        std::vector<double> lat = st.latency_ms;
+        std::sort(lat.begin(), lat.end());
+        add(miss > 0.05 ? 1 : 0, "red: " + scenario.operation_name(static_cast<int>(i)),
+            miss > 0.05 ? "missing deadlines" : "ok",
+            {{"jobs", std::to_string(st.jobs)},
+             {"completed", std::to_string(st.completed)},
+             {"miss_rate", fmt_double(miss)},
+             {"drop_rate", fmt_double(static_cast<double>(st.dropped) / jobs)},
+             {"qoe", fmt_double(st.jobs == 0 ? 0.0 : st.qoe_sum / jobs)},
+             {"latency_p50_ms", fmt_double(percentile_sorted(lat, 0.5))},
+             {"latency_p99_ms", fmt_double(percentile_sorted(lat, 0.99))}});
+      }
+    }
+    std::string silent;
+    NodeCounters c;
+    {
+      std::lock_guard lock(frames_mu);
+      c = counters;
+      const TimePoint now = clock.now();
+      for (std::size_t i = 0; i < sensors.size(); ++i) {
+        const double rate = scenario.sensors[i].rate_hz;
+        const Duration quiet{static_cast<std::int64_t>(options.silent_periods / rate * 1e9)};
+        if (!sensors[i].last || now - *sensors[i].last > quiet)
+          silent += (silent.empty() ? "" : ",") + scenario.sensors[i].name;
+      }
+    }
+    std::vector<double> dec = decisions_us;
+    std::vector<std::pair<std::string, std::string>> kv = {
+        {"policy", options.policy},
+        {"decision_p99_us", fmt_double(percentile(dec, 0.99))},
+        {"frames", std::to_string(c.frames)},
+        {"released", std::to_string(c.released)},
+        {"silent_sensors", silent}};
+    std::uint64_t rejected = 0;
+    for (int r = 0; r < kRejectKinds; ++r) {
+      rejected += c.rejected[static_cast<std::size_t>(r)];
+      kv.emplace_back(std::string("rejected_") + to_string(static_cast<Reject>(r)),
+                      std::to_string(c.rejected[static_cast<std::size_t>(r)]));
+    }
+    add(silent.empty() && rejected == 0 ? 0 : 1, "red: node",
+        silent.empty() ? "ok" : "silent sensor(s): " + silent, kv);
+    DiagnosticArray a{};
+    stamp_now(a.header_.stamp_.sec_, a.header_.stamp_.nanosec_);
+    a.header_.frame_id_ = s("");
+    borrow(a.status_, status);
+    dds_write(diag_writer, &a);
+    std::lock_guard lock(frames_mu);
+    ++counters.diagnostics;
+  }
+
+  void publish_main() {
+    TimePoint next_diag = clock.now() + options.diagnostics_period;
+    HeaderValue header;
+    GrayFrame gray;
+    for (;;) {
+      std::optional<Output> item;
+      bool done = false;
+      {
+        std::unique_lock lock(pub_mu);
+        const auto wall = std::chrono::steady_clock::now() + (next_diag - clock.now());
+        pub_cv.wait_until(lock, wall, [&] { return !queue.empty() || !publishing; });
+        if (!queue.empty()) {
+          item = std::move(queue.front());
+          queue.pop_front();
+        } else {
+          done = !publishing;
+        }
+      }
+      if (item) {
+        if (frame_of(*item, header, gray)) {
+          publish(*item, gray, header);
+        } else {
+          std::lock_guard lock(frames_mu);
+          ++counters.jobs_without_output;  // its frame left the ring: never a wrong stamp
+        }
+      }
+      if (done || clock.now() >= next_diag) {
+        publish_diagnostics();
+        next_diag = clock.now() + options.diagnostics_period;
+      }
+      if (done) return;
+    }
+  }
+
+  RuntimeReport run() {
+    std::thread receiver([this] { receive_main(); });
+    std::thread publisher([this] { publish_main(); });
+    RuntimeReport report = runtime->run();
+    receiving.store(false, std::memory_order_release);
+    dds_set_guardcondition(wake, true);
+    receiver.join();
+    {
+      std::lock_guard lock(pub_mu);
+      publishing = false;
+    }
+    pub_cv.notify_one();
+    publisher.join();
+    return report;
+  }
+};
+
+Expected<std::unique_ptr<Node>> Node::make(const Scenario& scenario, const Profile& profile,
+                                           Backend& backend, NodeOptions options) {
+  // The scenario's policy options (and the CLI's --with) apply, as in red run.
+  auto policy = make_policy(options.policy, policy_options(scenario, options.policy));
+  if (!policy) return Error{"", 0, "unknown policy '" + options.policy + "'"};
+  auto impl = std::make_unique<Impl>(scenario, profile, backend, std::move(options));
+  if (auto r = impl->open(); !r) return r.error();
+  RuntimeOptions ro;
+  ro.realtime = impl->options.realtime;
+  ro.external_frames = true;
+  impl->runtime =
+      std::make_unique<Runtime>(impl->scenario, profile, std::move(policy), backend, ro);
+  impl->runtime->add_observer(impl.get());
+  return std::unique_ptr<Node>(new Node(std::move(impl)));
+}
+
+Node::Node(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Node::~Node() = default;
+
+RuntimeReport Node::run() {
+  return impl_->run();
+}
+
+void Node::add_observer(Observer* o) {
+  impl_->runtime->add_observer(o);
+}
+
+void Node::stop() {
+  impl_->runtime->stop();
+}
+
+NodeCounters Node::counters() const {
+  std::lock_guard lock(impl_->frames_mu);
+  return impl_->counters;
+}
+
+const NodeTopics& Node::topics() const {
+  return impl_->topics;
+}
+
+}  // namespace red::dds

@@ -1,0 +1,169 @@
+#include "red/dds/ros.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <chrono>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+namespace red::dds {
+
+std::string dds_topic_name(std::string_view ros_topic) {
+  std::string_view t = ros_topic;
+  if (!t.empty() && t.front() == '/') t.remove_prefix(1);
+  return "rt/" + std::string(t);
+}
+
+bool valid_ros_topic(std::string_view name) {
+  if (name.size() < 2 || name.front() != '/' || name.back() == '/') return false;
+  char prev = '/';
+  for (std::size_t i = 1; i < name.size(); ++i) {
+    const char c = name[i];
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '/';
+    if (!ok || (c == '/' && prev == '/')) return false;
+    // A token never starts with a digit (ROS 2 name rules).
+    if (prev == '/' && c >= '0' && c <= '9') return false;
+    prev = c;
+  }
+  return true;
+}
+
+Expected<bool> Remaps::add(const std::string& rule) {
+  const auto sep = rule.find(":=");
+  if (sep == std::string::npos)
+    return Error{"", 0, "--remap '" + rule + "': expected from:=to (e.g. /camera:=/front/image)"};
+  const std::string from = rule.substr(0, sep), to = rule.substr(sep + 2);
+  for (const std::string& t : {from, to})
+    if (!valid_ros_topic(t))
+      return Error{"", 0,
+                   "--remap '" + rule + "': '" + t +
+                       "' is not an absolute ROS 2 topic name (like /camera/image_raw)"};
+  rules_[from] = to;
+  return true;
+}
+
+std::string Remaps::apply(const std::string& name) const {
+  const auto it = rules_.find(name);
+  return it == rules_.end() ? name : it->second;
+}
+
+namespace {
+
+Expected<bool> read_endpoint(const YAML::Node& n, const std::string& path, EndpointQos& q) {
+  const auto line = [&](const YAML::Node& x) { return x.Mark().line + 1; };
+  if (!n.IsMap()) return Error{path, line(n), "expected a map of reliability, depth, durability"};
+  for (const auto& kv : n) {
+    const std::string key = kv.first.as<std::string>();
+    const YAML::Node& v = kv.second;
+    if (key == "reliability") {
+      const std::string s = v.as<std::string>();
+      if (s != "reliable" && s != "best_effort")
+        return Error{path, line(v), "reliability must be reliable or best_effort, not '" + s + "'"};
+      q.reliable = s == "reliable";
+    } else if (key == "depth") {
+      int d = 0;
+      try {
+        d = v.as<int>();
+      } catch (const YAML::Exception&) {
+        d = 0;
+      }
+      if (d < 1 || d > 10000)
+        return Error{path, line(v), "depth must be an integer from 1 to 10000"};
+      q.depth = d;
+    } else if (key == "durability") {
+      const std::string s = v.as<std::string>();
+      if (s != "volatile" && s != "transient_local")
+        return Error{path, line(v),
+                     "durability must be volatile or transient_local, not '" + s + "'"};
+      q.transient_local = s == "transient_local";
+    } else {
+      return Error{path, line(kv.first),
+                   "unknown key '" + key + "' (known: reliability, depth, durability)"};
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+Expected<QosSettings> load_qos_file(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) return Error{path, 0, "cannot open the QoS file"};
+  QosSettings q;
+  try {
+    const YAML::Node root = YAML::Load(f);
+    if (!root.IsMap()) return Error{path, 1, "expected a map with input: and/or output:"};
+    for (const auto& kv : root) {
+      const std::string key = kv.first.as<std::string>();
+      EndpointQos* e = key == "input" ? &q.input : key == "output" ? &q.output : nullptr;
+      if (e == nullptr)
+        return Error{path, kv.first.Mark().line + 1,
+                     "unknown key '" + key + "' (known: input, output)"};
+      if (auto r = read_endpoint(kv.second, path, *e); !r) return r.error();
+    }
+  } catch (const YAML::Exception& e) {
+    return Error{path, e.mark.line + 1, e.msg};
+  }
+  return q;
+}
+
+dds_qos_t* make_qos(const EndpointQos& q) {
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, q.reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT,
+                       DDS_MSECS(100));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, q.depth);
+  dds_qset_durability(qos,
+                      q.transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+  // XCDR1, ROS 2's data representation (§14).
+  const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
+  dds_qset_data_representation(qos, 1, &xcdr1);
+  return qos;
+}
+
+std::string loopback_config() {
+  return "<CycloneDDS><Domain Id=\"any\">"
+         "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+         "<AllowMulticast>false</AllowMulticast></General>"
+         "<Discovery><ParticipantIndex>auto</ParticipantIndex>"
+         "<MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>"
+         "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery>"
+         "</Domain></CycloneDDS>";
+}
+
+Expected<std::unique_ptr<Domain>> Domain::open(int domain_id, const std::string& config) {
+  if (domain_id < 0 || domain_id > 232)
+    return Error{"", 0, "--domain " + std::to_string(domain_id) + ": must be 0..232"};
+  const std::string xml = config.empty() ? loopback_config() : config;
+  const auto id = static_cast<dds_domainid_t>(domain_id);
+  dds_entity_t dom = dds_create_domain(id, xml.c_str());
+  // An already-open domain in this process (e.g. a test beside a node) is reused as is.
+  if (dom < 0 && dom != DDS_RETCODE_PRECONDITION_NOT_MET)
+    return Error{"", 0,
+                 "cannot create DDS domain " + std::to_string(domain_id) + " (" +
+                     dds_strretcode(dom) + "): check the Cyclone DDS configuration"};
+  const dds_entity_t p = dds_create_participant(id, nullptr, nullptr);
+  if (p < 0) {
+    if (dom > 0) dds_delete(dom);
+    return Error{"", 0,
+                 "cannot create a DDS participant on domain " + std::to_string(domain_id) + " (" +
+                     dds_strretcode(p) + ")"};
+  }
+  return std::unique_ptr<Domain>(new Domain(domain_id, dom > 0 ? dom : 0, p));
+}
+
+Domain::~Domain() {
+  dds_delete(participant_);
+  if (domain_ > 0) dds_delete(domain_);
+}
+
+void stamp_now(std::int32_t& sec, std::uint32_t& nanosec) {
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                      std::chrono::system_clock::now().time_since_epoch())
+                      .count();
+  sec = static_cast<std::int32_t>(ns / 1'000'000'000);
+  nanosec = static_cast<std::uint32_t>(ns % 1'000'000'000);
+}
+
+}  // namespace red::dds

@@ -1,0 +1,301 @@
+/// \file
+/// `red node` and `red camera` (§14): RED as a ROS 2-compatible node on Cyclone DDS, and a
+/// camera publisher for demos and tests. Built only with the DDS bridge (RED_HAVE_DDS).
+
+#include <fmt/format.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <thread>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "real_run.hpp"
+#include "red/dds/camera.hpp"
+#include "red/dds/node.hpp"
+#include "red/metrics/metrics.hpp"
+#include "red/sched/policy.hpp"
+
+namespace red::cli {
+
+namespace {
+
+// SIGINT/SIGTERM end a node or a camera cleanly: the handler only sets this flag.
+std::atomic<bool> g_stop{false};
+extern "C" void on_stop_signal(int /*sig*/) {
+  g_stop.store(true);
+}
+void install_stop_signals() {
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+}
+
+struct DdsArgs {
+  int domain = 0;
+  std::string config;  // file with Cyclone DDS XML
+};
+
+void add_dds(CLI::App* cmd, DdsArgs& a) {
+  cmd->add_option("--domain", a.domain, "DDS domain id (ROS_DOMAIN_ID), 0..232")
+      ->check(CLI::Range(0, 232))
+      ->capture_default_str();
+  cmd->add_option("--config", a.config,
+                  "Cyclone DDS XML configuration file (default: loopback only, see docs/ROS2.md)");
+}
+
+// The configuration text of --config, or empty for the loopback default.
+Expected<std::string> read_config(const std::string& path) {
+  if (path.empty()) return std::string{};
+  std::ifstream f(path);
+  if (!f) return Error{path, 0, "cannot open the Cyclone DDS configuration file"};
+  std::stringstream ss;
+  ss << f.rdbuf();
+  if (ss.str().find('<') == std::string::npos)
+    return Error{path, 0, "not a Cyclone DDS XML configuration (no XML element)"};
+  return ss.str();
+}
+
+struct NodeArgs {
+  ScenarioArgs scenario;
+  DdsArgs dds;
+  std::string policy = dds::kDefaultNodePolicy;
+  std::string qos_file;
+  std::vector<std::string> remaps;
+  double duration_s = 0;
+  std::string backend;
+  RealRunOptions real;
+  bool realtime = false;
+  std::optional<std::string> out;
+};
+
+int run_node(const NodeArgs& a) {
+  auto s = load(a.scenario);
+  if (!s) {
+    print_error(s.error());
+    return kBadInput;
+  }
+  auto p = resolve_profile(*s, a.scenario.profile);
+  if (!p) {
+    print_error(p.error());
+    return kBadInput;
+  }
+  if (!make_policy(a.policy)) {
+    std::string known;
+    for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;
+    print_error(Error{"", 0, "unknown policy '" + a.policy + "' (known: " + known + ")"});
+    return kBadInput;
+  }
+  dds::NodeOptions o;
+  o.policy = a.policy;
+  o.domain = a.dds.domain;
+  o.realtime = a.realtime;
+  if (a.duration_s > 0) o.duration = Duration{static_cast<std::int64_t>(a.duration_s * 1e9)};
+  auto config = read_config(a.dds.config);
+  if (!config) {
+    print_error(config.error());
+    return kBadInput;
+  }
+  o.config = *config;
+  if (!a.qos_file.empty()) {
+    auto q = dds::load_qos_file(a.qos_file);
+    if (!q) {
+      print_error(q.error());
+      return kBadInput;
+    }
+    o.qos = *q;
+  }
+  for (const std::string& r : a.remaps)
+    if (auto ok = o.remaps.add(r); !ok) {
+      print_error(ok.error());
+      return kBadInput;
+    }
+  RealRunOptions real = a.real;
+  real.backend = a.backend;
+  real.seed = s->seed;
+  auto backend = make_backend(*s, *p, real);
+  if (!backend) {
+    print_error(backend.error());
+    return kBadInput;
+  }
+  auto node = dds::Node::make(*s, *p, **backend, o);
+  if (!node) {
+    print_error(node.error());
+    return kRunFailure;
+  }
+  MetricsCollector metrics(*s, s->scheduler.qoe_lambda, a.out.has_value());
+  (*node)->add_observer(&metrics);
+  const dds::NodeTopics& t = (*node)->topics();
+  std::cerr << fmt::format("red node: {} on DDS domain {} ({}), policy {}, backend {}\n", s->name,
+                           o.domain, o.config.empty() ? "loopback only" : a.dds.config, a.policy,
+                           (*backend)->name());
+  for (std::size_t i = 0; i < t.sensors.size(); ++i)
+    std::cerr << fmt::format("red node:   in  {} (sensor {}, sensor_msgs/msg/Image)\n",
+                             t.sensors[i], s->sensors[i].name);
+  for (const auto& [key, topic] : t.nodes) {
+    const int head = t.heads.at(key);
+    if (head < 0) continue;
+    const auto kind = dds::output_kind(s->model.heads[static_cast<std::size_t>(head)]);
+    std::cerr << fmt::format("red node:   out {} ({})\n", topic,
+                             kind == dds::OutputKind::Velocity
+                                 ? "geometry_msgs/msg/Twist, and TwistStamped on <topic>/stamped"
+                             : kind == dds::OutputKind::Detections
+                                 ? "vision_msgs/msg/Detection2DArray"
+                                 : "sensor_msgs/msg/Image mono8");
+  }
+  std::cerr << fmt::format("red node:   out {} (diagnostic_msgs/msg/DiagnosticArray)\n",
+                           t.diagnostics);
+  install_stop_signals();
+  std::atomic<bool> running{true};
+  dds::Node* n = node->get();
+  std::thread watcher([&running, n] {
+    while (running.load()) {
+      if (g_stop.load()) {
+        n->stop();
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds{50});
+    }
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  RuntimeReport report = (*node)->run();
+  running.store(false);
+  watcher.join();
+  const dds::NodeCounters c = (*node)->counters();
+  std::uint64_t rejected = 0;
+  std::string reasons;
+  for (int r = 0; r < dds::kRejectKinds; ++r) {
+    rejected += c.rejected[static_cast<std::size_t>(r)];
+    if (c.rejected[static_cast<std::size_t>(r)] > 0)
+      reasons += fmt::format(" {} {}", dds::to_string(static_cast<dds::Reject>(r)),
+                             c.rejected[static_cast<std::size_t>(r)]);
+  }
+  std::cerr << fmt::format(
+      "red node: {} frames ({} released), {} rejected{}; published {} masks, {} twists, {} "
+      "detection arrays, {} diagnostics; {} jobs without output\n",
+      c.frames, c.released, rejected, reasons, c.masks, c.twists, c.detections, c.diagnostics,
+      c.jobs_without_output);
+  print_runtime_report(a.policy, report);
+  std::cerr << fmt::format(
+      "red node: frame received -> released p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
+      percentile(report.frame_release_us, 0.5), percentile(report.frame_release_us, 0.99),
+      report.frame_release_us.size());
+  if (a.out) {
+    PolicyRun run;
+    run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    run.metrics = metrics.summarize(a.policy, report.end);
+    run.metrics.decision_p50_us = percentile(report.decision_us, 0.5);
+    run.metrics.decision_p99_us = percentile(report.decision_us, 0.99);
+    run.jobs = metrics.jobs();
+    run.units = metrics.units();
+    run.result.end = report.end;
+    run.result.stats = report.stats;
+    OutputOptions oo;
+    oo.gnuplot = "none";
+    OutputReport wrote;
+    if (auto e = write_outputs(*a.out, *s, *p, std::string((*backend)->name()), s->seed, {run}, oo,
+                               &wrote)) {
+      print_error(*e);
+      return kRunFailure;
+    }
+    std::cerr << "red node: " << wrote_message(*a.out, wrote) << '\n';
+  }
+  return kOk;
+}
+
+struct CameraArgs {
+  DdsArgs dds;
+  dds::CameraOptions o;
+  std::string size = "640x480";
+  std::uint64_t count = 0;
+  double duration_s = 0;
+};
+
+int run_camera(CameraArgs& a) {
+  int w = 0, h = 0;
+  char x = 0;
+  std::istringstream ss(a.size);
+  if (!(ss >> w >> x >> h) || x != 'x' || !ss.eof()) {
+    print_error(Error{"", 0, "--size '" + a.size + "': expected WxH, e.g. 640x480"});
+    return kBadInput;
+  }
+  a.o.width = w;
+  a.o.height = h;
+  a.o.domain = a.dds.domain;
+  if (a.count > 0) a.o.count = a.count;
+  if (a.duration_s > 0) a.o.duration = Duration{static_cast<std::int64_t>(a.duration_s * 1e9)};
+  auto config = read_config(a.dds.config);
+  if (!config) {
+    print_error(config.error());
+    return kBadInput;
+  }
+  a.o.config = *config;
+  install_stop_signals();
+  auto r = dds::run_camera(a.o, g_stop);
+  if (!r) {
+    print_error(r.error());
+    return kBadInput;
+  }
+  std::cerr << fmt::format("red camera: published {} frames on {}{}\n", r->published, a.o.topic,
+                           r->matched ? "" : " (no subscriber was matched before the first)");
+  return kOk;
+}
+
+}  // namespace
+
+void register_node(CLI::App& app, int& exit_code) {
+  auto a = std::make_shared<NodeArgs>();
+#ifdef RED_HAVE_TORCH
+  a->backend = "torch";
+#else
+  a->backend = "synthetic";
+#endif
+  CLI::App* cmd = app.add_subcommand(
+      "node", "RED as a ROS 2-compatible node on DDS: camera topics in, head outputs out");
+  cmd->add_option("scenario", a->scenario.path, "Scenario file (YAML)")->required();
+  cmd->add_option("--profile", a->scenario.profile, "Profile JSON (default: the scenario's)");
+  cmd->add_option("--set", a->scenario.sets, "Override a scenario value: key=value");
+  cmd->add_option("--policy", a->policy, "Policy preset")->capture_default_str();
+  add_with_option(cmd, a->scenario);
+  add_dds(cmd, a->dds);
+  cmd->add_option("--qos-file", a->qos_file, "QoS overrides (YAML: input:/output:)");
+  cmd->add_option("--remap", a->remaps, "Rename a topic, ROS 2 style: from:=to (repeatable)");
+  cmd->add_option("--duration", a->duration_s,
+                  "Stop releasing after this many seconds (default: until SIGINT/SIGTERM)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--backend", a->backend,
+                  "torch (real inference) or synthetic (spends profiled unit times)")
+      ->check(CLI::IsMember({"torch", "synthetic"}))
+      ->capture_default_str();
+  cmd->add_option("--device", a->real.device, "LibTorch device: cpu, cuda, cuda:N")
+      ->capture_default_str();
+  cmd->add_option("--threads", a->real.threads, "LibTorch intra-op threads per lane")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--realtime", a->realtime, "Try SCHED_FIFO, CPU affinity and mlockall");
+  cmd->add_option("--out", a->out, "Write summary.json, jobs.csv, units.csv here at the end");
+  cmd->callback([a, &exit_code] { exit_code = run_node(*a); });
+}
+
+void register_camera(CLI::App& app, int& exit_code) {
+  auto a = std::make_shared<CameraArgs>();
+  CLI::App* cmd =
+      app.add_subcommand("camera", "Publish synthetic camera frames (sensor_msgs/Image) on DDS");
+  cmd->add_option("--rate", a->o.rate_hz, "Frames per second")->capture_default_str();
+  cmd->add_option("--topic", a->o.topic, "ROS 2 topic")->capture_default_str();
+  cmd->add_option("--size", a->size, "Frame size WxH")->capture_default_str();
+  cmd->add_option("--encoding", a->o.encoding, "rgb8, bgr8 or mono8")->capture_default_str();
+  cmd->add_option("--frame-id", a->o.frame_id, "header.frame_id")->capture_default_str();
+  cmd->add_option("--from", a->o.from_dir,
+                  "Publish the PNG/JPEG images of this directory (name order, looped; their own "
+                  "size) instead of synthetic frames");
+  cmd->add_option("--count", a->count, "Stop after this many frames (default: never)");
+  cmd->add_option("--duration", a->duration_s, "Stop after this many seconds")
+      ->check(CLI::PositiveNumber);
+  add_dds(cmd, a->dds);
+  cmd->callback([a, &exit_code] { exit_code = run_camera(*a); });
+}
+
+}  // namespace red::cli
