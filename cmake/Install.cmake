@@ -120,6 +120,13 @@ if(TARGET red_dds)
   if(IS_DIRECTORY ${PROJECT_SOURCE_DIR}/bridges/dds/include)
     set(RED_DDS_HEADERS HEADERS ${PROJECT_SOURCE_DIR}/bridges/dds/include)
   endif()
+  # red_dds links the idlc-generated message library: it is exported beside it, with the
+  # generated headers its public headers include.
+  install(TARGETS red_dds_msgs EXPORT red-dds-targets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev)
+  install(DIRECTORY ${PROJECT_BINARY_DIR}/bridges/dds/
+          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/red/dds/msgs COMPONENT dev
+          FILES_MATCHING PATTERN "*.h" PATTERN "CMakeFiles" EXCLUDE)
   red_install_library(red_dds dds ${RED_DDS_HEADERS} DEPENDENCIES CycloneDDS)
 endif()
 
