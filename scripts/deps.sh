@@ -8,6 +8,7 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox
+  clang libclang-rt-14-dev
   libtorch-dev python3-torch
   cyclonedds-dev cyclonedds-tools
 )
