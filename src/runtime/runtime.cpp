@@ -67,6 +67,19 @@ void spin_then_park(std::mutex& m, std::condition_variable& cv, const Clock& clo
   }
 }
 
+// Watchdog states of a handler's current unit (Handler::watch).
+constexpr std::uint8_t kWatchIdle = 0;      // no unit running
+constexpr std::uint8_t kWatchRunning = 1;   // running, limit in Handler::limit_ns
+constexpr std::uint8_t kWatchTimedOut = 2;  // failed by the watchdog; the call is still out
+
+// A unit's watchdog limit: its profiled p99 at batch size `batch` (sizes past the largest
+// measured scale linearly).
+Duration p99_at(const UnitProfile* u, int batch) {
+  if (u == nullptr || u->max_batch() == 0) return Duration{0};
+  const Duration p = u->at(batch).p99;
+  return batch > u->max_batch() ? p * batch / u->max_batch() : p;
+}
+
 struct InEvent {
   enum Kind : std::uint8_t { Frame, Complete } kind;
   int index;  // sensor or lane
@@ -104,10 +117,22 @@ struct Runtime::Impl {
     const Dispatch* work = nullptr;
     TimePoint prev_end = kNever;  // end of the unit this assignment follows, if immediate
     std::atomic<HandlerState> state{HandlerState::Idle};
+    // Watchdog. The handler runs a copy of its dispatch: once the watchdog has failed a
+    // unit, the scheduler may hand the lane its next dispatch while the call is still out.
+    Dispatch copy;
+    std::atomic<std::uint8_t> watch{kWatchIdle};
+    std::atomic<std::int64_t> limit_ns{0};      // when the running unit times out
+    std::atomic<std::int64_t> timed_out_ns{0};  // when the watchdog failed it
   };
   std::vector<std::unique_ptr<Handler>> handlers;
   std::atomic<bool> stopping{false};
   std::atomic<bool> cameras_on{true};
+  // When the global synchronizer will wake next (kNever while it recomputes): a handler
+  // starting a unit whose watchdog limit comes earlier pokes it.
+  std::atomic<std::int64_t> global_wake_at{kNever.count()};
+  // Profiled p99 of the encoder and of each head (for watchdog limits).
+  const UnitProfile* encoder_profile = nullptr;
+  std::vector<const UnitProfile*> head_profiles;
 
   RuntimeReport report;
   std::mutex report_mu;
@@ -121,6 +146,74 @@ struct Runtime::Impl {
         sync(sched.policy().options().sync) {
     report.decision_us.reserve(4096);
     report.handoff_us.reserve(4096);
+    encoder_profile = p.find("encoder");
+    for (const std::string& h : s.model.heads) head_profiles.push_back(p.find("head/" + h));
+  }
+
+  bool watchdog_on() const noexcept { return options.watchdog_x > 0; }
+
+  // Profiled p99 of what `d` runs (the watchdog's base), allocation-free.
+  Duration p99_of(const Dispatch& d) const {
+    const Member& m = d.members.front();
+    const RefinedGraph& g = *m.graph;
+    const RefinedUnit& u = g.units[static_cast<std::size_t>(m.unit)];
+    auto head = [this](int h, int batch) {
+      return h >= 0 && static_cast<std::size_t>(h) < head_profiles.size()
+                 ? p99_at(head_profiles[static_cast<std::size_t>(h)], batch)
+                 : Duration{0};
+    };
+    switch (d.kind) {
+      case UnitKind::Encoder:
+        return p99_at(encoder_profile, d.batch);
+      case UnitKind::Head:
+        return head(d.head, d.batch);
+      case UnitKind::Coarse:
+        return p99_at(encoder_profile, d.batch) + head(u.head, d.batch);
+      case UnitKind::Plain: {
+        const NodeSpec& n = g.spec->nodes[static_cast<std::size_t>(m.node)];
+        return n.cost ? n.cost->p99 * d.batch : Duration{0};
+      }
+      case UnitKind::Mono: {
+        Duration t = p99_at(encoder_profile, 1) * static_cast<std::int64_t>(g.sensors.size());
+        for (const NodeSpec& n : g.spec->nodes)
+          t += n.is_plain() ? (n.cost ? n.cost->p99 : Duration{0}) : head(n.head, 1);
+        return t;
+      }
+    }
+    return Duration{0};
+  }
+
+  Duration watchdog_limit(const Dispatch& d) const {
+    const double base = static_cast<double>(p99_of(d).count()) * options.watchdog_x;
+    return std::max(options.watchdog_min, Duration{static_cast<std::int64_t>(base)});
+  }
+
+  // Fails every unit that ran past its watchdog limit (global synchronizer, sched_mu held).
+  // The handler's own exchange on `watch` decides who reports a unit: exactly one of the
+  // watchdog (here) and the handler (when the call returns) does.
+  void check_watchdog(TimePoint now) {
+    for (std::size_t l = 0; l < handlers.size(); ++l) {
+      Handler& h = *handlers[l];
+      if (h.watch.load(std::memory_order_acquire) != kWatchRunning) continue;
+      if (now < TimePoint{h.limit_ns.load(std::memory_order_acquire)}) continue;
+      std::uint8_t expected = kWatchRunning;
+      if (!h.watch.compare_exchange_strong(expected, kWatchTimedOut)) continue;
+      h.timed_out_ns.store(now.count(), std::memory_order_release);
+      // Towards the scheduler the unit ends here; its jobs fail with the reason
+      // "timeout". The lane's next dispatch waits for the call to return.
+      sched.on_complete(static_cast<int>(l), now, UnitStatus::Failed, "timeout");
+      std::lock_guard rl(report_mu);
+      ++report.timeouts;
+      ++report.failures;
+    }
+  }
+
+  // The earliest watchdog limit of a running unit, or kNever.
+  TimePoint next_watchdog() const {
+    TimePoint t = kNever;
+    for (const auto& h : handlers)
+      if (h->watch.load() == kWatchRunning) t = std::min(t, TimePoint{h->limit_ns.load()});
+    return t;
   }
 
   TimePoint advance_now(TimePoint t) {
@@ -198,18 +291,30 @@ struct Runtime::Impl {
                  stopping.load(std::memory_order_acquire);
         });
         if (h.assigned.load(std::memory_order_acquire) == seen) return;  // stopping
+        // A dispatch that waited behind a timed-out call when the run ended: its jobs are
+        // reported unfinished.
+        if (stopping.load(std::memory_order_acquire)) return;
         seen = h.assigned.load(std::memory_order_acquire);
         std::lock_guard lock(h.mu);
         next = h.work;
         prev_end = h.prev_end;
       }
-      const Dispatch& d = *next;
+      if (watchdog_on()) h.copy = *next;  // reuses its capacity: no allocation in steady state
+      const Dispatch& d = watchdog_on() ? h.copy : *next;
       next = nullptr;
       h.state.store(HandlerState::Running, std::memory_order_release);
       const TimePoint start = clock.now();
       if (prev_end != kNever) {
         std::lock_guard lock(report_mu);
         report.handoff_us.push_back(to_us(start - prev_end));
+      }
+      if (watchdog_on()) {
+        const TimePoint limit = start + watchdog_limit(d);
+        h.limit_ns.store(limit.count(), std::memory_order_release);
+        h.watch.store(kWatchRunning);
+        // The global synchronizer may be parked past this limit: poke it (see
+        // global_wake_at; both sides are sequentially consistent).
+        if (limit.count() < global_wake_at.load()) wake_global();
       }
       UnitStatus status = UnitStatus::Completed;
       std::string reason;
@@ -226,6 +331,16 @@ struct Runtime::Impl {
         reason = "unknown exception";
       }
       const TimePoint end = clock.now();
+      if (watchdog_on() && h.watch.exchange(kWatchIdle) == kWatchTimedOut) {
+        // The watchdog already failed this unit's jobs and freed the lane towards the
+        // scheduler: the late result is ignored. The lane is back in service; a dispatch
+        // assigned meanwhile is picked up below.
+        std::lock_guard rl(report_mu);
+        ++report.late_returns;
+        report.out_of_service += end - TimePoint{h.timed_out_ns.load(std::memory_order_acquire)};
+        prev_end = kNever;
+        continue;
+      }
       h.state.store(status == UnitStatus::Completed   ? HandlerState::Completed
                     : status == UnitStatus::Failed    ? HandlerState::Failed
                     : status == UnitStatus::Cancelled ? HandlerState::Cancelled
@@ -401,6 +516,7 @@ struct Runtime::Impl {
           }
         }
         batch.clear();
+        if (watchdog_on()) check_watchdog(now);
         sched.advance(now);
         // Per-edge: a handler that completed waits here for its next unit (a round trip).
         const Dispatch* none = decide(now, -1, completed, completed_at);
@@ -408,6 +524,11 @@ struct Runtime::Impl {
         wake = sched.next_wakeup();
         if (releasing) wake = std::min(wake, scenario.duration);
         wake = std::min(wake, hard_stop);
+        if (watchdog_on()) {
+          global_wake_at.store(kNever.count());  // handlers starting a unit now poke
+          wake = std::min(wake, next_watchdog());
+          global_wake_at.store(wake.count());
+        }
         ++report.wakeups;
       }
       spin_then_park(inbox_mu, inbox_cv, clock, options.spin, wake, [&] {

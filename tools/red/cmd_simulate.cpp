@@ -188,6 +188,11 @@ void add_real(CLI::App* cmd, RunArgs& a) {
                   "LibTorch intra-op threads per lane (0: hardware threads / lanes)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-realtime", a.no_realtime, "Do not try SCHED_FIFO, CPU affinity, mlockall");
+  cmd->add_option("--watchdog-x", a.real.watchdog_x,
+                  "Fail a unit running past this many times its profiled p99 with the reason "
+                  "'timeout' (0: no watchdog)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 }  // namespace

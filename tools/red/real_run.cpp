@@ -51,6 +51,7 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   if (!pol) return Error{"", 0, "unknown policy '" + policy + "'"};
   RuntimeOptions ro;
   ro.realtime = o.realtime;
+  ro.watchdog_x = o.watchdog_x;
   Runtime rt(s, p, std::move(pol), backend, ro);
   MetricsCollector metrics(s, s.scheduler.qoe_lambda, true);
   rt.add_observer(&metrics);
@@ -74,10 +75,15 @@ void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
   std::cerr << fmt::format(
       "red: policy {}: decisions {} (p50 {:.2f} us, p99 {:.2f} us), completion->next start p99 "
       "{:.2f} us "
-      "({} handoffs), sync round trips {}, local decisions {}, failures {}, RSS {:.1f} MB\n",
+      "({} handoffs), sync round trips {}, local decisions {}, failures {} (timeouts {}), RSS "
+      "{:.1f} MB\n",
       policy, r.decision_us.size(), percentile(r.decision_us, 0.5), percentile(r.decision_us, 0.99),
       percentile(r.handoff_us, 0.99), r.handoff_us.size(), r.stats.round_trips, r.local_decisions,
-      r.failures, static_cast<double>(r.resident_bytes_after) / 1e6);
+      r.failures, r.timeouts, static_cast<double>(r.resident_bytes_after) / 1e6);
+  if (r.late_returns > 0)
+    std::cerr << fmt::format(
+        "red:   {} timed-out unit(s) returned late; lanes out of service {:.1f} ms\n",
+        r.late_returns, to_ms(r.out_of_service));
   for (const std::string& line : r.realtime) std::cerr << "red:   " << line << '\n';
 }
 

@@ -23,7 +23,8 @@ struct RealRunOptions {
   int threads = 0;                ///< LibTorch intra-op threads (0: default)
   bool realtime = true;
   std::uint64_t seed = 1;
-  std::optional<SyncMode> sync;  ///< overrides the policy's synchronization mode
+  std::optional<SyncMode> sync;                     ///< overrides the policy's synchronization mode
+  double watchdog_x = RuntimeOptions{}.watchdog_x;  ///< unit limit in × its p99 (0: off)
 };
 
 /// A backend by name for the scenario; Error when unknown or when it cannot load.

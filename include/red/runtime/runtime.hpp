@@ -46,6 +46,21 @@ struct RuntimeOptions {
   Duration spin = std::chrono::microseconds{50};   ///< spin before parking
   Duration drain_limit = std::chrono::seconds{5};  ///< after the scenario ends
   bool interference = true;                        ///< run the scenario's background load
+  /// Watchdog: a unit still running after watchdog_x × its profiled p99 (at its batch
+  /// size; a Mono or Coarse unit sums its parts) fails its jobs with the reason "timeout",
+  /// and its lane is out of service until the backend call returns (it cannot be
+  /// interrupted; its late result is ignored). 0 turns the watchdog off.
+  double watchdog_x = 10.0;
+  Duration watchdog_min = std::chrono::milliseconds{50};  ///< no unit's limit is shorter
+  Duration sample_period = std::chrono::seconds{1};       ///< RuntimeReport::samples (0: none)
+};
+
+/// One sample of the process and the scheduler, taken every sample_period of a run.
+struct RuntimeSample {
+  Duration t{0};               ///< since the start of the run
+  std::int64_t rss_bytes = 0;  ///< resident set size
+  int ready = 0;               ///< ready units waiting for a lane
+  int in_flight = 0;           ///< jobs released and not ended
 };
 
 /// What a real run measured, besides what observers saw.
@@ -57,7 +72,11 @@ struct RuntimeReport {
   std::vector<double> handoff_us;          ///< unit completion -> next unit started on that lane
   std::uint64_t wakeups = 0;               ///< times the global synchronizer woke
   std::uint64_t local_decisions = 0;       ///< decisions taken by handlers (on-demand)
-  std::uint64_t failures = 0;              ///< units that ended Failed or OutOfMemory
+  std::uint64_t failures = 0;              ///< units that ended Failed, OutOfMemory or timed out
+  std::uint64_t timeouts = 0;              ///< units failed by the watchdog
+  std::uint64_t late_returns = 0;          ///< timed-out backend calls that returned later
+  Duration out_of_service{0};              ///< lane time spent waiting for timed-out calls
+  std::vector<RuntimeSample> samples;      ///< one per sample_period, and one at the end
   std::int64_t resident_bytes_before = 0;  ///< process RSS before the runtime's threads start
   std::int64_t resident_bytes_after = 0;   ///< and after the run
 };
