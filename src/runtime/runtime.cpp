@@ -136,6 +136,11 @@ struct Runtime::Impl {
 
   RuntimeReport report;
   std::mutex report_mu;
+  std::uint64_t reservoir_rng = 0x9E3779B97F4A7C15ULL;  // under report_mu
+
+  std::mutex sample_mu;
+  std::condition_variable sample_cv;
+  bool sampling = true;  // under sample_mu
 
   Impl(const Scenario& s, const Profile& p, std::unique_ptr<Policy> policy, Backend& b,
        RuntimeOptions o)
@@ -144,13 +149,57 @@ struct Runtime::Impl {
         options(o),
         sched(s, p, std::move(policy), SchedulerConfig::from(s)),
         sync(sched.policy().options().sync) {
-    report.decision_us.reserve(4096);
-    report.handoff_us.reserve(4096);
+    report.decision_us.reserve(options.max_timing_samples);
+    report.handoff_us.reserve(options.max_timing_samples);
     encoder_profile = p.find("encoder");
     for (const std::string& h : s.model.heads) head_profiles.push_back(p.find("head/" + h));
   }
 
   bool watchdog_on() const noexcept { return options.watchdog_x > 0; }
+
+  // Keeps a uniform sample of at most max_timing_samples values (reservoir sampling,
+  // Algorithm R); `seen` counts every value offered. Caller holds report_mu.
+  void record(std::vector<double>& v, std::uint64_t& seen, double x) noexcept {
+    ++seen;
+    if (v.size() < options.max_timing_samples) {
+      v.push_back(x);  // within the reserved capacity
+      return;
+    }
+    reservoir_rng ^= reservoir_rng << 13;
+    reservoir_rng ^= reservoir_rng >> 7;
+    reservoir_rng ^= reservoir_rng << 17;
+    const std::uint64_t j = reservoir_rng % seen;
+    if (j < v.size()) v[static_cast<std::size_t>(j)] = x;
+  }
+
+  // One RuntimeSample (the sampler thread).
+  void take_sample() {
+    RuntimeSample s;
+    s.t = clock.now();
+    s.rss_bytes = resident_bytes();
+    {
+      std::lock_guard lock(sched_mu);
+      s.ready = sched.ready_tasks();
+      s.in_flight = sched.jobs_in_flight();
+    }
+    std::lock_guard rl(report_mu);
+    report.samples.push_back(s);
+  }
+
+  // Samples every sample_period until `sampling` is cleared.
+  void sampler_main() {
+    std::unique_lock lock(sample_mu);
+    TimePoint next = options.sample_period;
+    for (;;) {
+      const auto wall = std::chrono::steady_clock::time_point(
+          std::chrono::duration_cast<std::chrono::steady_clock::duration>(clock.origin() + next));
+      if (sample_cv.wait_until(lock, wall, [this] { return !sampling; })) return;
+      lock.unlock();
+      take_sample();
+      lock.lock();
+      next += options.sample_period;
+    }
+  }
 
   // Profiled p99 of what `d` runs (the watchdog's base), allocation-free.
   Duration p99_of(const Dispatch& d) const {
@@ -196,9 +245,10 @@ struct Runtime::Impl {
       Handler& h = *handlers[l];
       if (h.watch.load(std::memory_order_acquire) != kWatchRunning) continue;
       if (now < TimePoint{h.limit_ns.load(std::memory_order_acquire)}) continue;
+      // Stored before the exchange that publishes it (read only after a timeout).
+      h.timed_out_ns.store(now.count(), std::memory_order_release);
       std::uint8_t expected = kWatchRunning;
       if (!h.watch.compare_exchange_strong(expected, kWatchTimedOut)) continue;
-      h.timed_out_ns.store(now.count(), std::memory_order_release);
       // Towards the scheduler the unit ends here; its jobs fail with the reason
       // "timeout". The lane's next dispatch waits for the call to return.
       sched.on_complete(static_cast<int>(l), now, UnitStatus::Failed, "timeout");
@@ -262,7 +312,7 @@ struct Runtime::Impl {
     const Dispatch* own = nullptr;
     if (!ds.empty()) {
       std::lock_guard lock(report_mu);
-      report.decision_us.push_back(to_us(t1 - t0));
+      record(report.decision_us, report.decisions, to_us(t1 - t0));
     }
     for (const Dispatch* d : ds) {
       const bool follows = std::find(completed_lanes.begin(), completed_lanes.end(), d->lane) !=
@@ -306,7 +356,7 @@ struct Runtime::Impl {
       const TimePoint start = clock.now();
       if (prev_end != kNever) {
         std::lock_guard lock(report_mu);
-        report.handoff_us.push_back(to_us(start - prev_end));
+        record(report.handoff_us, report.handoffs, to_us(start - prev_end));
       }
       if (watchdog_on()) {
         const TimePoint limit = start + watchdog_limit(d);
@@ -476,6 +526,8 @@ struct Runtime::Impl {
     }
     clock.reset();
     std::thread camera([this] { camera_main(); });
+    std::thread sampler;
+    if (options.sample_period > Duration{0}) sampler = std::thread([this] { sampler_main(); });
 
     std::vector<InEvent> batch;
     std::vector<int> completed;
@@ -546,6 +598,15 @@ struct Runtime::Impl {
     for (auto& h : handlers) h->thread.join();
     load_on.store(false, std::memory_order_release);
     for (std::thread& t : load) t.join();
+    if (sampler.joinable()) {
+      {
+        std::lock_guard lock(sample_mu);
+        sampling = false;
+      }
+      sample_cv.notify_all();
+      sampler.join();
+      take_sample();  // the end of the run
+    }
     {
       std::lock_guard lock(sched_mu);
       const TimePoint end = advance_now(clock.now());

@@ -82,6 +82,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   real.realtime = !a.no_realtime;
   real.seed = seed;
   real.sync = parse_sync(a.sync);
+  real.keep_units = a.out.has_value();  // units.csv and the plots are written only with --out
   std::unique_ptr<Backend> backend;
   if (!sim) {
     // One backend (one loaded model) serves every policy.
@@ -93,6 +94,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     backend = std::move(b.value());
   }
   std::vector<PolicyRun> runs;
+  std::vector<RuntimeReport> reports;  // real runs: what the runtime measured, per policy
   // Observers beside the metrics: the timeline (only when it will be written) and the
   // progress line (only on a terminal, only for runs longer than a few seconds).
   std::vector<std::unique_ptr<TraceObserver>> traces;
@@ -119,6 +121,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
           static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
     else
       print_runtime_report(n, report);
+    if (!sim) reports.push_back(std::move(report));
     if (traces.back() && traces.back()->truncated())
       std::cerr << fmt::format(
           "red: trace of {} stops at {:.3f} s (limit of {} events; see --trace-events)\n", n,
@@ -156,6 +159,12 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     if (auto e = write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written)) {
       print_error(*e);
       return kRunFailure;
+    }
+    if (!sim) {
+      if (auto e = write_file(*a.out, "rss.csv", samples_csv(names, reports))) {
+        print_error(*e);
+        return kRunFailure;
+      }
     }
     fmt::print("{}\n", wrote_message(*a.out, written));
   }

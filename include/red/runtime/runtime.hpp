@@ -53,6 +53,9 @@ struct RuntimeOptions {
   double watchdog_x = 10.0;
   Duration watchdog_min = std::chrono::milliseconds{50};  ///< no unit's limit is shorter
   Duration sample_period = std::chrono::seconds{1};       ///< RuntimeReport::samples (0: none)
+  /// Most entries kept in decision_us and handoff_us (a uniform sample beyond), so a long
+  /// run's memory stays flat; reserved up front, so recording never allocates.
+  std::size_t max_timing_samples = 65536;
 };
 
 /// One sample of the process and the scheduler, taken every sample_period of a run.
@@ -67,10 +70,12 @@ struct RuntimeSample {
 struct RuntimeReport {
   TimePoint end{0};
   SchedulerStats stats;
-  std::vector<std::string> realtime;       ///< one line per knob: applied or why not
-  std::vector<double> decision_us;         ///< time of each scheduling decision (dispatch())
-  std::vector<double> handoff_us;          ///< unit completion -> next unit started on that lane
-  std::uint64_t wakeups = 0;               ///< times the global synchronizer woke
+  std::vector<std::string> realtime;  ///< one line per knob: applied or why not
+  std::vector<double> decision_us;    ///< time of scheduling decisions (dispatch()), sampled
+  std::vector<double> handoff_us;  ///< unit completion -> next unit started on that lane, sampled
+  std::uint64_t decisions = 0;     ///< decisions timed (decision_us holds a uniform sample)
+  std::uint64_t handoffs = 0;      ///< hand-offs timed (handoff_us holds a uniform sample)
+  std::uint64_t wakeups = 0;       ///< times the global synchronizer woke
   std::uint64_t local_decisions = 0;       ///< decisions taken by handlers (on-demand)
   std::uint64_t failures = 0;              ///< units that ended Failed, OutOfMemory or timed out
   std::uint64_t timeouts = 0;              ///< units failed by the watchdog
