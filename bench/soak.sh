@@ -4,7 +4,9 @@
 # the resident-set curve (rss.csv: one sample a second), the ready-queue and in-flight
 # samples and the job accounting from summary.json and jobs.csv.
 #
-# Usage: bench/soak.sh [synthetic|torch] [SECONDS] [OUT_DIR]
+# Usage: bench/soak.sh [synthetic|torch] [SECONDS] [OUT_DIR] [red run options...]
+#        bench/soak.sh runtime [SECONDS]   the runtime alone, without red's per-job records:
+#                                          tests/soak (red_soak_tests) for SECONDS
 #   RED=path/to/red (default build/tools/red/red), REALTIME=1 to try the real-time knobs
 #   (default --no-realtime: mlockall would lock every mapped page, see issue 10 item 4).
 # Not part of CI: it takes SECONDS of wall time (60 s, and 600 s for the long soak).
@@ -14,11 +16,16 @@ BACKEND=${1:-synthetic}
 SECS=${2:-60}
 OUT=${3:-out/soak-$BACKEND-$SECS}
 RED=${RED:-build/tools/red/red}
+if [ "$BACKEND" = runtime ]; then
+  TESTS=${SOAK_TESTS:-build/tests/red_soak_tests}
+  echo "soak: runtime only, ${SECS}s, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
+  RED_SOAK_SECONDS="$SECS" exec "$TESTS"
+fi
 RT_FLAG=--no-realtime
 [ "${REALTIME:-0}" = 1 ] && RT_FLAG=
 echo "soak: $BACKEND, ${SECS}s, minibench-tight x10 frame rate, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
 "$RED" run scenarios/minibench-tight.yaml --backend "$BACKEND" --policy red $RT_FLAG \
-  --set rate_scale=10 --set duration_s="$SECS" --trace-events 0 --out "$OUT"
+  --set rate_scale=10 --set duration_s="$SECS" --trace-events 0 --out "$OUT" "${@:4}"
 python3 - "$OUT" <<'PY'
 import csv, json, sys
 out = sys.argv[1]

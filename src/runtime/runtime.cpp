@@ -255,6 +255,7 @@ struct Runtime::Impl {
       std::lock_guard rl(report_mu);
       ++report.timeouts;
       ++report.failures;
+      ++report.failure_reasons["timeout"];
     }
   }
 
@@ -415,6 +416,7 @@ struct Runtime::Impl {
       if (status != UnitStatus::Completed) {
         std::lock_guard rl(report_mu);
         ++report.failures;
+        ++report.failure_reasons[reason];  // also when the unit's jobs had ended already
       }
       // Per-edge (and every non-Completed transition): report to the global synchronizer
       // and wait for it.

@@ -246,6 +246,9 @@ TEST(RuntimeFaults, EveryFailureReasonReachesJobsCsvAndSummary) {
     saw_oom = saw_oom || reason.find("out of memory") != std::string::npos;
   EXPECT_TRUE(saw_oom);
   EXPECT_EQ(r.report.timeouts, 1U);
+  // Unit by unit too, whether or not their jobs were still alive.
+  EXPECT_EQ(r.report.failure_reasons.count("injected failure"), 1U);
+  EXPECT_EQ(r.report.failure_reasons.count("timeout"), 1U);
 }
 
 }  // namespace

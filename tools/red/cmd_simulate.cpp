@@ -84,6 +84,9 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   real.sync = parse_sync(a.sync);
   real.keep_units = a.out.has_value();  // units.csv and the plots are written only with --out
   std::unique_ptr<Backend> backend;
+  if (!sim && real.watchdog_x > 0 && p->source == "builtin-default")
+    std::cerr << "red: warning: watchdog limits come from the built-in profile, not one "
+                 "measured here; measure one (red profile) or turn it off (--watchdog-x 0)\n";
   if (!sim) {
     // One backend (one loaded model) serves every policy.
     auto b = make_backend(*s, *p, real);

@@ -97,6 +97,8 @@ void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
     std::cerr << fmt::format(
         "red:   {} timed-out unit(s) returned late; lanes out of service {:.1f} ms\n",
         r.late_returns, to_ms(r.out_of_service));
+  for (const auto& [reason, n] : r.failure_reasons)
+    std::cerr << fmt::format("red:   {} unit(s) failed: {}\n", n, reason);
   for (const std::string& line : r.realtime) std::cerr << "red:   " << line << '\n';
 }
 

@@ -14,6 +14,7 @@
 /// Scheduler and Policy as the simulator; only the clock and the executor differ.
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -55,7 +56,7 @@ struct RuntimeOptions {
   Duration sample_period = std::chrono::seconds{1};       ///< RuntimeReport::samples (0: none)
   /// Most entries kept in decision_us and handoff_us (a uniform sample beyond), so a long
   /// run's memory stays flat; reserved up front, so recording never allocates.
-  std::size_t max_timing_samples = 65536;
+  std::size_t max_timing_samples = 16384;
 };
 
 /// One sample of the process and the scheduler, taken every sample_period of a run.
@@ -76,9 +77,10 @@ struct RuntimeReport {
   std::uint64_t decisions = 0;     ///< decisions timed (decision_us holds a uniform sample)
   std::uint64_t handoffs = 0;      ///< hand-offs timed (handoff_us holds a uniform sample)
   std::uint64_t wakeups = 0;       ///< times the global synchronizer woke
-  std::uint64_t local_decisions = 0;       ///< decisions taken by handlers (on-demand)
-  std::uint64_t failures = 0;              ///< units that ended Failed, OutOfMemory or timed out
-  std::uint64_t timeouts = 0;              ///< units failed by the watchdog
+  std::uint64_t local_decisions = 0;  ///< decisions taken by handlers (on-demand)
+  std::uint64_t failures = 0;         ///< units that ended Failed, OutOfMemory or timed out
+  std::map<std::string, std::uint64_t> failure_reasons;  ///< failed units by reason
+  std::uint64_t timeouts = 0;                            ///< units failed by the watchdog
   std::uint64_t late_returns = 0;          ///< timed-out backend calls that returned later
   Duration out_of_service{0};              ///< lane time spent waiting for timed-out calls
   std::vector<RuntimeSample> samples;      ///< one per sample_period, and one at the end
