@@ -9,6 +9,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox doxygen
   chromium
+  clang libclang-rt-14-dev
   libtorch-dev python3-torch
   cyclonedds-dev cyclonedds-tools
   libfastrtps-dev fastddsgen

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds, and runs every test: the full suite (core, CLI and
 # the LibTorch backend), then the core and runtime suites again under
-# AddressSanitizer + UndefinedBehaviorSanitizer, and the runtime under ThreadSanitizer.
+# AddressSanitizer + UndefinedBehaviorSanitizer, the runtime under ThreadSanitizer, and a
+# short run of every libFuzzer target (scripts/fuzz.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/deps.sh
@@ -30,3 +31,6 @@ TSAN_OPTIONS=halt_on_error=1 build-tsan/tests/red_tests --gtest_filter='*Runtime
 
 echo "== install: staging install, examples built against it, pkg-config, .deb"
 scripts/check-install.sh
+
+echo "== fuzz each libFuzzer target for 15 s (clang; address, undefined, leaks)"
+scripts/fuzz.sh 15

@@ -162,6 +162,7 @@ PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end
       case JobOutcome::Failed:
         ++m.dropped;
         ++m.failed;
+        ++m.failure_reasons[j.reason];
         break;
       case JobOutcome::Unfinished:
         ++m.unfinished;

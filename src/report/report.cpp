@@ -106,6 +106,12 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
     p["measured_s"] = m.measured_s;
     if (m.decision_p50_us)
       p["decision_us"] = {{"p50", *m.decision_p50_us}, {"p99", opt(m.decision_p99_us)}};
+    if (!m.failure_reasons.empty()) {
+      nlohmann::ordered_json f = nlohmann::ordered_json::object();
+      for (const auto& [reason, n] : m.failure_reasons) f[reason] = n;
+      p["failure_reasons"] = f;
+    }
+    if (m.peak_rss_mb) p["peak_rss_mb"] = *m.peak_rss_mb;
     p["ratios"] = {{"miss_rate", opt(m.ratio_miss)},
                    {"latency_mean", opt(m.ratio_latency)},
                    {"qoe", opt(m.ratio_qoe)}};

@@ -67,6 +67,19 @@ void spin_then_park(std::mutex& m, std::condition_variable& cv, const Clock& clo
   }
 }
 
+// Watchdog states of a handler's current unit (Handler::watch).
+constexpr std::uint8_t kWatchIdle = 0;      // no unit running
+constexpr std::uint8_t kWatchRunning = 1;   // running, limit in Handler::limit_ns
+constexpr std::uint8_t kWatchTimedOut = 2;  // failed by the watchdog; the call is still out
+
+// A unit's watchdog limit: its profiled p99 at batch size `batch` (sizes past the largest
+// measured scale linearly).
+Duration p99_at(const UnitProfile* u, int batch) {
+  if (u == nullptr || u->max_batch() == 0) return Duration{0};
+  const Duration p = u->at(batch).p99;
+  return batch > u->max_batch() ? p * batch / u->max_batch() : p;
+}
+
 struct InEvent {
   enum Kind : std::uint8_t { Frame, Complete } kind;
   int index;  // sensor or lane
@@ -104,15 +117,37 @@ struct Runtime::Impl {
     const Dispatch* work = nullptr;
     TimePoint prev_end = kNever;  // end of the unit this assignment follows, if immediate
     std::atomic<HandlerState> state{HandlerState::Idle};
+    // Watchdog. The handler runs a copy of its dispatch: once the watchdog has failed a
+    // unit, the scheduler may hand the lane its next dispatch while the call is still out.
+    Dispatch copy;
+    std::atomic<std::uint8_t> watch{kWatchIdle};
+    std::atomic<std::int64_t> limit_ns{0};      // when the running unit times out
+    std::atomic<std::int64_t> timed_out_ns{0};  // when the watchdog failed it
   };
   std::vector<std::unique_ptr<Handler>> handlers;
   std::atomic<bool> stopping{false};
   std::atomic<bool> cameras_on{true};
   std::atomic<bool> accepting{false};  // external frames: between run() start and release end
   std::atomic<bool> stop_requested{false};
+  // When the global synchronizer will wake next (kNever while it recomputes): a handler
+  // starting a unit whose watchdog limit comes earlier pokes it.
+  std::atomic<std::int64_t> global_wake_at{kNever.count()};
+  // Profiled p99 of the encoder and of each head (for watchdog limits).
+  const UnitProfile* encoder_profile = nullptr;
+  std::vector<const UnitProfile*> head_profiles;
 
   RuntimeReport report;
   mutable std::mutex report_mu;
+  std::uint64_t reservoir_rng = 0x9E3779B97F4A7C15ULL;  // under report_mu
+  // The newest decision times in order, for decision_us_since() (live reports): a ring of
+  // kRecentDecisions, `recent_total` ever recorded. Under report_mu.
+  static constexpr std::size_t kRecentDecisions = 4096;
+  std::vector<double> recent_decision_us;
+  std::uint64_t recent_total = 0;
+
+  std::mutex sample_mu;
+  std::condition_variable sample_cv;
+  bool sampling = true;  // under sample_mu
 
   Impl(const Scenario& s, const Profile& p, std::unique_ptr<Policy> policy, Backend& b,
        RuntimeOptions o)
@@ -121,8 +156,123 @@ struct Runtime::Impl {
         options(o),
         sched(s, p, std::move(policy), SchedulerConfig::from(s, p)),
         sync(sched.policy().options().sync) {
-    report.decision_us.reserve(4096);
-    report.handoff_us.reserve(4096);
+    report.decision_us.reserve(options.max_timing_samples);
+    recent_decision_us.reserve(kRecentDecisions);
+    report.handoff_us.reserve(options.max_timing_samples);
+    encoder_profile = p.find("encoder");
+    for (const std::string& h : s.model.heads) head_profiles.push_back(p.find("head/" + h));
+  }
+
+  bool watchdog_on() const noexcept { return options.watchdog_x > 0; }
+
+  // Keeps a uniform sample of at most max_timing_samples values (reservoir sampling,
+  // Algorithm R); `seen` counts every value offered. Caller holds report_mu.
+  void record(std::vector<double>& v, std::uint64_t& seen, double x) noexcept {
+    ++seen;
+    if (v.size() < options.max_timing_samples) {
+      v.push_back(x);  // within the reserved capacity
+      return;
+    }
+    reservoir_rng ^= reservoir_rng << 13;
+    reservoir_rng ^= reservoir_rng >> 7;
+    reservoir_rng ^= reservoir_rng << 17;
+    const std::uint64_t j = reservoir_rng % seen;
+    if (j < v.size()) v[static_cast<std::size_t>(j)] = x;
+  }
+
+  // One RuntimeSample (the sampler thread).
+  void take_sample() {
+    RuntimeSample s;
+    s.t = clock.now();
+    s.rss_bytes = resident_bytes();
+    {
+      std::lock_guard lock(sched_mu);
+      s.ready = sched.ready_tasks();
+      s.in_flight = sched.jobs_in_flight();
+    }
+    std::lock_guard rl(report_mu);
+    report.samples.push_back(s);
+  }
+
+  // Samples every sample_period until `sampling` is cleared.
+  void sampler_main() {
+    std::unique_lock lock(sample_mu);
+    TimePoint next = options.sample_period;
+    for (;;) {
+      const auto wall = std::chrono::steady_clock::time_point(
+          std::chrono::duration_cast<std::chrono::steady_clock::duration>(clock.origin() + next));
+      if (sample_cv.wait_until(lock, wall, [this] { return !sampling; })) return;
+      lock.unlock();
+      take_sample();
+      lock.lock();
+      next += options.sample_period;
+    }
+  }
+
+  // Profiled p99 of what `d` runs (the watchdog's base), allocation-free.
+  Duration p99_of(const Dispatch& d) const {
+    const Member& m = d.members.front();
+    const RefinedGraph& g = *m.graph;
+    const RefinedUnit& u = g.units[static_cast<std::size_t>(m.unit)];
+    auto head = [this](int h, int batch) {
+      return h >= 0 && static_cast<std::size_t>(h) < head_profiles.size()
+                 ? p99_at(head_profiles[static_cast<std::size_t>(h)], batch)
+                 : Duration{0};
+    };
+    switch (d.kind) {
+      case UnitKind::Encoder:
+        return p99_at(encoder_profile, d.batch);
+      case UnitKind::Head:
+        return head(d.head, d.batch);
+      case UnitKind::Coarse:
+        return p99_at(encoder_profile, d.batch) + head(u.head, d.batch);
+      case UnitKind::Plain: {
+        const NodeSpec& n = g.spec->nodes[static_cast<std::size_t>(m.node)];
+        return n.cost ? n.cost->p99 * d.batch : Duration{0};
+      }
+      case UnitKind::Mono: {
+        Duration t = p99_at(encoder_profile, 1) * static_cast<std::int64_t>(g.sensors.size());
+        for (const NodeSpec& n : g.spec->nodes)
+          t += n.is_plain() ? (n.cost ? n.cost->p99 : Duration{0}) : head(n.head, 1);
+        return t;
+      }
+    }
+    return Duration{0};
+  }
+
+  Duration watchdog_limit(const Dispatch& d) const {
+    const double base = static_cast<double>(p99_of(d).count()) * options.watchdog_x;
+    return std::max(options.watchdog_min, Duration{static_cast<std::int64_t>(base)});
+  }
+
+  // Fails every unit that ran past its watchdog limit (global synchronizer, sched_mu held).
+  // The handler's own exchange on `watch` decides who reports a unit: exactly one of the
+  // watchdog (here) and the handler (when the call returns) does.
+  void check_watchdog(TimePoint now) {
+    for (std::size_t l = 0; l < handlers.size(); ++l) {
+      Handler& h = *handlers[l];
+      if (h.watch.load(std::memory_order_acquire) != kWatchRunning) continue;
+      if (now < TimePoint{h.limit_ns.load(std::memory_order_acquire)}) continue;
+      // Stored before the exchange that publishes it (read only after a timeout).
+      h.timed_out_ns.store(now.count(), std::memory_order_release);
+      std::uint8_t expected = kWatchRunning;
+      if (!h.watch.compare_exchange_strong(expected, kWatchTimedOut)) continue;
+      // Towards the scheduler the unit ends here; its jobs fail with the reason
+      // "timeout". The lane's next dispatch waits for the call to return.
+      sched.on_complete(static_cast<int>(l), now, UnitStatus::Failed, "timeout");
+      std::lock_guard rl(report_mu);
+      ++report.timeouts;
+      ++report.failures;
+      ++report.failure_reasons["timeout"];
+    }
+  }
+
+  // The earliest watchdog limit of a running unit, or kNever.
+  TimePoint next_watchdog() const {
+    TimePoint t = kNever;
+    for (const auto& h : handlers)
+      if (h->watch.load() == kWatchRunning) t = std::min(t, TimePoint{h->limit_ns.load()});
+    return t;
   }
 
   TimePoint advance_now(TimePoint t) {
@@ -171,7 +321,13 @@ struct Runtime::Impl {
     const Dispatch* own = nullptr;
     if (!ds.empty()) {
       std::lock_guard lock(report_mu);
-      report.decision_us.push_back(to_us(t1 - t0));
+      record(report.decision_us, report.decisions, to_us(t1 - t0));
+      const double us = to_us(t1 - t0);
+      if (recent_decision_us.size() < kRecentDecisions)
+        recent_decision_us.push_back(us);  // within the reserved capacity
+      else
+        recent_decision_us[recent_total % kRecentDecisions] = us;
+      ++recent_total;
     }
     for (const Dispatch* d : ds) {
       const bool follows = std::find(completed_lanes.begin(), completed_lanes.end(), d->lane) !=
@@ -200,18 +356,30 @@ struct Runtime::Impl {
                  stopping.load(std::memory_order_acquire);
         });
         if (h.assigned.load(std::memory_order_acquire) == seen) return;  // stopping
+        // A dispatch that waited behind a timed-out call when the run ended: its jobs are
+        // reported unfinished.
+        if (stopping.load(std::memory_order_acquire)) return;
         seen = h.assigned.load(std::memory_order_acquire);
         std::lock_guard lock(h.mu);
         next = h.work;
         prev_end = h.prev_end;
       }
-      const Dispatch& d = *next;
+      if (watchdog_on()) h.copy = *next;  // reuses its capacity: no allocation in steady state
+      const Dispatch& d = watchdog_on() ? h.copy : *next;
       next = nullptr;
       h.state.store(HandlerState::Running, std::memory_order_release);
       const TimePoint start = clock.now();
       if (prev_end != kNever) {
         std::lock_guard lock(report_mu);
-        report.handoff_us.push_back(to_us(start - prev_end));
+        record(report.handoff_us, report.handoffs, to_us(start - prev_end));
+      }
+      if (watchdog_on()) {
+        const TimePoint limit = start + watchdog_limit(d);
+        h.limit_ns.store(limit.count(), std::memory_order_release);
+        h.watch.store(kWatchRunning);
+        // The global synchronizer may be parked past this limit: poke it (see
+        // global_wake_at; both sides are sequentially consistent).
+        if (limit.count() < global_wake_at.load()) wake_global();
       }
       UnitStatus status = UnitStatus::Completed;
       std::string reason;
@@ -228,6 +396,16 @@ struct Runtime::Impl {
         reason = "unknown exception";
       }
       const TimePoint end = clock.now();
+      if (watchdog_on() && h.watch.exchange(kWatchIdle) == kWatchTimedOut) {
+        // The watchdog already failed this unit's jobs and freed the lane towards the
+        // scheduler: the late result is ignored. The lane is back in service; a dispatch
+        // assigned meanwhile is picked up below.
+        std::lock_guard rl(report_mu);
+        ++report.late_returns;
+        report.out_of_service += end - TimePoint{h.timed_out_ns.load(std::memory_order_acquire)};
+        prev_end = kNever;
+        continue;
+      }
       h.state.store(status == UnitStatus::Completed   ? HandlerState::Completed
                     : status == UnitStatus::Failed    ? HandlerState::Failed
                     : status == UnitStatus::Cancelled ? HandlerState::Cancelled
@@ -252,6 +430,7 @@ struct Runtime::Impl {
       if (status != UnitStatus::Completed) {
         std::lock_guard rl(report_mu);
         ++report.failures;
+        ++report.failure_reasons[reason];  // also when the unit's jobs had ended already
       }
       // Per-edge (and every non-Completed transition): report to the global synchronizer
       // and wait for it.
@@ -368,6 +547,8 @@ struct Runtime::Impl {
     } else {
       camera = std::thread([this] { camera_main(); });
     }
+    std::thread sampler;
+    if (options.sample_period > Duration{0}) sampler = std::thread([this] { sampler_main(); });
 
     std::vector<InEvent> batch;
     std::vector<int> completed;
@@ -414,6 +595,7 @@ struct Runtime::Impl {
           }
         }
         batch.clear();
+        if (watchdog_on()) check_watchdog(now);
         sched.advance(now);
         // Per-edge: a handler that completed waits here for its next unit (a round trip).
         const Dispatch* none = decide(now, -1, completed, completed_at);
@@ -425,6 +607,11 @@ struct Runtime::Impl {
         wake = sched.next_wakeup();
         if (releasing) wake = std::min(wake, scenario.duration);
         wake = std::min(wake, hard_stop);
+        if (watchdog_on()) {
+          global_wake_at.store(kNever.count());  // handlers starting a unit now poke
+          wake = std::min(wake, next_watchdog());
+          global_wake_at.store(wake.count());
+        }
         ++report.wakeups;
       }
       spin_then_park(inbox_mu, inbox_cv, clock, options.spin, wake, [&] {
@@ -443,6 +630,15 @@ struct Runtime::Impl {
     for (auto& h : handlers) h->thread.join();
     load_on.store(false, std::memory_order_release);
     for (std::thread& t : load) t.join();
+    if (sampler.joinable()) {
+      {
+        std::lock_guard lock(sample_mu);
+        sampling = false;
+      }
+      sample_cv.notify_all();
+      sampler.join();
+      take_sample();  // the end of the run
+    }
     {
       std::lock_guard lock(sched_mu);
       // Units that returned after the loop ended still completed: report them, so that
@@ -502,11 +698,19 @@ void Runtime::stop() {
   impl_->wake_global();
 }
 
-std::vector<double> Runtime::decision_us_since(std::size_t from) const {
+std::vector<double> Runtime::decision_us_since(std::uint64_t& cursor) const {
+  // From the ring of the newest decisions: report.decision_us is a uniform sample once it
+  // is full, so it has no "since". Decisions older than the ring are gone.
   std::lock_guard lock(impl_->report_mu);
-  const auto& d = impl_->report.decision_us;
-  if (from >= d.size()) return {};
-  return {d.begin() + static_cast<std::ptrdiff_t>(from), d.end()};
+  const Impl& m = *impl_;
+  const std::uint64_t total = m.recent_total;
+  const std::uint64_t kept = m.recent_decision_us.size();
+  std::uint64_t first = std::max<std::uint64_t>(cursor, total - kept);
+  cursor = total;
+  std::vector<double> out;
+  for (; first < total; ++first)
+    out.push_back(m.recent_decision_us[static_cast<std::size_t>(first % Impl::kRecentDecisions)]);
+  return out;
 }
 
 }  // namespace red

@@ -16,6 +16,11 @@ void SyntheticBackend::run(int /*lane*/, const Dispatch& d) {
     const int what = options_.inject(d);
     if (what == 1) throw std::runtime_error("injected failure");
     if (what == 2) throw OutOfMemoryError("injected out-of-memory");
+    if (what == 3) {
+      // A hang: the call does not return for `hang`, then returns as if it had worked.
+      std::this_thread::sleep_for(options_.hang);
+      return;
+    }
   }
   const auto t = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       Duration{static_cast<std::int64_t>(static_cast<double>(sampler_.sample(d).count()) *

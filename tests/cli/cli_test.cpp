@@ -506,3 +506,18 @@ TEST_F(Cli, RunDefaultsToRedRobust) {
 
 }  // namespace
 }  // namespace red
+
+namespace red {
+namespace {
+
+// --watchdog-x (red run, red compare on a real backend): a multiple of a unit's p99, 0 off.
+TEST_F(Cli, WatchdogMultipleMustNotBeNegative) {
+  expect_bad_input("run " + quote(data("tiny.yaml")) + " --backend synthetic --watchdog-x -1",
+                   "--watchdog-x");
+  expect_bad_input("compare " + quote(data("tiny.yaml")) +
+                       " --backend synthetic --policies red --watchdog-x often",
+                   "--watchdog-x");
+}
+
+}  // namespace
+}  // namespace red

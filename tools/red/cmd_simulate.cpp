@@ -106,7 +106,11 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   real.realtime = !a.no_realtime;
   real.seed = seed;
   real.sync = parse_sync(a.sync);
+  real.keep_units = a.out.has_value();  // units.csv and the plots are written only with --out
   std::unique_ptr<Backend> backend;
+  if (!sim && real.watchdog_x > 0 && p->source == "builtin-default")
+    std::cerr << "red: warning: watchdog limits come from the built-in profile, not one "
+                 "measured here; measure one (red profile) or turn it off (--watchdog-x 0)\n";
   if (!sim) {
     // One backend (one loaded model) serves every policy.
     auto b = make_backend(*s, *p, real);
@@ -117,6 +121,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     backend = std::move(b.value());
   }
   std::vector<PolicyRun> runs;
+  std::vector<RuntimeReport> reports;  // real runs: what the runtime measured, per policy
   // Observers beside the metrics: the timeline (only when it will be written) and the
   // progress line (only on a terminal, only for runs longer than a few seconds).
   std::vector<std::unique_ptr<TraceObserver>> traces;
@@ -143,6 +148,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
           static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
     else
       print_runtime_report(n, report);
+    if (!sim) reports.push_back(std::move(report));
     if (traces.back() && traces.back()->truncated())
       std::cerr << fmt::format(
           "red: trace of {} stops at {:.3f} s (limit of {} events; see --trace-events)\n", n,
@@ -191,6 +197,12 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       print_error(*e);
       return kRunFailure;
     }
+    if (!sim) {
+      if (auto e = write_file(*a.out, "rss.csv", samples_csv(names, reports))) {
+        print_error(*e);
+        return kRunFailure;
+      }
+    }
     fmt::print("{}\n", wrote_message(*a.out, written));
   }
   return kOk;
@@ -228,6 +240,11 @@ void add_real(CLI::App* cmd, RunArgs& a) {
                   "LibTorch intra-op threads per lane (0: hardware threads / lanes)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-realtime", a.no_realtime, "Do not try SCHED_FIFO, CPU affinity, mlockall");
+  cmd->add_option("--watchdog-x", a.real.watchdog_x,
+                  "Fail a unit running past this many times its profiled p99 with the reason "
+                  "'timeout' (0: no watchdog)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 }  // namespace

@@ -51,8 +51,9 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   if (!pol) return Error{"", 0, "unknown policy '" + policy + "'"};
   RuntimeOptions ro;
   ro.realtime = o.realtime;
+  ro.watchdog_x = o.watchdog_x;
   Runtime rt(s, p, std::move(pol), backend, ro);
-  MetricsCollector metrics(s, s.scheduler.qoe_lambda, true);
+  MetricsCollector metrics(s, s.scheduler.qoe_lambda, o.keep_units);
   rt.add_observer(&metrics);
   for (Observer* e : extra) rt.add_observer(e);
   const auto t0 = std::chrono::steady_clock::now();
@@ -62,6 +63,9 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   run.metrics = metrics.summarize(policy, report.end);
   run.metrics.decision_p50_us = std::round(percentile(report.decision_us, 0.5) * 1000) / 1000;
   run.metrics.decision_p99_us = std::round(percentile(report.decision_us, 0.99) * 1000) / 1000;
+  std::int64_t peak = 0;
+  for (const RuntimeSample& x : report.samples) peak = std::max(peak, x.rss_bytes);
+  if (peak > 0) run.metrics.peak_rss_mb = std::round(static_cast<double>(peak) / 1e5) / 10;
   run.jobs = metrics.jobs();
   run.units = metrics.units();
   run.result.end = report.end;
@@ -70,14 +74,31 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   return run;
 }
 
+std::string samples_csv(const std::vector<std::string>& policies,
+                        const std::vector<RuntimeReport>& reports) {
+  std::string out = "policy,t_s,rss_mb,ready,in_flight\n";
+  for (std::size_t i = 0; i < reports.size() && i < policies.size(); ++i)
+    for (const RuntimeSample& x : reports[i].samples)
+      out += fmt::format("{},{:.3f},{:.1f},{},{}\n", policies[i], to_s(x.t),
+                         static_cast<double>(x.rss_bytes) / 1e6, x.ready, x.in_flight);
+  return out;
+}
+
 void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
   std::cerr << fmt::format(
       "red: policy {}: decisions {} (p50 {:.2f} us, p99 {:.2f} us), completion->next start p99 "
       "{:.2f} us "
-      "({} handoffs), sync round trips {}, local decisions {}, failures {}, RSS {:.1f} MB\n",
-      policy, r.decision_us.size(), percentile(r.decision_us, 0.5), percentile(r.decision_us, 0.99),
-      percentile(r.handoff_us, 0.99), r.handoff_us.size(), r.stats.round_trips, r.local_decisions,
-      r.failures, static_cast<double>(r.resident_bytes_after) / 1e6);
+      "({} handoffs), sync round trips {}, local decisions {}, failures {} (timeouts {}), RSS "
+      "{:.1f} MB\n",
+      policy, r.decisions, percentile(r.decision_us, 0.5), percentile(r.decision_us, 0.99),
+      percentile(r.handoff_us, 0.99), r.handoffs, r.stats.round_trips, r.local_decisions,
+      r.failures, r.timeouts, static_cast<double>(r.resident_bytes_after) / 1e6);
+  if (r.late_returns > 0)
+    std::cerr << fmt::format(
+        "red:   {} timed-out unit(s) returned late; lanes out of service {:.1f} ms\n",
+        r.late_returns, to_ms(r.out_of_service));
+  for (const auto& [reason, n] : r.failure_reasons)
+    std::cerr << fmt::format("red:   {} unit(s) failed: {}\n", n, reason);
   for (const std::string& line : r.realtime) std::cerr << "red:   " << line << '\n';
 }
 

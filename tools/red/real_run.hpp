@@ -23,7 +23,9 @@ struct RealRunOptions {
   int threads = 0;                ///< LibTorch intra-op threads (0: default)
   bool realtime = true;
   std::uint64_t seed = 1;
-  std::optional<SyncMode> sync;  ///< overrides the policy's synchronization mode
+  std::optional<SyncMode> sync;                     ///< overrides the policy's synchronization mode
+  double watchdog_x = RuntimeOptions{}.watchdog_x;  ///< unit limit in × its p99 (0: off)
+  bool keep_units = true;  ///< keep one row per unit execution (units.csv, plots)
 };
 
 /// A backend by name for the scenario; Error when unknown or when it cannot load.
@@ -35,6 +37,11 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
                              Backend& backend, const RealRunOptions& o,
                              const std::vector<Observer*>& extra = {},
                              RuntimeReport* report = nullptr);
+
+/// rss.csv text: policy, t_s, rss_mb, ready, in_flight: the runtime's samples (once a
+/// second) of each real run, in order.
+std::string samples_csv(const std::vector<std::string>& policies,
+                        const std::vector<RuntimeReport>& reports);
 
 /// Prints what a real run measured besides the job metrics.
 void print_runtime_report(const std::string& policy, const RuntimeReport& r);

@@ -46,10 +46,11 @@ class Parser {
     dir_ = fs::path(file_).parent_path();
   }
 
-  Expected<Manifest> parse() {
+  // `text` null: read the file itself.
+  Expected<Manifest> parse(const std::string* text) {
     YAML::Node root;
     try {
-      root = YAML::LoadFile(file_);
+      root = text != nullptr ? YAML::Load(*text) : YAML::LoadFile(file_);
     } catch (const YAML::BadFile&) {
       return Error{file_, 0, "cannot open the model manifest"};
     } catch (const YAML::ParserException& e) {
@@ -172,7 +173,11 @@ class Parser {
 }  // namespace
 
 Expected<Manifest> load_manifest(const std::string& path) {
-  return Parser(path).parse();
+  return Parser(path).parse(nullptr);
+}
+
+Expected<Manifest> parse_manifest(const std::string& yaml_text, const std::string& path) {
+  return Parser(path).parse(&yaml_text);
 }
 
 }  // namespace red::torchb

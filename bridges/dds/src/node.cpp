@@ -112,7 +112,8 @@ struct Node::Impl final : Observer {
   std::mutex stats_mu;
   std::vector<OpStats> stats;
   std::vector<double> decisions_us;
-  std::size_t decisions_seen = 0;
+  std::uint64_t decisions_seen = 0;  // cursor into the runtime's decision times
+  std::uint64_t decision_slot = 0;   // next slot of decisions_us to overwrite once full
 
   std::mutex pub_mu;
   std::condition_variable pub_cv;
@@ -452,11 +453,10 @@ struct Node::Impl final : Observer {
 
   void publish_diagnostics() {
     for (double v : runtime->decision_us_since(decisions_seen)) {
-      ++decisions_seen;
       if (decisions_us.size() < kDecisionWindow)
         decisions_us.push_back(v);
       else
-        decisions_us[decisions_seen % kDecisionWindow] = v;
+        decisions_us[decision_slot++ % kDecisionWindow] = v;
     }
     std::deque<std::string> text;  // what the message borrows
     const auto s = [&text](std::string v) { return borrow(text.emplace_back(std::move(v))); };

@@ -76,6 +76,10 @@ struct PolicyMetrics {
   std::optional<double> ratio_miss, ratio_latency, ratio_qoe;
   /// Runtime only: measured scheduler decision time (μs): p50, p99.
   std::optional<double> decision_p50_us, decision_p99_us;
+  /// Failed jobs by reason ("timeout", "out of memory: ...", an exception's message).
+  std::map<std::string, std::int64_t> failure_reasons;
+  /// Runtime only: the process's peak resident set while the run was sampled (MB).
+  std::optional<double> peak_rss_mb;
 };
 
 /// Nearest-rank percentile (p in [0, 1]) of values already sorted ascending; 0 when empty.

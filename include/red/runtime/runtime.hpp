@@ -14,6 +14,7 @@
 /// Scheduler and Policy as the simulator; only the clock and the executor differ.
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -49,19 +50,44 @@ struct RuntimeOptions {
   /// Frames come from push_frame() (e.g. a DDS node) instead of the synthetic cameras;
   /// releases end at stop() or at the scenario's duration, whichever comes first.
   bool external_frames = false;
+  /// Watchdog: a unit still running after watchdog_x × its profiled p99 (at its batch
+  /// size; a Mono or Coarse unit sums its parts) fails its jobs with the reason "timeout",
+  /// and its lane is out of service until the backend call returns (it cannot be
+  /// interrupted; its late result is ignored). 0 turns the watchdog off.
+  double watchdog_x = 10.0;
+  Duration watchdog_min = std::chrono::milliseconds{50};  ///< no unit's limit is shorter
+  Duration sample_period = std::chrono::seconds{1};       ///< RuntimeReport::samples (0: none)
+  /// Most entries kept in decision_us and handoff_us (a uniform sample beyond), so a long
+  /// run's memory stays flat; reserved up front, so recording never allocates.
+  std::size_t max_timing_samples = 16384;
+};
+
+/// One sample of the process and the scheduler, taken every sample_period of a run.
+struct RuntimeSample {
+  Duration t{0};               ///< since the start of the run
+  std::int64_t rss_bytes = 0;  ///< resident set size
+  int ready = 0;               ///< ready units waiting for a lane
+  int in_flight = 0;           ///< jobs released and not ended
 };
 
 /// What a real run measured, besides what observers saw.
 struct RuntimeReport {
   TimePoint end{0};
   SchedulerStats stats;
-  std::vector<std::string> realtime;       ///< one line per knob: applied or why not
-  std::vector<double> decision_us;         ///< time of each scheduling decision (dispatch())
-  std::vector<double> handoff_us;          ///< unit completion -> next unit started on that lane
-  std::vector<double> frame_release_us;    ///< external frame pushed -> handed to the scheduler
-  std::uint64_t wakeups = 0;               ///< times the global synchronizer woke
-  std::uint64_t local_decisions = 0;       ///< decisions taken by handlers (on-demand)
-  std::uint64_t failures = 0;              ///< units that ended Failed or OutOfMemory
+  std::vector<std::string> realtime;  ///< one line per knob: applied or why not
+  std::vector<double> decision_us;    ///< time of scheduling decisions (dispatch()), sampled
+  std::vector<double> handoff_us;  ///< unit completion -> next unit started on that lane, sampled
+  std::vector<double> frame_release_us;  ///< external frame pushed -> handed to the scheduler
+  std::uint64_t decisions = 0;     ///< decisions timed (decision_us holds a uniform sample)
+  std::uint64_t handoffs = 0;      ///< hand-offs timed (handoff_us holds a uniform sample)
+  std::uint64_t wakeups = 0;       ///< times the global synchronizer woke
+  std::uint64_t local_decisions = 0;  ///< decisions taken by handlers (on-demand)
+  std::uint64_t failures = 0;         ///< units that ended Failed, OutOfMemory or timed out
+  std::map<std::string, std::uint64_t> failure_reasons;  ///< failed units by reason
+  std::uint64_t timeouts = 0;                            ///< units failed by the watchdog
+  std::uint64_t late_returns = 0;          ///< timed-out backend calls that returned later
+  Duration out_of_service{0};              ///< lane time spent waiting for timed-out calls
+  std::vector<RuntimeSample> samples;      ///< one per sample_period, and one at the end
   std::int64_t resident_bytes_before = 0;  ///< process RSS before the runtime's threads start
   std::int64_t resident_bytes_after = 0;   ///< and after the run
 };
@@ -91,8 +117,9 @@ class Runtime {
   /// Ends releases now (then in-flight jobs drain, as at the scenario's end). Thread-safe,
   /// async-signal-unsafe; may be called before run().
   void stop();
-  /// Decision times (μs) recorded since the `from`-th one; thread-safe (for live reports).
-  [[nodiscard]] std::vector<double> decision_us_since(std::size_t from) const;
+  /// Decision times (μs) recorded since `cursor` (a count of decisions), newest 4096 at
+  /// most, and moves `cursor` past them; thread-safe (for live reports).
+  [[nodiscard]] std::vector<double> decision_us_since(std::uint64_t& cursor) const;
 
  private:
   struct Impl;

@@ -20,8 +20,10 @@ class SyntheticBackend final : public Backend {
     double time_scale = 1.0;  ///< multiplies every sampled time (0: return at once)
     bool spin = false;        ///< spin instead of sleeping (keeps a core busy like compute)
     /// Decides whether a dispatch fails: 0 ok, 1 throws std::runtime_error, 2 throws
-    /// OutOfMemoryError. Called on the lane's thread.
+    /// OutOfMemoryError, 3 hangs for `hang` before returning normally. Called on the
+    /// lane's thread.
     std::function<int(const Dispatch&)> inject;
+    Duration hang = std::chrono::seconds{1};  ///< how long an injected hang lasts
   };
 
   SyntheticBackend(const Scenario& s, const Profile& p, std::uint64_t seed, Options o);

@@ -49,4 +49,8 @@ struct Manifest {
 /// Errors carry the manifest's path and the line of the offending key or value.
 Expected<Manifest> load_manifest(const std::string& path);
 
+/// Same from text: `path` stands for the manifest's own path (messages name it; relative
+/// file names resolve against its directory). Needs no LibTorch (fuzzed, tests/fuzz).
+Expected<Manifest> parse_manifest(const std::string& yaml_text, const std::string& path);
+
 }  // namespace red::torchb
