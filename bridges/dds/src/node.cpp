@@ -10,8 +10,8 @@
 
 #include "red/core/clock.hpp"
 #include "red/metrics/metrics.hpp"
-#include "red/sim/run.hpp"
 #include "red/sched/policy.hpp"
+#include "red/sim/run.hpp"
 
 namespace red::dds {
 
