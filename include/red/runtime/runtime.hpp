@@ -78,11 +78,11 @@ struct RuntimeReport {
   std::vector<double> decision_us;    ///< time of scheduling decisions (dispatch()), sampled
   std::vector<double> handoff_us;  ///< unit completion -> next unit started on that lane, sampled
   std::vector<double> frame_release_us;  ///< external frame pushed -> handed to the scheduler
-  std::uint64_t decisions = 0;     ///< decisions timed (decision_us holds a uniform sample)
-  std::uint64_t handoffs = 0;      ///< hand-offs timed (handoff_us holds a uniform sample)
-  std::uint64_t wakeups = 0;       ///< times the global synchronizer woke
-  std::uint64_t local_decisions = 0;  ///< decisions taken by handlers (on-demand)
-  std::uint64_t failures = 0;         ///< units that ended Failed, OutOfMemory or timed out
+  std::uint64_t decisions = 0;           ///< decisions timed (decision_us holds a uniform sample)
+  std::uint64_t handoffs = 0;            ///< hand-offs timed (handoff_us holds a uniform sample)
+  std::uint64_t wakeups = 0;             ///< times the global synchronizer woke
+  std::uint64_t local_decisions = 0;     ///< decisions taken by handlers (on-demand)
+  std::uint64_t failures = 0;            ///< units that ended Failed, OutOfMemory or timed out
   std::map<std::string, std::uint64_t> failure_reasons;  ///< failed units by reason
   std::uint64_t timeouts = 0;                            ///< units failed by the watchdog
   std::uint64_t late_returns = 0;          ///< timed-out backend calls that returned later
