@@ -1027,6 +1027,7 @@ struct Scheduler::Impl {
       };
       int best = -1;
       int lane_index = -1;
+      Duration rt{0};  // the round trip the dispatch to lane_index pays
       const Scan* best_scan = nullptr;
       TimePoint best_deadline{};
       bool rescan = false;
@@ -1045,7 +1046,7 @@ struct Scheduler::Impl {
         Task& k = task(best);
         lane_index = choose_lane(k, now);
         if (lane_index < 0) return false;
-        const Duration rt = round_trip_cost(
+        rt = round_trip_cost(
             !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
         // §5 hopeless, on the drop estimate and with the round trip this dispatch pays. An
         // overload-aware policy (rank=overload) aborts only while overloaded: with the lanes
@@ -1077,8 +1078,6 @@ struct Scheduler::Impl {
       }
       if (rescan) continue;
       Task& k = task(best);
-      const Duration rt = round_trip_cost(
-          !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
       batch.clear();
       batch.push_back(best);
       TimePoint deadline = best_deadline;

@@ -59,16 +59,15 @@ std::vector<Row> rows(const PolicyRun& r) {
   return v;
 }
 
-// Item 1: one job, encoder → L, S, O (parallel heads) → C, one lane, round trip 0.1 ms.
-// The handler is handed the job's run: the encoder, then the heads it feeds, then C, back
-// to back. One round trip, before the encoder:
-//   enc 0.1–10.1, L 10.1–12.1, S 12.1–15.1, O 15.1–19.1, C 19.1–20.1.
-TEST(SyncRun, OnDemandRunsAWholeJobBackToBack) {
-  const PolicyRun r = run(R"(
+// One job, encoder → L, S, O → C; `scheduler` is the scenario's scheduler section.
+std::string height_job(const std::string& scheduler = "") {
+  return R"(
 name: height
 duration_s: 0.05
 device: {lanes: 1, sync_cost_us: 100}
 model: {builtin: mimonet, heads: [lane, seg, steer, det]}
+)" + scheduler +
+         R"(
 sensors:
   cam: {rate_hz: 10}
 operations:
@@ -81,8 +80,15 @@ operations:
       O: {head: det, sensor: cam}
       C: {head: steer, sensor: cam}
     edges: [[L, C], [S, C], [O, C]]
-)",
-                          "red");
+)";
+}
+
+// Item 1: one job, encoder → L, S, O (parallel heads) → C, one lane, round trip 0.1 ms.
+// The handler is handed the job's run: the encoder, then the heads it feeds, then C, back
+// to back. One round trip, before the encoder:
+//   enc 0.1–10.1, L 10.1–12.1, S 12.1–15.1, O 15.1–19.1, C 19.1–20.1.
+TEST(SyncRun, OnDemandRunsAWholeJobBackToBack) {
+  const PolicyRun r = run(height_job(), "red");
   const std::vector<Row> v = rows(r);
   ASSERT_EQ(v.size(), 5u);
   const std::vector<Row> expected{{0.1, 10.1, 0, true},
@@ -97,26 +103,7 @@ operations:
   }
   EXPECT_EQ(r.metrics.sync_round_trips, 1);
   // Per-edge pays one per unit: 5 round trips, the job ends at 20.5.
-  const PolicyRun pe = run(R"(
-name: height
-duration_s: 0.05
-device: {lanes: 1, sync_cost_us: 100}
-model: {builtin: mimonet, heads: [lane, seg, steer, det]}
-scheduler: {sync: per-edge}
-sensors:
-  cam: {rate_hz: 10}
-operations:
-  - name: drive
-    trigger: cam
-    deadline_ms: 100
-    nodes:
-      L: {head: lane, sensor: cam}
-      S: {head: seg, sensor: cam}
-      O: {head: det, sensor: cam}
-      C: {head: steer, sensor: cam}
-    edges: [[L, C], [S, C], [O, C]]
-)",
-                           "red");
+  const PolicyRun pe = run(height_job("scheduler: {sync: per-edge}"), "red");
   EXPECT_EQ(pe.metrics.sync_round_trips, 5);
   EXPECT_NEAR(to_ms(pe.units.back().end), 20.5, 1e-9);
 }
