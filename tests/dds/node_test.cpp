@@ -181,12 +181,18 @@ TEST(DdsNode, CameraToNodeToListenersWithMatchingStampsAndDiagnostics) {
   }
   ASSERT_GE(st.current_count, 2U) << "red node never subscribed to /camera/image_raw";
   Command camera(kRed + " camera --rate 20 --count 40 --size 64x48" + d + " 2>/dev/null");
-  publish_image(bad, "yuv422", 4, 4, 8, 32);           // unknown encoding
-  publish_image(bad, "rgb8", 4, 4, 12, 47);            // data != height * step
-  publish_image(bad, "mono8", 100000, 2, 100000, 16);  // absurd width
-  publish_image(bad, "rgb8", 8, 2, 8, 16);             // step < width * 3
+  // The bad images go out once the node demonstrably takes frames (an output came back):
+  // matching is seen from the writer's side first, and a sample the node's best-effort
+  // reader gets before it has matched this writer is lost, which made the counts flaky.
+  bool bad_sent = false;
   const auto poll = [&] {
     for (Listener& l : ls) drain(l);
+    if (bad_sent || stamps["/red/drive/L"].empty()) return;
+    publish_image(bad, "yuv422", 4, 4, 8, 32);           // unknown encoding
+    publish_image(bad, "rgb8", 4, 4, 12, 47);            // data != height * step
+    publish_image(bad, "mono8", 100000, 2, 100000, 16);  // absurd width
+    publish_image(bad, "rgb8", 8, 2, 8, 16);             // step < width * 3
+    bad_sent = true;
   };
   std::atomic<bool> camera_done{false};
   std::thread waiter([&] {
@@ -221,6 +227,7 @@ TEST(DdsNode, CameraToNodeToListenersWithMatchingStampsAndDiagnostics) {
   for (const std::string k : {"miss_rate", "drop_rate", "qoe", "latency_p50_ms", "latency_p99_ms"})
     EXPECT_EQ(last_diag.count("red: drive/" + k), 1U) << k;
   EXPECT_EQ(last_diag.count("red: node/decision_p99_us"), 1U);
+  ASSERT_TRUE(bad_sent) << "the node produced no output, so no bad image was sent";
   EXPECT_EQ(last_diag["red: node/rejected_unknown_encoding"], "1");
   EXPECT_EQ(last_diag["red: node/rejected_data_size"], "1");
   EXPECT_EQ(last_diag["red: node/rejected_absurd_size"], "1");
