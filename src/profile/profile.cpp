@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "red/core/assert.hpp"
+#include "red/core/rng.hpp"
 
 namespace red {
 
@@ -54,6 +55,39 @@ Duration LatencyStats::quantile(double u) const noexcept {
     return Duration{static_cast<std::int64_t>(std::llround(ns))};
   }
   return max;
+}
+
+Duration table_quantile(const std::vector<Duration>& table, double u) noexcept {
+  RED_ASSERT(!table.empty());
+  if (table.size() == 1 || !(u > 0.0)) return table.front();
+  if (u >= 1.0) return table.back();
+  const double x = u * static_cast<double>(table.size() - 1);
+  const auto i = static_cast<std::size_t>(x);
+  if (i + 1 >= table.size()) return table.back();
+  const double f = x - static_cast<double>(i);
+  const double ns = static_cast<double>(table[i].count()) +
+                    f * static_cast<double>((table[i + 1] - table[i]).count());
+  return Duration{static_cast<std::int64_t>(std::llround(ns))};
+}
+
+const std::vector<Duration>* Calibration::table(const std::string& unit, int batch) const noexcept {
+  const auto it = residual.find(unit);
+  if (it == residual.end() || batch < 1 || batch > static_cast<int>(it->second.size()))
+    return nullptr;
+  const std::vector<Duration>& t = it->second[static_cast<std::size_t>(batch - 1)];
+  return t.empty() ? nullptr : &t;
+}
+
+double Calibration::factor_at(TimePoint t, std::uint64_t seed) const noexcept {
+  if (factors.empty() || block <= Duration{0}) return 1.0;
+  // A stationary block bootstrap: time is cut into runs of `run_blocks` blocks; each run
+  // replays a stretch of the measured factors from a start drawn from (seed, run).
+  const std::int64_t b = std::max<std::int64_t>(0, t.count() / block.count());
+  const std::int64_t len = std::max(1, run_blocks);
+  const auto run = static_cast<std::uint64_t>(b / len);
+  const auto n = factors.size();
+  const std::uint64_t start = hash_combine(hash_combine(seed, 0x46414354ULL), run) % n;
+  return factors[(start + static_cast<std::uint64_t>(b % len)) % n];
 }
 
 const LatencyStats& UnitProfile::at(int batch) const noexcept {
@@ -259,6 +293,78 @@ MemoryStats parse_memory(const json& m, const std::string& where) {
   return s;
 }
 
+std::vector<Duration> parse_table(const json& t, const std::string& where) {
+  if (!t.is_array() || t.size() < 2 || t.size() > 1001)
+    bad(where + ": must be a list of 2 to 1001 quantiles (microseconds)");
+  std::vector<Duration> out;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    out.push_back(micros(t[i], fmt::format("{}[{}]", where, i)));
+    if (i > 0 && out[i] < out[i - 1]) bad(where + ": quantiles must not decrease");
+  }
+  return out;
+}
+
+Calibration parse_calibration(const json& c) {
+  const std::string where = "calibration";
+  if (!c.is_object()) bad(where + ": must be an object");
+  only_keys(c,
+            {"scenario", "policies", "seconds_per_policy", "interference", "block_ms", "run_blocks",
+             "factors", "lane_factors", "handoff_us", "residual"},
+            where);
+  Calibration k;
+  if (c.contains("scenario")) k.scenario = str(c["scenario"], where + ".scenario");
+  if (c.contains("policies")) {
+    if (!c["policies"].is_array()) bad(where + ".policies: must be a list of names");
+    for (const json& n : c["policies"]) k.policies.push_back(str(n, where + ".policies"));
+  }
+  if (c.contains("seconds_per_policy"))
+    k.seconds_per_policy = num(c["seconds_per_policy"], where + ".seconds_per_policy");
+  if (c.contains("interference")) {
+    k.interference = num(c["interference"], where + ".interference");
+    if (k.interference > 1.0) bad(where + ".interference: must be in [0, 1]");
+  }
+  if (c.contains("block_ms")) {
+    const double ms = num(c["block_ms"], where + ".block_ms");
+    if (ms < 1.0 || ms > 60'000.0) bad(where + ".block_ms: must be in [1, 60000]");
+    k.block = from_ms(ms);
+  }
+  if (c.contains("run_blocks")) {
+    const std::int64_t r = whole(c["run_blocks"], where + ".run_blocks");
+    if (r < 1 || r > 10'000) bad(where + ".run_blocks: must be in [1, 10000]");
+    k.run_blocks = static_cast<int>(r);
+  }
+  auto factor_list = [&](const char* key, std::vector<double>& out) {
+    const json& v = c[key];
+    const std::string at = where + "." + key;
+    if (!v.is_array() || v.size() > 100'000) bad(at + ": must be a list of numbers");
+    out.clear();
+    for (const json& x : v) {
+      const double f = num(x, at);
+      if (f < 0.05 || f > 20.0) bad(at + ": factors must lie in [0.05, 20], got " + x.dump());
+      out.push_back(f);
+    }
+  };
+  if (c.contains("factors")) factor_list("factors", k.factors);
+  if (c.contains("lane_factors")) {
+    factor_list("lane_factors", k.lane_factors);
+    if (k.lane_factors.empty()) k.lane_factors.push_back(1.0);
+  }
+  if (c.contains("handoff_us")) k.handoff = micros(c["handoff_us"], where + ".handoff_us");
+  if (c.contains("residual")) {
+    const json& r = c["residual"];
+    if (!r.is_object()) bad(where + ".residual: must be an object of units");
+    for (const auto& [name, arr] : r.items()) {
+      const std::string at = where + ".residual." + name;
+      if (!arr.is_array() || arr.empty() || arr.size() > 64)
+        bad(at + ": must be a list of quantile tables, one per batch size");
+      auto& tables = k.residual[name];
+      for (std::size_t b = 0; b < arr.size(); ++b)
+        tables.push_back(parse_table(arr[b], fmt::format("{}[{}]", at, b)));
+    }
+  }
+  return k;
+}
+
 // Written with keys in reading order (ordered_json); read back with any order.
 using ordered = nlohmann::ordered_json;
 
@@ -303,7 +409,7 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
     if (!doc.is_object()) bad("a profile must be a JSON object");
     only_keys(doc,
               {"schema", "source", "device", "model", "sync_round_trip_us", "profile_wall_s",
-               "units", "memory"},
+               "units", "memory", "calibration"},
               "profile");
     const json& schema = need(doc, "schema", "profile");
     if (!schema.is_number_integer() || schema.get<std::int64_t>() != Profile::kSchema)
@@ -328,6 +434,7 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
       if (m.contains("separate"))
         p.separate_memory = parse_memory(m["separate"], "memory.separate");
     }
+    if (doc.contains("calibration")) p.calibration = parse_calibration(doc["calibration"]);
     return p;
   } catch (const Bad& b) {
     return Error{file, 0, b.message};
@@ -380,6 +487,31 @@ std::string profile_to_json(const Profile& p) {
     if (p.shared_memory) mem["shared"] = memory_json(*p.shared_memory);
     if (p.separate_memory) mem["separate"] = memory_json(*p.separate_memory);
     doc["memory"] = std::move(mem);
+  }
+  if (p.calibration) {
+    const Calibration& k = *p.calibration;
+    ordered c = ordered::object();
+    c["scenario"] = k.scenario;
+    c["policies"] = k.policies;
+    c["seconds_per_policy"] = k.seconds_per_policy;
+    c["interference"] = k.interference;
+    c["block_ms"] = to_ms(k.block);
+    c["run_blocks"] = k.run_blocks;
+    c["factors"] = k.factors;
+    c["lane_factors"] = k.lane_factors;
+    c["handoff_us"] = to_us(k.handoff);
+    ordered res = ordered::object();
+    for (const auto& [name, tables] : k.residual) {
+      ordered arr = ordered::array();
+      for (const auto& t : tables) {
+        ordered q = ordered::array();
+        for (Duration d : t) q.push_back(std::round(to_us(d) * 1000.0) / 1000.0);
+        arr.push_back(std::move(q));
+      }
+      res[name] = std::move(arr);
+    }
+    c["residual"] = std::move(res);
+    doc["calibration"] = std::move(c);
   }
   return doc.dump(2) + "\n";
 }

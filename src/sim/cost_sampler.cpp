@@ -27,32 +27,55 @@ LatencyStats plain_stats(const PlainCost& c) {
 }
 
 CostSampler::CostSampler(const Scenario& s, const Profile& p, std::uint64_t seed, double slowdown)
-    : scenario_(s), seed_(seed), slowdown_(slowdown) {
+    : scenario_(s), seed_(seed), slowdown_(slowdown), profile_(p) {
   encoder_ = p.find("encoder");
   for (const std::string& h : s.model.heads) heads_.push_back(p.find("head/" + h));
+  if (p.calibration) {
+    // The calibration ran under its own background load: only the difference slows units.
+    cal_ = &*p.calibration;
+    cal_slowdown_ = slowdown / (1.0 + cal_->interference);
+  }
+}
+
+double CostSampler::encoder_u(int sensor, std::uint64_t frame) const {
+  return unit_uniform(hash_combine(
+      hash_combine(hash_combine(seed_, kEncoderTag), static_cast<std::uint64_t>(sensor)), frame));
+}
+
+double CostSampler::head_u(int op, std::uint64_t seq, int node) const {
+  std::uint64_t k = hash_combine(seed_, kHeadTag);
+  k = hash_combine(k, static_cast<std::uint64_t>(op));
+  k = hash_combine(k, seq);
+  k = hash_combine(k, static_cast<std::uint64_t>(node));
+  return unit_uniform(k);
+}
+
+Duration CostSampler::draw(const UnitProfile& u, const std::string& name, int batch,
+                           double u01) const {
+  if (const std::vector<Duration>* t = cal_->table(name, batch)) return table_quantile(*t, u01);
+  return u.at(batch).quantile(u01);
 }
 
 Duration CostSampler::scaled(Duration d) const {
-  if (slowdown_ == 1.0) return d;
+  if (slowdown_ == 1.0 || cal_ != nullptr) return d;  // calibrated: slowed in sample()
   return Duration{
       static_cast<std::int64_t>(std::llround(static_cast<double>(d.count()) * slowdown_))};
 }
 
 Duration CostSampler::encoder(int sensor, std::uint64_t frame, int batch) const {
   RED_ASSERT(encoder_ != nullptr);
-  const double u = unit_uniform(hash_combine(
-      hash_combine(hash_combine(seed_, kEncoderTag), static_cast<std::uint64_t>(sensor)), frame));
+  const double u = encoder_u(sensor, frame);
+  if (cal_ != nullptr) return draw(*encoder_, "encoder", batch, u);
   return scaled(encoder_->at(batch).quantile(u));
 }
 
 Duration CostSampler::head(int h, int op, std::uint64_t seq, int node, int batch) const {
   const UnitProfile* p = heads_[static_cast<std::size_t>(h)];
   RED_ASSERT(p != nullptr);
-  std::uint64_t k = hash_combine(seed_, kHeadTag);
-  k = hash_combine(k, static_cast<std::uint64_t>(op));
-  k = hash_combine(k, seq);
-  k = hash_combine(k, static_cast<std::uint64_t>(node));
-  return scaled(p->at(batch).quantile(unit_uniform(k)));
+  const double u = head_u(op, seq, node);
+  if (cal_ != nullptr)
+    return draw(*p, "head/" + scenario_.model.heads[static_cast<std::size_t>(h)], batch, u);
+  return scaled(p->at(batch).quantile(u));
 }
 
 Duration CostSampler::plain(const PlainCost& c, int op, std::uint64_t seq, int node) const {
@@ -64,7 +87,32 @@ Duration CostSampler::plain(const PlainCost& c, int op, std::uint64_t seq, int n
   return scaled(plain_stats(c).quantile(unit_uniform(k)));
 }
 
-Duration CostSampler::sample(const Dispatch& d) const {
+Duration CostSampler::sample(const Dispatch& d, TimePoint start, int busy_others) const {
+  if (cal_ == nullptr) return uncalibrated(d);
+  // Calibrated (docs/FIDELITY.md): the in-run residual of the unit as a whole where the
+  // calibration measured it (coarse and mono units too), times the machine's time factor
+  // at the start, the lane factor and any background load beyond the calibration's.
+  Duration base = Duration{-1};
+  const Member& m = d.members.front();
+  const RefinedGraph& g = *m.graph;
+  const RefinedUnit& ru = g.units[static_cast<std::size_t>(m.unit)];
+  if (d.kind == UnitKind::Coarse) {
+    const std::string name = "coarse/" + scenario_.model.heads[static_cast<std::size_t>(ru.head)];
+    if (const UnitProfile* u = profile_.find(name); u != nullptr && cal_->table(name, 1))
+      base = draw(*u, name, 1, encoder_u(ru.sensor, m.frame));
+  } else if (d.kind == UnitKind::Mono && !g.sensors.empty()) {
+    const std::string name = "mono/" + g.spec->name;
+    if (const UnitProfile* u = profile_.find(name); u != nullptr && cal_->table(name, 1))
+      base = draw(*u, name, 1, encoder_u(g.sensors.front(), m.frame));
+  }
+  if (base < Duration{0}) base = uncalibrated(d);
+  const std::size_t k =
+      std::min(static_cast<std::size_t>(std::max(0, busy_others)), cal_->lane_factors.size() - 1);
+  const double f = cal_->factor_at(start, seed_) * cal_->lane_factors[k] * cal_slowdown_;
+  return Duration{static_cast<std::int64_t>(std::llround(static_cast<double>(base.count()) * f))};
+}
+
+Duration CostSampler::uncalibrated(const Dispatch& d) const {
   RED_ASSERT(!d.members.empty());
   const Member& m = d.members.front();
   const RefinedGraph& g = *m.graph;

@@ -35,8 +35,8 @@ Simulator::Simulator(const Scenario& scenario, const Profile& profile,
       options_(options),
       scheduler_(scenario, profile, std::move(policy), SchedulerConfig::from(scenario, profile)),
       sampler_(scenario, profile, options.seed, slowdown_of(scenario)),
-      sync_cost_(scenario.device.sync_cost ? *scenario.device.sync_cost : profile.sync_round_trip) {
-}
+      sync_cost_(scenario.device.sync_cost ? *scenario.device.sync_cost : profile.sync_round_trip),
+      handoff_(profile.calibration ? profile.calibration->handoff : Duration{0}) {}
 
 SimResult Simulator::run() {
   SimResult r;
@@ -96,9 +96,13 @@ SimResult Simulator::run() {
     }
     scheduler_.advance(now);
     for (Dispatch* d : scheduler_.dispatch(now)) {
-      const TimePoint start = now + (d->round_trip ? sync_cost_ : Duration{0});
+      // A calibrated profile measured the hand-off without a round trip too.
+      const TimePoint start = now + (d->round_trip ? sync_cost_ : handoff_);
       scheduler_.on_start(d->lane, start);
-      const TimePoint end = start + sampler_.sample(*d);
+      int busy_others = 0;
+      for (std::size_t l = 0; l < running.size(); ++l)
+        busy_others += static_cast<int>(running[l] != 0 && static_cast<int>(l) != d->lane);
+      const TimePoint end = start + sampler_.sample(*d, start, busy_others);
       running[static_cast<std::size_t>(d->lane)] = d->id;
       q.push({end, seq++, EvKind::Complete, d->lane, d->id});
       ++r.unit_events;

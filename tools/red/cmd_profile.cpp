@@ -18,6 +18,8 @@
 #include <thread>
 
 #include "common.hpp"
+#include "real_run.hpp"
+#include "red/profile/calibrate.hpp"
 #include "red/profile/profile.hpp"
 #include "red/torch/profiler.hpp"
 #endif
@@ -53,6 +55,11 @@ struct ProfileArgs {
   bool no_separate = false;
   bool quiet = false;
   std::string out;
+  // Calibration (docs/FIDELITY.md): real runs of a scenario after the isolated profile.
+  std::string calibrate;                    ///< scenario path; empty: no calibration
+  std::vector<std::string> calibrate_sets;  ///< --set overrides of that scenario
+  double calibrate_s = 8.0;                 ///< seconds per policy
+  std::string calibrate_policies = "edf,red,mono";
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -174,6 +181,52 @@ void print_table(const Profile& p, const std::vector<std::string>& heads) {
   fmt::print("profiled in {:.1f} s\n", p.profile_wall_s);
 }
 
+/// Plays the scenario for real with each calibration policy on the measured profile and fits
+/// the simulator's model of the run (docs/FIDELITY.md). Returns the calibrated profile.
+Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& code) {
+  ScenarioArgs sa;
+  sa.path = a.calibrate;
+  sa.sets = a.calibrate_sets;
+  auto s = load(sa);
+  code = kBadInput;
+  if (!s) return s.error();
+  if (!(a.calibrate_s >= 1.0 && a.calibrate_s <= 3600.0))
+    return Error{"", 0, "--calibrate-s must be in [1, 3600] seconds"};
+  std::vector<std::string> policies = split(a.calibrate_policies);
+  for (const std::string& n : policies)
+    if (!make_policy(n)) return Error{"", 0, "--calibrate-policies: unknown policy '" + n + "'"};
+  if (auto e = check_profile_covers(isolated, *s)) return *e;
+  // Long enough to pass the warm-up and measure `calibrate_s` seconds after it.
+  s->duration = s->warmup + from_ms(1000.0 * a.calibrate_s);
+  RealRunOptions real;
+  real.seed = s->seed;
+  real.keep_units = true;
+  auto backend = make_backend(*s, isolated, real);
+  if (!backend) return backend.error();
+  code = kRunFailure;
+  std::vector<CalibrationRun> runs;
+  for (const std::string& n : policies) {
+    if (!a.quiet)
+      std::cerr << fmt::format("red profile: calibrating: {} on {} for {:g} s\n", n, s->name,
+                               to_s(s->duration));
+    auto r = run_real(*s, isolated, n, **backend, real);
+    if (!r) return r.error();
+    CalibrationRun run{n, {}};
+    for (const UnitRow& u : r->units)
+      if (u.start >= TimePoint{s->warmup}) run.units.push_back(u);
+    runs.push_back(std::move(run));
+  }
+  CalibrationOptions o;
+  o.seconds_per_policy = a.calibrate_s;
+  auto p = calibrate_profile(isolated, *s, runs, o);
+  if (p) {
+    fmt::print("\ncalibration on {} ({}): the real run against the isolated profile\n", s->name,
+               a.calibrate_policies);
+    fmt::print("{}", calibration_table(isolated, *p));
+  }
+  return p;
+}
+
 int run_profile(const ProfileArgs& a) {
   auto m = model_options(a);
   if (!m) {
@@ -211,6 +264,20 @@ int run_profile(const ProfileArgs& a) {
     return kRunFailure;
   }
   print_table(*p, heads);
+  if (!a.calibrate.empty()) {
+    int code = kOk;
+    const auto start = std::chrono::steady_clock::now();
+    auto c = calibrate(a, *p, code);
+    if (!c) {
+      print_error(c.error());
+      return code;
+    }
+    const double calib_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    fmt::print("calibrated in {:.1f} s\n", calib_s);
+    c->profile_wall_s = p->profile_wall_s + calib_s;
+    p = std::move(c);
+  }
   if (!a.out.empty()) {
     std::ofstream out(a.out, std::ios::binary);
     out << profile_to_json(*p);
@@ -253,6 +320,16 @@ void register_profile(CLI::App& app, int& exit_code) {
   cmd->add_flag("--no-separate", args->no_separate, "Skip the four separate networks");
   cmd->add_flag("--quiet", args->quiet, "No progress messages");
   cmd->add_option("--out", args->out, "Write the profile JSON here");
+  cmd->add_option("--calibrate", args->calibrate,
+                  "Then play this scenario for real and calibrate the simulator to the run "
+                  "(docs/FIDELITY.md)");
+  cmd->add_option("--calibrate-set", args->calibrate_sets,
+                  "key=value override of the calibration scenario (like --set)");
+  cmd->add_option("--calibrate-s", args->calibrate_s, "Seconds measured per calibration policy")
+      ->capture_default_str();
+  cmd->add_option("--calibrate-policies", args->calibrate_policies,
+                  "Policies played during calibration (their units: coarse, fine, mono)")
+      ->capture_default_str();
   cmd->callback([args, &exit_code] { exit_code = run_profile(*args); });
 }
 

@@ -42,6 +42,36 @@ struct UnitProfile {
   [[nodiscard]] const LatencyStats& at(int batch) const noexcept;
 };
 
+/// What a calibration pass (`red profile --calibrate`, docs/FIDELITY.md) measured inside a real
+/// run, beyond the per-unit statistics it writes into Profile::units: the simulator's model of
+/// how a real run departs from costs measured one unit at a time. A unit's time in the
+/// simulator is residual(u) × lane_factor[busy other lanes] × factor(t) × interference ratio.
+struct Calibration {
+  std::string scenario;               ///< the scenario the real runs played
+  std::vector<std::string> policies;  ///< the policies run, in order
+  double seconds_per_policy = 0.0;
+  double interference = 0.0;  ///< the scenario's background intensity during calibration
+  /// Residual cost distributions (the time factor and the lane factor divided out), per unit
+  /// name and batch size (index b - 1): quantiles at u = i / (n - 1).
+  std::map<std::string, std::vector<std::vector<Duration>>> residual;
+  /// Slow and fast stretches of the machine: the factor of each time block measured, in order.
+  Duration block{std::chrono::milliseconds{500}};
+  std::vector<double> factors;
+  int run_blocks = 8;  ///< the simulator replays the factors in runs of this many blocks
+  /// Cost factor by the number of other lanes busy when a unit starts (index 0 is 1).
+  std::vector<double> lane_factors{1.0};
+  Duration handoff{0};  ///< completion -> next start on a lane without a round trip (median)
+
+  /// The residual quantile table of (unit, batch), or nullptr.
+  [[nodiscard]] const std::vector<Duration>* table(const std::string& unit,
+                                                   int batch) const noexcept;
+  /// The time factor at t for a seed (block bootstrap: deterministic in seed and t).
+  [[nodiscard]] double factor_at(TimePoint t, std::uint64_t seed) const noexcept;
+};
+
+/// Inverse CDF of a quantile table (u = i / (n - 1)), linear between points; u in [0, 1).
+Duration table_quantile(const std::vector<Duration>& table, double u) noexcept;
+
 /// Memory figures of a model (bytes).
 struct MemoryStats {
   std::int64_t parameter_bytes = 0;
@@ -63,6 +93,7 @@ struct Profile {
   std::optional<MemoryStats> shared_memory;                 ///< shared MIMONet
   std::optional<MemoryStats> separate_memory;               ///< four separate networks
   double profile_wall_s = 0.0;                              ///< how long `red profile` took
+  std::optional<Calibration> calibration;  ///< in-run measurements (`red profile --calibrate`)
 
   /// The unit named `name`, or nullptr.
   [[nodiscard]] const UnitProfile* find(const std::string& name) const noexcept;

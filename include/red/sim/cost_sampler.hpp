@@ -19,8 +19,11 @@ class CostSampler {
   /// `slowdown` multiplies every sampled time (models background interference).
   CostSampler(const Scenario& s, const Profile& p, std::uint64_t seed, double slowdown = 1.0);
 
-  /// Time the dispatched unit (merged or batched) takes.
-  [[nodiscard]] Duration sample(const Dispatch& d) const;
+  /// Time the dispatched unit (merged or batched) takes when it starts at `start` beside
+  /// `busy_others` busy lanes. Both matter only with a calibrated profile (its time and lane
+  /// factors); otherwise the time depends on the unit instance alone.
+  [[nodiscard]] Duration sample(const Dispatch& d, TimePoint start = TimePoint{0},
+                                int busy_others = 0) const;
 
   /// One encoder run on (sensor, frame) at batch size `batch` (u of that frame).
   [[nodiscard]] Duration encoder(int sensor, std::uint64_t frame, int batch = 1) const;
@@ -31,10 +34,19 @@ class CostSampler {
 
  private:
   [[nodiscard]] Duration scaled(Duration d) const;
+  [[nodiscard]] Duration uncalibrated(const Dispatch& d) const;
+  /// A draw at u of (unit, batch): the calibration's residual table when it has one.
+  [[nodiscard]] Duration draw(const UnitProfile& u, const std::string& name, int batch,
+                              double u01) const;
+  [[nodiscard]] double encoder_u(int sensor, std::uint64_t frame) const;
+  [[nodiscard]] double head_u(int op, std::uint64_t seq, int node) const;
 
   const Scenario& scenario_;
   std::uint64_t seed_;
   double slowdown_;
+  const Profile& profile_;
+  const Calibration* cal_ = nullptr;  ///< the profile's calibration, if any
+  double cal_slowdown_ = 1.0;  ///< background load beyond the calibration's (calibrated only)
   const UnitProfile* encoder_ = nullptr;
   std::vector<const UnitProfile*> heads_;
 };

@@ -51,6 +51,7 @@ class Simulator {
   Scheduler scheduler_;
   CostSampler sampler_;
   Duration sync_cost_;
+  Duration handoff_;  ///< hand-off without a round trip (a calibrated profile's; else 0)
 };
 
 }  // namespace red
