@@ -136,23 +136,10 @@ Expected<Profile> calibrate_profile(const Profile& isolated, const Scenario& s,
   for (std::size_t ri = 0; ri < runs.size(); ++ri) {
     const std::vector<UnitRow>& rows = runs[ri].units;
     const std::vector<int> busy = busy_others(rows);
-    std::map<int, TimePoint> prev_end;  // per lane, in start order
-    std::vector<std::size_t> order(rows.size());
-    std::iota(order.begin(), order.end(), std::size_t{0});
-    std::sort(order.begin(), order.end(),
-              [&](std::size_t a, std::size_t b) { return rows[a].start < rows[b].start; });
-    for (std::size_t i : order) {
+    for (double h : runs[ri].handoff_us)
+      if (h >= 0.0 && h < 5000.0) (runs[ri].round_trips ? round_trips : handoffs).push_back(h * 1e3);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
       const UnitRow& r = rows[i];
-      const auto pe = prev_end.find(r.lane);
-      if (pe != prev_end.end() && r.start >= pe->second) {
-        // Hand-off: from the completion (or the decision, if the unit became ready later).
-        const Duration since_end = r.start - pe->second;
-        const bool after_completion = r.decided - pe->second < std::chrono::milliseconds{2};
-        const Duration h = after_completion ? since_end : r.start - r.decided;
-        if (h >= Duration{0} && h < std::chrono::milliseconds{5})
-          (r.round_trip ? round_trips : handoffs).push_back(static_cast<double>(h.count()));
-      }
-      prev_end[r.lane] = r.end;
       if (r.status != UnitStatus::Completed || r.end <= r.start) continue;
       std::string name = calibration_unit_name(r, s);
       if (name.empty()) continue;

@@ -16,7 +16,8 @@ std::optional<PolicyOptions> policy_options(const Scenario& s, const std::string
 
 Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
                                     std::uint64_t seed, const std::vector<Observer*>& extra,
-                                    bool keep_units, std::optional<SyncMode> sync) {
+                                    bool keep_units, std::optional<SyncMode> sync,
+                                    const Profile* costs) {
   auto pol = make_policy(policy, policy_options(s, policy, sync));
   if (!pol) {
     std::string known;
@@ -25,7 +26,7 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
   }
   PolicyRun run;
   MetricsCollector metrics(s, s.scheduler.qoe_lambda, keep_units);
-  Simulator sim(s, p, std::move(pol), SimOptions{seed, std::chrono::seconds{60}});
+  Simulator sim(s, p, std::move(pol), SimOptions{seed, std::chrono::seconds{60}, costs});
   sim.add_observer(&metrics);
   for (Observer* o : extra) sim.add_observer(o);
   const auto t0 = std::chrono::steady_clock::now();

@@ -34,9 +34,15 @@ Simulator::Simulator(const Scenario& scenario, const Profile& profile,
     : scenario_(scenario),
       options_(options),
       scheduler_(scenario, profile, std::move(policy), SchedulerConfig::from(scenario, profile)),
-      sampler_(scenario, profile, options.seed, slowdown_of(scenario)),
-      sync_cost_(scenario.device.sync_cost ? *scenario.device.sync_cost : profile.sync_round_trip),
-      handoff_(profile.calibration ? profile.calibration->handoff : Duration{0}) {}
+      sampler_(scenario, options.costs != nullptr ? *options.costs : profile, options.seed,
+               slowdown_of(scenario)),
+      sync_cost_(scenario.device.sync_cost  ? *scenario.device.sync_cost
+                 : options.costs != nullptr ? options.costs->sync_round_trip
+                                            : profile.sync_round_trip),
+      handoff_(options.costs != nullptr && options.costs->calibration
+                   ? options.costs->calibration->handoff
+               : profile.calibration ? profile.calibration->handoff
+                                     : Duration{0}) {}
 
 SimResult Simulator::run() {
   SimResult r;

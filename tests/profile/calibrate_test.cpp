@@ -55,7 +55,7 @@ UnitRow row(int lane, TimePoint start, Duration dur, UnitKind kind, int head, bo
 // Run A: one lane, encoder (10 ms) then the lane head (2 ms), the machine 1.5x slower
 // between 2 s and 4 s. Encoders follow a 20 us round trip, heads a 5 us direct hand-off.
 CalibrationRun run_a(const Scenario& s) {
-  CalibrationRun run{"edf", {}};
+  CalibrationRun run{"edf", {}, {}, false};
   const int lane_head = 0;
   TimePoint t{0};
   for (int i = 0; i < 120; ++i) {
@@ -72,12 +72,13 @@ CalibrationRun run_a(const Scenario& s) {
     t = run.units.back().end + milliseconds{30};
   }
   (void)s;
+  run.handoff_us = {4.0, 5.0, 6.0, 5.0, 900.0};  // local decisions (on-demand)
   return run;
 }
 
 // Run B: two lanes computing at once, each unit 1.3x slower than alone.
 CalibrationRun run_b() {
-  CalibrationRun run{"red", {}};
+  CalibrationRun run{"red", {}, {}, false};
   for (int lane = 0; lane < 2; ++lane) {
     TimePoint t{milliseconds{lane * 3}};
     for (int i = 0; i < 60; ++i) {
@@ -86,6 +87,8 @@ CalibrationRun run_b() {
       t = run.units.back().end;
     }
   }
+  run.handoff_us = {18.0, 20.0, 25.0, 7000.0};  // round trips (per-edge); 7 ms: not a hand-off
+  run.round_trips = true;
   return run;
 }
 
@@ -125,7 +128,7 @@ TEST(Calibrate, RecoversTimeAndLaneFactorsResidualsAndHandOffs) {
   const double ratio = to_ms(e1.mean) / to_ms(iso.find("encoder")->at(1).mean);
   EXPECT_NEAR(to_ms(p->find("encoder")->at(2).mean), ratio * to_ms(iso.find("encoder")->at(2).mean),
               0.01);
-  // Hand-offs: the medians of what was measured.
+  // Hand-offs: the medians of what the runtime timed, local and round trip apart.
   EXPECT_EQ(c.handoff, microseconds{5});
   EXPECT_EQ(p->sync_round_trip, microseconds{20});
   // The table says how the run departs from the isolated profile.
@@ -179,7 +182,7 @@ TEST(Calibrate, RejectsBadCalibrationJson) {
 
 TEST(Calibrate, TooFewUnitsIsAnError) {
   const Scenario s = scenario(1);
-  auto p = calibrate_profile(default_profile(), s, {CalibrationRun{"edf", {}}});
+  auto p = calibrate_profile(default_profile(), s, {CalibrationRun{"edf", {}, {}, false}});
   ASSERT_FALSE(p.has_value());
   EXPECT_NE(p.error().message.find("too few"), std::string::npos);
 }

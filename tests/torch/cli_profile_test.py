@@ -74,6 +74,51 @@ def main():
         rc, out, err = run(red, *args)
         check(rc == 2 and message in err, f"bad input {args} -> exit 2 naming the problem", out,
               err)
+
+    # Calibration (docs/FIDELITY.md): real runs of a small scenario on the measured profile.
+    scenario = os.path.join(scratch, "calib.yaml")
+    with open(scenario, "w") as f:
+        f.write("name: calib\nduration_s: 2\nwarmup_s: 0.2\nseed: 3\ndevice: {lanes: 1}\n"
+                "model: {builtin: mimonet, heads: [lane, steer], input: [3, 32, 64]}\n"
+                "sensors:\n  camera: {rate_hz: 40}\noperations:\n  - name: drive\n"
+                "    trigger: camera\n    deadline_ms: 50\n    nodes:\n"
+                "      L: {head: lane, sensor: camera}\n      C: {head: steer, sensor: camera}\n"
+                "    edges: [[L, C]]\n")
+    calibrated = os.path.join(scratch, "calibrated.json")
+    rc, out, err = run(red, "--from", out_json, "--calibrate", scenario, "--calibrate-s", "1",
+                       "--calibrate-policies", "edf,red,mono", "--quiet", "--out", calibrated)
+    check(rc == 0, "--from F --calibrate S runs (exit 0)", out, err)
+    check("in-run ms" in out and "time factor" in out and "lane factor" in out,
+          "prints how the run departs from the isolated profile", out, err)
+    with open(calibrated) as f:
+        doc = json.load(f)
+    cal = doc["calibration"]
+    check(doc["source"] == "calibrated" and cal["policies"] == ["edf", "red", "mono"],
+          "calibrated source and the policies played", json.dumps(cal)[:300])
+    check({"encoder", "head/lane", "head/steer", "coarse/lane", "mono/drive"} <= set(cal["residual"]),
+          "residual tables of the fine, coarse and mono units", sorted(cal["residual"]))
+    check(all(len(t) == 21 for u in cal["residual"].values() for t in u if t),
+          "21 quantiles per table")
+    check(len(cal["factors"]) > 0 and all(0.05 <= x <= 20 for x in cal["factors"]),
+          "time factors measured")
+    check(doc["units"]["encoder"][0]["samples"] > 2, "in-run statistics replace the isolated ones")
+    # The simulator reads the calibrated profile.
+    sim = subprocess.run([red, "simulate", scenario, "--profile", calibrated, "--policy", "red"],
+                         capture_output=True, text=True, timeout=120)
+    check(sim.returncode == 0 and "calibrated" in sim.stdout, "simulate with a calibrated profile",
+          sim.stdout, sim.stderr)
+    bad = [
+        (["--from", out_json], "--from needs --calibrate"),
+        (["--from", out_json, "--calibrate", os.path.join(scratch, "none.yaml")], "none.yaml"),
+        (["--from", out_json, "--calibrate", scenario, "--calibrate-policies", "edf,nope"],
+         "unknown policy 'nope'"),
+        (["--from", out_json, "--calibrate", scenario, "--calibrate-s", "0"], "--calibrate-s"),
+        (["--from", os.path.join(scratch, "missing.json"), "--calibrate", scenario], "missing.json"),
+    ]
+    for args, message in bad:
+        rc, out, err = run(red, *args)
+        check(rc == 2 and message in err, f"bad input {args} -> exit 2 naming the problem", out,
+              err)
     return 0
 
 

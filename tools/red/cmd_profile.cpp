@@ -56,8 +56,10 @@ struct ProfileArgs {
   bool quiet = false;
   std::string out;
   // Calibration (docs/FIDELITY.md): real runs of a scenario after the isolated profile.
+  std::string from;                         ///< calibrate this profile instead of measuring one
   std::string calibrate;                    ///< scenario path; empty: no calibration
   std::vector<std::string> calibrate_sets;  ///< --set overrides of that scenario
+  std::vector<std::string> calibrate_from;  ///< fit from these real runs' units.csv instead
   double calibrate_s = 8.0;                 ///< seconds per policy
   std::string calibrate_policies = "edf,red,mono";
 };
@@ -181,6 +183,90 @@ void print_table(const Profile& p, const std::vector<std::string>& heads) {
   fmt::print("profiled in {:.1f} s\n", p.profile_wall_s);
 }
 
+/// One RFC 4180 CSV line as fields (quoted fields may hold commas and doubled quotes).
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> f(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        f.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        f.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      f.emplace_back();
+    } else if (c != '\r') {
+      f.back() += c;
+    }
+  }
+  return f;
+}
+
+/// The units of the real runs written to DIR/units.csv (`red compare --backend torch
+/// --out DIR`, `red run --out DIR`), one CalibrationRun per policy.
+Expected<std::vector<CalibrationRun> > read_units_csv(const std::string& dir, const Scenario& s) {
+  const std::string path = dir + "/units.csv";
+  std::ifstream in(path);
+  if (!in) return Error{path, 0, "cannot open (give the --out directory of a real run)"};
+  std::string line;
+  const std::string header =
+      "policy,dispatch,lane,decided_ms,start_ms,end_ms,kind,head,batch,members,round_trip,"
+      "status,jobs";
+  if (!std::getline(in, line) || line.rfind(header, 0) != 0)
+    return Error{path, 1, "not a units.csv (header '" + header + "' expected)"};
+  std::vector<CalibrationRun> runs;
+  int n = 1;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty()) continue;
+    const std::vector<std::string> f = csv_fields(line);
+    if (f.size() != 13) return Error{path, n, fmt::format("{} fields, 13 expected", f.size())};
+    UnitRow r;
+    try {
+      r.lane = std::stoi(f[2]);
+      r.decided = TimePoint{from_ms(std::stod(f[3]))};
+      r.start = TimePoint{from_ms(std::stod(f[4]))};
+      r.end = TimePoint{from_ms(std::stod(f[5]))};
+      r.batch = std::stoi(f[8]);
+      r.members = std::stoi(f[9]);
+    } catch (const std::exception&) {
+      return Error{path, n, "a number is malformed"};
+    }
+    const std::string& kind = f[6];
+    if (kind == "encoder")
+      r.kind = UnitKind::Encoder;
+    else if (kind == "head")
+      r.kind = UnitKind::Head;
+    else if (kind == "coarse")
+      r.kind = UnitKind::Coarse;
+    else if (kind == "mono")
+      r.kind = UnitKind::Mono;
+    else if (kind == "plain")
+      r.kind = UnitKind::Plain;
+    else
+      return Error{path, n, "unknown unit kind '" + kind + "'"};
+    r.head = -1;
+    for (std::size_t h = 0; h < s.model.heads.size(); ++h)
+      if (s.model.heads[h] == f[7]) r.head = static_cast<int>(h);
+    if (!f[7].empty() && r.head < 0)
+      return Error{path, n, "head '" + f[7] + "' is not in the scenario's model"};
+    r.round_trip = f[10] == "1";
+    r.status = f[11] == "completed" ? UnitStatus::Completed : UnitStatus::Failed;
+    r.jobs = f[12];
+    if (runs.empty() || runs.back().policy != f[0])
+      runs.push_back(CalibrationRun{f[0], {}, {}, false});
+    runs.back().units.push_back(std::move(r));
+  }
+  return runs;
+}
+
 /// Plays the scenario for real with each calibration policy on the measured profile and fits
 /// the simulator's model of the run (docs/FIDELITY.md). Returns the calibrated profile.
 Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& code) {
@@ -196,6 +282,24 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
   for (const std::string& n : policies)
     if (!make_policy(n)) return Error{"", 0, "--calibrate-policies: unknown policy '" + n + "'"};
   if (auto e = check_profile_covers(isolated, *s)) return *e;
+  if (!a.calibrate_from.empty()) {
+    // Fit from real runs made before: no run here.
+    std::vector<CalibrationRun> runs;
+    for (const std::string& dir : a.calibrate_from) {
+      auto r = read_units_csv(dir, *s);
+      if (!r) return r.error();
+      for (CalibrationRun& run : *r) runs.push_back(std::move(run));
+    }
+    CalibrationOptions o;
+    auto p = calibrate_profile(isolated, *s, runs, o);
+    if (!p) return p.error();
+    p->calibration->policies.clear();
+    for (const CalibrationRun& r : runs) p->calibration->policies.push_back(r.policy);
+    fmt::print("\ncalibration on {} from {} earlier real run(s) of {} policies\n", s->name,
+               a.calibrate_from.size(), runs.size());
+    fmt::print("{}", calibration_table(isolated, *p));
+    return p;
+  }
   // Long enough to pass the warm-up and measure `calibrate_s` seconds after it.
   s->duration = s->warmup + from_ms(1000.0 * a.calibrate_s);
   RealRunOptions real;
@@ -209,9 +313,12 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
     if (!a.quiet)
       std::cerr << fmt::format("red profile: calibrating: {} on {} for {:g} s\n", n, s->name,
                                to_s(s->duration));
-    auto r = run_real(*s, isolated, n, **backend, real);
+    RuntimeReport report;
+    auto r = run_real(*s, isolated, n, **backend, real, {}, &report);
     if (!r) return r.error();
-    CalibrationRun run{n, {}};
+    CalibrationRun run{n, {}, report.handoff_us, false};
+    const auto opts = policy_options(*s, n);
+    run.round_trips = opts && opts->sync == SyncMode::PerEdge;
     for (const UnitRow& u : r->units)
       if (u.start >= TimePoint{s->warmup}) run.units.push_back(u);
     runs.push_back(std::move(run));
@@ -227,7 +334,43 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
   return p;
 }
 
+int run_profile(const ProfileArgs& a);
+
+/// `red profile --from F.json --calibrate S.yaml`: calibrates a profile measured before.
+int run_calibrate_only(const ProfileArgs& a) {
+  if (a.calibrate.empty()) {
+    print_error(Error{"", 0, "--from needs --calibrate S.yaml (it calibrates that profile)"});
+    return kBadInput;
+  }
+  auto p = load_profile(a.from);
+  if (!p) {
+    print_error(p.error());
+    return kBadInput;
+  }
+  int code = kOk;
+  const auto start = std::chrono::steady_clock::now();
+  auto c = calibrate(a, *p, code);
+  if (!c) {
+    print_error(c.error());
+    return code;
+  }
+  fmt::print("calibrated in {:.1f} s\n",
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  if (!a.out.empty()) {
+    std::ofstream out(a.out, std::ios::binary);
+    out << profile_to_json(*c);
+    out.close();
+    if (!out) {
+      print_error(Error{a.out, 0, "cannot write the profile"});
+      return kRunFailure;
+    }
+    fmt::print("wrote {}\n", a.out);
+  }
+  return kOk;
+}
+
 int run_profile(const ProfileArgs& a) {
+  if (!a.from.empty()) return run_calibrate_only(a);
   auto m = model_options(a);
   if (!m) {
     print_error(m.error());
@@ -320,11 +463,16 @@ void register_profile(CLI::App& app, int& exit_code) {
   cmd->add_flag("--no-separate", args->no_separate, "Skip the four separate networks");
   cmd->add_flag("--quiet", args->quiet, "No progress messages");
   cmd->add_option("--out", args->out, "Write the profile JSON here");
+  cmd->add_option("--from", args->from,
+                  "Calibrate this profile (JSON) instead of measuring one (with --calibrate)");
   cmd->add_option("--calibrate", args->calibrate,
                   "Then play this scenario for real and calibrate the simulator to the run "
                   "(docs/FIDELITY.md)");
   cmd->add_option("--calibrate-set", args->calibrate_sets,
                   "key=value override of the calibration scenario (like --set)");
+  cmd->add_option("--calibrate-from", args->calibrate_from,
+                  "Fit from the units.csv of earlier real runs of the scenario (their --out "
+                  "directories) instead of playing it now");
   cmd->add_option("--calibrate-s", args->calibrate_s, "Seconds measured per calibration policy")
       ->capture_default_str();
   cmd->add_option("--calibrate-policies", args->calibrate_policies,

@@ -4,6 +4,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <nlohmann/json.hpp>
+
 #include <iostream>
 #include <memory>
 
@@ -31,6 +34,7 @@ struct RunArgs {
   std::optional<std::string> out;
   std::size_t trace_events = kDefaultTraceEvents;
   std::string sync;                     ///< empty: the policy's own
+  std::optional<std::string> costs;     ///< --costs F.json: the simulator's unit costs
   std::optional<std::string> timeline;  ///< --timeline FROM:TO (seconds)
   bool phases = false;                  ///< --phases: print the figures per workload phase
 };
@@ -42,19 +46,64 @@ std::optional<SyncMode> parse_sync(const std::string& v) {
 }
 
 // The simulator's prediction of a real run, side by side with it (same scenario, same
-// profile): how well the simulator, fed the measured profile, predicts reality.
-void print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
-                      const std::vector<PolicyRun>& real, std::optional<SyncMode> sync) {
-  fmt::print("simulator prediction with the same profile ({}):\n", p.source);
-  fmt::print("{:<10} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}\n", "policy", "miss% real",
+// profile): how well the simulator, fed the measured profile, predicts reality. With a
+// calibrated profile the prediction is random like the run (the machine's slow stretches
+// are replayed from the calibration), so it is given over several seeds: the median and
+// the range. Returns prediction.json's text.
+std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
+                             const std::vector<PolicyRun>& real, std::optional<SyncMode> sync) {
+  const int seeds = p.calibration ? 5 : 1;
+  fmt::print("simulator prediction with the same profile ({}{}):\n", p.source,
+             seeds > 1 ? fmt::format(", median [min-max] of {} seeds", seeds) : "");
+  fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", "policy", "miss% real",
              "miss% sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim");
+  nlohmann::ordered_json doc;
+  doc["scenario"] = s.name;
+  doc["profile"] = p.source;
+  doc["seeds"] = seeds;
+  nlohmann::ordered_json policies = nlohmann::ordered_json::array();
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 == 1 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  };
   for (const PolicyRun& r : real) {
-    auto sim = simulate_policy(s, p, r.metrics.name, seed, {}, false, sync);
-    if (!sim) continue;
-    fmt::print("{:<10} {:>10.2f} {:>10.2f} {:>12.2f} {:>12.2f} {:>8.3f} {:>8.3f}\n", r.metrics.name,
-               100 * r.metrics.miss_rate, 100 * sim->metrics.miss_rate, r.metrics.latency.mean,
-               sim->metrics.latency.mean, r.metrics.qoe, sim->metrics.qoe);
+    std::vector<double> miss, mean, qoe;
+    for (int k = 0; k < seeds; ++k) {
+      auto sim = simulate_policy(s, p, r.metrics.name, seed + static_cast<std::uint64_t>(k), {},
+                                 false, sync);
+      if (!sim) break;
+      miss.push_back(100 * sim->metrics.miss_rate);
+      mean.push_back(sim->metrics.latency.mean);
+      qoe.push_back(sim->metrics.qoe);
+    }
+    if (miss.empty()) continue;
+    auto range = [&](const std::vector<double>& v, const char* f) {
+      const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+      return seeds > 1 ? fmt::format(fmt::runtime(std::string(f) + " [" + f + "-" + f + "]"),
+                                     median(v), *lo, *hi)
+                       : fmt::format(fmt::runtime(f), v.front());
+    };
+    fmt::print("{:<10} {:>10.2f} {:>20} {:>12.2f} {:>22} {:>8.3f} {:>8.3f}\n", r.metrics.name,
+               100 * r.metrics.miss_rate, range(miss, "{:.2f}"), r.metrics.latency.mean,
+               range(mean, "{:.2f}"), r.metrics.qoe, median(qoe));
+    const auto [mlo, mhi] = std::minmax_element(miss.begin(), miss.end());
+    const auto [llo, lhi] = std::minmax_element(mean.begin(), mean.end());
+    policies.push_back(nlohmann::ordered_json{{"policy", r.metrics.name},
+                                              {"real",
+                                               {{"miss_pct", 100 * r.metrics.miss_rate},
+                                                {"mean_ms", r.metrics.latency.mean},
+                                                {"qoe", r.metrics.qoe}}},
+                                              {"sim",
+                                               {{"miss_pct", median(miss)},
+                                                {"miss_pct_min", *mlo},
+                                                {"miss_pct_max", *mhi},
+                                                {"mean_ms", median(mean)},
+                                                {"mean_ms_min", *llo},
+                                                {"mean_ms_max", *lhi},
+                                                {"qoe", median(qoe)}}}});
   }
+  doc["policies"] = std::move(policies);
+  return doc.dump(2) + "\n";
 }
 
 // Runs the given policies on one scenario and prints and writes the results. In the
@@ -101,6 +150,25 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   }
   const std::uint64_t seed = a.seed ? *a.seed : s->seed;
   const bool sim = a.backend == "sim";
+  std::optional<Profile> costs;
+  if (a.costs) {
+    if (!sim) {
+      print_error(Error{"", 0,
+                        "--costs is for the simulator (--backend sim); a real run's costs "
+                        "are the machine's"});
+      return kBadInput;
+    }
+    auto c = load_profile(*a.costs);
+    if (!c) {
+      print_error(c.error());
+      return kBadInput;
+    }
+    if (auto e = check_profile_covers(*c, *s)) {
+      print_error(*e);
+      return kBadInput;
+    }
+    costs = std::move(*c);
+  }
   RealRunOptions real = a.real;
   real.backend = a.backend;
   real.realtime = !a.no_realtime;
@@ -135,7 +203,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     progress.begin_run(names.size() == 1 ? n : fmt::format("{} [{}/{}]", n, i + 1, names.size()),
                        s->duration);
     RuntimeReport report;
-    auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value(), real.sync)
+    auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value(), real.sync,
+                                   costs ? &*costs : nullptr)
                  : run_real(*s, *p, n, *backend, real, extra, &report);
     progress.finish();
     if (!r) {
@@ -162,7 +231,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
              s->name, sim ? "sim" : backend->name(), seed, p->source, s->device.lanes,
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
-  if (!sim) print_prediction(*s, *p, seed, runs, real.sync);
+  std::string prediction;
+  if (!sim) prediction = print_prediction(*s, *p, seed, runs, real.sync);
   if (a.phases) {
     std::vector<std::string> names_run;
     std::vector<std::vector<PhaseMetrics>> phases;
@@ -202,6 +272,10 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
         print_error(*e);
         return kRunFailure;
       }
+      if (auto e = write_file(*a.out, "prediction.json", prediction)) {
+        print_error(*e);
+        return kRunFailure;
+      }
     }
     fmt::print("{}\n", wrote_message(*a.out, written));
   }
@@ -219,6 +293,9 @@ void add_common(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--out", a.out,
                   "Directory for summary.json, jobs.csv, units.csv, trace.json and plots");
   add_with_option(cmd, a.scenario);
+  cmd->add_option("--costs", a.costs,
+                  "Simulator only: draw unit costs from this profile (e.g. a calibration, "
+                  "docs/FIDELITY.md) while the scheduler plans with --profile");
   cmd->add_option("--sync", a.sync,
                   "Synchronization: per-edge or on-demand (default: each policy's own, §7)")
       ->check(CLI::IsMember({"per-edge", "on-demand"}));

@@ -20,6 +20,11 @@ namespace red {
 struct CalibrationRun {
   std::string policy;
   std::vector<UnitRow> units;
+  /// Hand-offs the runtime timed (unit completion -> next start on the lane, μs), and
+  /// whether they were round trips through the global synchronizer (per-edge sync) or local
+  /// decisions (on-demand).
+  std::vector<double> handoff_us;
+  bool round_trips = false;
 };
 
 /// How the fit cuts the data.

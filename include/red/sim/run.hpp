@@ -25,11 +25,14 @@ struct PolicyRun {
 };
 
 /// Simulates `policy` (a preset name) on the scenario. `extra` observers see the run too;
-/// `sync` overrides the preset's synchronization mode. Error for an unknown policy name.
+/// `sync` overrides the preset's synchronization mode; `costs`, when given, is the profile
+/// whose unit costs the simulator draws while the scheduler plans with `p` (SimOptions).
+/// Error for an unknown policy name.
 Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
                                     std::uint64_t seed, const std::vector<Observer*>& extra = {},
                                     bool keep_units = true,
-                                    std::optional<SyncMode> sync = std::nullopt);
+                                    std::optional<SyncMode> sync = std::nullopt,
+                                    const Profile* costs = nullptr);
 
 /// The options a preset runs with on this scenario: the preset's (§7), then the scenario's
 /// `scheduler:` policy options (which include the CLI's --with), then `sync` if given.

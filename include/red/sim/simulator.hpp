@@ -20,6 +20,10 @@ struct SimOptions {
   std::uint64_t seed = 1;
   /// After duration, releases stop and in-flight jobs may finish for at most this long.
   Duration drain_limit = std::chrono::seconds{60};
+  /// The unit costs the simulator draws, when they are not the scheduler's profile: e.g.
+  /// a calibration of the machine (docs/FIDELITY.md) under a run planned with another
+  /// profile. Not owned; must outlive the simulator.
+  const Profile* costs = nullptr;
 };
 
 /// What a run did, besides what observers saw.

@@ -1,0 +1,79 @@
+#!/usr/bin/env python3
+"""Table of bench/fidelity.sh: per scenario and policy, the median of the real runs (and
+their range) beside the simulator's prediction from the calibrated profile (median and
+range over seeds), and whether it is within the target: miss rate within 5 points and mean
+latency within 10 % of the median real run. A policy whose real runs spread over more than
+20 points is marked bimodal: its spread is the figure, not one number.
+Usage: fidelity_table.py OUT_DIR scenario.yaml ..."""
+import glob
+import json
+import os
+import statistics
+import sys
+
+
+def main():
+    out, scenarios = sys.argv[1], sys.argv[2:]
+    rows = []
+    for s in scenarios:
+        name = os.path.splitext(os.path.basename(s))[0]
+        d = os.path.join(out, name)
+        runs = sorted(glob.glob(os.path.join(d, "run*", "summary.json")))
+        if not runs:
+            continue
+        real = {}
+        for path in runs:
+            for p in json.load(open(path))["policies"]:
+                real.setdefault(p["name"], []).append(
+                    (100 * p["miss_rate"], p["latency_ms"]["mean"]))
+        pred = {}
+        for path in sorted(glob.glob(os.path.join(d, "run*", "prediction.json"))):
+            for p in json.load(open(path))["policies"]:
+                pred[p["policy"]] = p["sim"]  # the same calibrated profile: the same prediction
+        loads = [open(f).read().split()[0] for f in sorted(glob.glob(os.path.join(d, "run*.load")))]
+        for pol, v in real.items():
+            if pol not in pred:
+                continue
+            miss = [x[0] for x in v]
+            mean = [x[1] for x in v if x[1] > 0]
+            m_med = statistics.median(miss)
+            l_med = statistics.median(mean) if mean else 0.0
+            sim = pred[pol]
+            d_miss = sim["miss_pct"] - m_med
+            d_mean = (sim["mean_ms"] - l_med) / l_med * 100 if l_med > 0 else 0.0
+            bimodal = max(miss) - min(miss) > 20
+            ok = abs(d_miss) <= 5 and abs(d_mean) <= 10
+            rows.append({
+                "scenario": name, "policy": pol, "runs": len(v), "load_1min": loads,
+                "real_miss_pct": [round(x, 2) for x in miss], "real_miss_median": round(m_med, 2),
+                "sim_miss_pct": round(sim["miss_pct"], 2),
+                "sim_miss_range": [round(sim["miss_pct_min"], 2), round(sim["miss_pct_max"], 2)],
+                "real_mean_ms": [round(x, 2) for x in mean], "real_mean_median": round(l_med, 2),
+                "sim_mean_ms": round(sim["mean_ms"], 2),
+                "d_miss_points": round(d_miss, 2), "d_mean_pct": round(d_mean, 1),
+                "within_target": ok, "bimodal": bimodal})
+    lines = ["| scenario | policy | real miss % (runs) | sim miss % [seeds] | Δ pts | "
+             "real mean ms (runs) | sim mean ms | Δ % | within target |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        verdict = "yes" if r["within_target"] else ("bimodal" if r["bimodal"] else "no")
+        lines.append(
+            "| {scenario} | {policy} | {rm} ({runs_m}) | {sm} [{lo}–{hi}] | {dm:+.1f} | {rl} ({runs_l}) | "
+            "{sl} | {dl:+.1f} | {v} |".format(
+                scenario=r["scenario"], policy=r["policy"], rm=r["real_miss_median"],
+                runs_m=", ".join(f"{x:g}" for x in r["real_miss_pct"]), sm=r["sim_miss_pct"],
+                lo=r["sim_miss_range"][0], hi=r["sim_miss_range"][1], dm=r["d_miss_points"],
+                rl=r["real_mean_median"], runs_l=", ".join(f"{x:g}" for x in r["real_mean_ms"]),
+                sl=r["sim_mean_ms"], dl=r["d_mean_pct"], v=verdict))
+    within = sum(r["within_target"] for r in rows)
+    lines.append("")
+    lines.append(f"{within} of {len(rows)} (scenario, policy) pairs within the target "
+                 "(miss rate within 5 points, mean latency within 10 % of the median real run).")
+    text = "\n".join(lines) + "\n"
+    open(os.path.join(out, "fidelity.md"), "w").write(text)
+    json.dump(rows, open(os.path.join(out, "fidelity.json"), "w"), indent=1)
+    print(text, end="")
+
+
+if __name__ == "__main__":
+    main()
