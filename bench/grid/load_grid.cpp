@@ -7,6 +7,11 @@
 /// draws docs/plots/load-grid.svg with gnuplot (when present).
 ///
 ///     red_load_grid [--seeds N] [--duration S] [--markdown docs/BENCHMARKS.md]
+///     red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES LOAD [--with K=V,…]
+///
+/// --point prints one grid point's diagnostics instead: per policy the on-time fraction,
+/// drops by reason and wasted lane time, and the jobs edf or red met that red-robust did
+/// not (with what became of them); --with sets red-robust's options (ablations).
 
 #include <fmt/format.h>
 
@@ -18,6 +23,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -180,12 +186,61 @@ int rewrite_section(const std::string& file, const std::string& body) {
   return 0;
 }
 
+// One point's diagnostics (--point): where red-robust loses jobs that edf or red keep.
+int diagnose(const red::grid::SetSpec& spec, double load, const std::string& with) {
+  const red::Profile profile = red::default_profile();
+  red::Scenario s = red::grid::set_scenario(spec, profile, load);
+  std::map<std::string, red::PolicyRun> runs;
+  for (const std::string& p : kPolicies) {
+    red::Scenario sp = s;
+    if (p == "red-robust") sp.scheduler.policy_with = with;
+    auto r = red::simulate_policy(sp, profile, p, s.seed, {}, false);
+    if (!r) {
+      std::cerr << r.error().to_string() << "\n";
+      return 2;
+    }
+    const red::PolicyMetrics& m = r->metrics;
+    std::cout << fmt::format("{:<11} on-time {:.4f} ({} of {})  wasted {:5.1f} %  unfinished {}",
+                             p, m.on_time, m.met, m.jobs, 100 * m.wasted_lane_fraction,
+                             m.unfinished);
+    for (const auto& [why, n] : m.drop_reasons) std::cout << fmt::format("  {}: {}", why, n);
+    std::cout << "\n";
+    runs.emplace(p, std::move(*r));
+  }
+  std::cout << fmt::format("work bound {:.4f}\n", red::grid::work_bound(s, profile));
+  auto index = [](const red::PolicyRun& r) {
+    std::map<std::pair<int, std::uint64_t>, const red::JobRow*> v;
+    for (const red::JobRow& j : r.jobs) v[{j.operation, j.seq}] = &j;
+    return v;
+  };
+  const auto robust = index(runs.at("red-robust"));
+  for (const char* other : {"edf", "red"}) {
+    std::map<std::string, int> lost;
+    int gained = 0;
+    for (const auto& [k, j] : index(runs.at(other))) {
+      const auto it = robust.find(k);
+      if (it == robust.end()) continue;
+      const bool met_other = j->outcome == red::JobOutcome::Met;
+      const bool met_robust = it->second->outcome == red::JobOutcome::Met;
+      if (met_other && !met_robust)
+        ++lost[std::string(to_string(it->second->outcome)) + " " + it->second->reason];
+      if (!met_other && met_robust) ++gained;
+    }
+    std::cout << fmt::format("vs {}: red-robust meets {} jobs it does not; loses", other, gained);
+    for (const auto& [why, n] : lost) std::cout << fmt::format(" [{}: {}]", why, n);
+    std::cout << "\n";
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int seeds = 3;
   double duration = 4.0;
   std::string markdown;
+  std::string with;
+  std::optional<std::pair<red::grid::SetSpec, double>> point;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -201,14 +256,50 @@ int main(int argc, char** argv) {
       duration = std::atof(next().c_str());
     } else if (a == "--markdown") {
       markdown = next();
+    } else if (a == "--with") {
+      with = next();
+    } else if (a == "--point") {
+      red::grid::SetSpec spec;
+      const std::string nodes = next(), shape = next();
+      spec.nodes = nodes == "mimonet" ? red::grid::Nodes::Mimonet : red::grid::Nodes::Plain;
+      spec.shape = shape == "chain"       ? red::grid::Shape::Chain
+                   : shape == "fork-join" ? red::grid::Shape::ForkJoin
+                                          : red::grid::Shape::Wide;
+      if ((nodes != "plain" && nodes != "mimonet") ||
+          (shape != "chain" && shape != "fork-join" && shape != "wide")) {
+        std::cerr << "red_load_grid: --point plain|mimonet chain|fork-join|wide SEED LANES LOAD\n";
+        return 2;
+      }
+      spec.seed = std::strtoull(next().c_str(), nullptr, 10);
+      spec.lanes = std::atoi(next().c_str());
+      const double load = std::atof(next().c_str());
+      if (spec.lanes < 1 || !(load > 0)) {
+        std::cerr << "red_load_grid: --point needs LANES >= 1 and LOAD > 0\n";
+        return 2;
+      }
+      point = std::pair{spec, load};
     } else {
-      std::cerr << "usage: red_load_grid [--seeds N] [--duration S] [--markdown FILE]\n";
+      std::cerr << "usage: red_load_grid [--seeds N] [--duration S] [--markdown FILE]\n"
+                   "       red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES "
+                   "LOAD [--duration S] [--with K=V,...]\n";
       return 2;
     }
   }
   if (seeds < 1 || !(duration > 1.0)) {
     std::cerr << "red_load_grid: --seeds must be >= 1 and --duration > 1\n";
     return 2;
+  }
+  if (point) {
+    point->first.duration_s = duration;
+    if (std::string err = [&] {
+          red::PolicyOptions o;
+          return red::apply_options(o, with);
+        }();
+        !err.empty()) {
+      std::cerr << "red_load_grid: --with: " << err << "\n";
+      return 2;
+    }
+    return diagnose(point->first, point->second, with);
   }
   const auto t0 = std::chrono::steady_clock::now();
   const red::Profile profile = red::default_profile();
