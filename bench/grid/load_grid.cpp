@@ -200,9 +200,8 @@ int diagnose(const red::grid::SetSpec& spec, double load, const std::string& wit
       return 2;
     }
     const red::PolicyMetrics& m = r->metrics;
-    std::cout << fmt::format("{:<11} on-time {:.4f} ({} of {})  wasted {:5.1f} %  unfinished {}",
-                             p, m.on_time, m.met, m.jobs, 100 * m.wasted_lane_fraction,
-                             m.unfinished);
+    std::cout << fmt::format("{:<11} on-time {:.4f} ({} of {})  wasted {:5.1f} %  unfinished {}", p,
+                             m.on_time, m.met, m.jobs, 100 * m.wasted_lane_fraction, m.unfinished);
     for (const auto& [why, n] : m.drop_reasons) std::cout << fmt::format("  {}: {}", why, n);
     std::cout << "\n";
     runs.emplace(p, std::move(*r));
@@ -291,10 +290,11 @@ int main(int argc, char** argv) {
   }
   if (point) {
     point->first.duration_s = duration;
-    if (std::string err = [&] {
-          red::PolicyOptions o;
-          return red::apply_options(o, with);
-        }();
+    if (std::string err =
+            [&] {
+              red::PolicyOptions o;
+              return red::apply_options(o, with);
+            }();
         !err.empty()) {
       std::cerr << "red_load_grid: --with: " << err << "\n";
       return 2;

@@ -116,8 +116,8 @@ struct Job {
   // costs under the drop estimate, for hopeless checks.
   std::array<Duration, kEstimates> work_base{};
   std::vector<int> enc_queued;
-  Duration cp_drop_base{0};  // longest tail among units not started, drop estimate
-  bool started = false;      // a unit of it has started
+  std::array<Duration, kEstimates> cp_base{};  // longest tail among units not started
+  bool started = false;                        // a unit of it has started
 };
 
 struct Task {
@@ -220,6 +220,8 @@ struct Scheduler::Impl {
   bool released_since_admission = false;
   bool overloaded = false;
   bool mixed_criticality = false;
+  std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
+  std::vector<TimePoint> unit_end;
   // scratch for batching
   std::vector<std::pair<Key, int>> cand;
   struct Scan {
@@ -496,9 +498,8 @@ struct Scheduler::Impl {
     j.running_units.clear();
     j.enc_queued.clear();
     j.work_base.fill(Duration{0});
-    j.cp_drop_base = Duration{0};
+    j.cp_base.fill(Duration{0});
     j.started = false;
-    const std::size_t drop_k = idx(opt.drop_estimate);
     for (std::size_t i = 0; i < g.units.size(); ++i) {
       const UnitRt& u = j.u[i];
       const RefinedUnit& ru = g.units[i];
@@ -512,7 +513,8 @@ struct Scheduler::Impl {
       }
       const Duration c = ru.estimate;
       j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
-      j.cp_drop_base = std::max(j.cp_drop_base, ru.tail[drop_k]);
+      for (std::size_t k = 0; k < kEstimates; ++k)
+        j.cp_base[k] = std::max(j.cp_base[k], ru.tail[k]);
       if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
         j.enc_queued.push_back(static_cast<int>(i));
       } else {
@@ -614,9 +616,14 @@ struct Scheduler::Impl {
   // running unit counting its remainder. A lower bound on its response from now on any
   // number of lanes, unlike the §4 sum of level costs.
   Duration remaining_for_drop(Job& j, TimePoint now) {
+    return critical_path(j, now, idx(opt.drop_estimate));
+  }
+
+  // The longest path through a job's unfinished units under estimate kind k, a running unit
+  // counting its remainder.
+  Duration critical_path(Job& j, TimePoint now, std::size_t k) {
     refresh(j);
-    Duration cp = j.cp_drop_base;
-    const std::size_t k = idx(opt.drop_estimate);
+    Duration cp = j.cp_base[k];
     const RefinedGraph& g = *j.g;
     for (int r : j.running_units) {
       const auto ur = static_cast<std::size_t>(r);
@@ -653,18 +660,85 @@ struct Scheduler::Impl {
     return w;
   }
 
-  // The demand test (§15): taking live jobs by deadline, the first whose deadline comes
-  // before the lanes can do the work due by it (its own and every earlier job's) under
-  // estimate kind k; -1 when all of it fits. A position in by_deadline.
-  int first_overrun(TimePoint now, std::size_t k) {
+  // The demand test (§15): taking live jobs by deadline, the first that the lanes cannot
+  // finish by its deadline under estimate kind k; -1 when all of it fits. A position in
+  // by_deadline. On one lane that is the first whose deadline comes before the work due by
+  // it (its own and every earlier job's): exact for non-preemptive EDF up to blocking. On
+  // several lanes the work due does not say enough: a DAG's critical path cannot use the
+  // lanes' parallelism. `schedule` then list-schedules the remaining units (admission, at
+  // releases); without it (the per-round overload check) the bound is the larger of the
+  // job's own critical path and the work due spread over every lane, a lower bound.
+  int first_overrun(TimePoint now, std::size_t k, bool schedule) {
     const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
+    if (lane_count > 1 && schedule) return first_overrun_lanes(now, k);
     Duration due{0};
     for (std::size_t i = 0; i < by_deadline.size(); ++i) {
       Job& j = job(by_deadline[i]);
       due += work_left(j, now, k);
-      if (due > (j.deadline - now) * lane_count) return static_cast<int>(i);
+      Duration finish = due;
+      if (lane_count > 1) finish = std::max(due / lane_count, critical_path(j, now, k));
+      if (now + finish > j.deadline) return static_cast<int>(i);
     }
     return -1;
+  }
+
+  // The demand test on several lanes: jobs by deadline, each remaining unit at its earliest
+  // start (its predecessors' end, a lane's end) on the lane that leaves the smallest gap.
+
+  int first_overrun_lanes(TimePoint now, std::size_t k) {
+    lane_free.assign(lanes.size(), now);
+    for (std::size_t l = 0; l < lanes.size(); ++l) {
+      if (!lanes[l].busy) continue;
+      for (const Member& mb : lanes[l].d.members) {
+        const Job& j = job(mb.slot);
+        if (!j.live || j.id != mb.job) continue;
+        lane_free[l] =
+            std::max(lane_free[l], now + residual(j, static_cast<std::size_t>(mb.unit), now, k));
+      }
+    }
+    for (std::size_t i = 0; i < by_deadline.size(); ++i) {
+      Job& j = job(by_deadline[i]);
+      const RefinedGraph& g = *j.g;
+      unit_end.assign(g.units.size(), now);
+      TimePoint end = now;
+      for (std::size_t u = 0; u < g.units.size(); ++u) {
+        const UnitRt& ur = j.u[u];
+        if (ur.state == UState::Done || ur.state == UState::Cancelled) continue;
+        if (ur.state == UState::Running) {
+          unit_end[u] = now + residual(j, u, now, k);
+          end = std::max(end, unit_end[u]);
+          continue;
+        }
+        TimePoint ready_at = now;
+        for (int p : g.units[u].preds)
+          ready_at = std::max(ready_at, unit_end[static_cast<std::size_t>(p)]);
+        Duration c = g.units[u].costs[k];
+        if (ur.state == UState::Queued && ur.task >= 0)  // a merged encoder run is shared
+          c /= static_cast<std::int64_t>(std::max<std::size_t>(1, task(ur.task).members.size()));
+        // The lane free the latest by ready_at (the smallest gap), else the one free first.
+        std::size_t best = 0;
+        bool fits = false;
+        for (std::size_t l = 0; l < lane_free.size(); ++l) {
+          const bool f = lane_free[l] <= ready_at;
+          if (f ? (!fits || lane_free[l] > lane_free[best])
+                : (!fits && lane_free[l] < lane_free[best]))
+            best = l;
+          fits = fits || f;
+        }
+        unit_end[u] = std::max(ready_at, lane_free[best]) + c;
+        lane_free[best] = unit_end[u];
+        end = std::max(end, unit_end[u]);
+      }
+      if (end > j.deadline) return static_cast<int>(i);
+    }
+    return -1;
+  }
+
+  // True when an operation that still releases jobs is at its max_inflight (§5).
+  bool saturated() const {
+    for (const OpState& o : ops)
+      if (o.g != nullptr && o.remaining != 0 && o.inflight >= o.max_inflight) return true;
+    return false;
   }
 
   // Admission (§15 "shed early, shed little"): while the work due by some deadline exceeds
@@ -675,7 +749,7 @@ struct Scheduler::Impl {
   void admit(TimePoint now) {
     const std::size_t k = idx(opt.drop_estimate);
     for (;;) {
-      const int over = first_overrun(now, k);
+      const int over = first_overrun(now, k, true);
       if (over < 0) return;
       int victim = -1;
       Duration victim_work{0};
@@ -1277,7 +1351,10 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (idle > 0 && !m.ready.empty()) {
     ++stats_.decisions;
     m.overloaded = (m.opt.rank == RankMode::Overload || m.mixed_criticality) &&
-                   m.first_overrun(now, idx(config_.estimate)) >= 0;
+                   m.first_overrun(now, idx(config_.estimate), false) >= 0;
+    // §5 max_inflight: an operation at its limit skips its next release, so finishing its
+    // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
+    if (m.opt.rank == RankMode::Overload && !m.overloaded) m.overloaded = m.saturated();
     while (idle > 0 && m.pick(now)) --idle;
   }
   // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed
