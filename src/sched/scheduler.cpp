@@ -222,6 +222,7 @@ struct Scheduler::Impl {
   bool mixed_criticality = false;
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
   std::vector<TimePoint> unit_end;
+  std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
   // scratch for batching
   std::vector<std::pair<Key, int>> cand;
   struct Scan {
@@ -687,6 +688,8 @@ struct Scheduler::Impl {
 
   int first_overrun_lanes(TimePoint now, std::size_t k) {
     lane_free.assign(lanes.size(), now);
+    gap_begin.assign(lanes.size(), now);
+    gap_end.assign(lanes.size(), now);
     for (std::size_t l = 0; l < lanes.size(); ++l) {
       if (!lanes[l].busy) continue;
       for (const Member& mb : lanes[l].d.members) {
@@ -715,6 +718,20 @@ struct Scheduler::Impl {
         Duration c = g.units[u].costs[k];
         if (ur.state == UState::Queued && ur.task >= 0)  // a merged encoder run is shared
           c /= static_cast<std::int64_t>(std::max<std::size_t>(1, task(ur.task).members.size()));
+        // An idle gap left on a lane by a unit that waited for its predecessors takes the
+        // unit if it fits (backfilling, as a work-conserving dispatcher would run it there).
+        bool backfilled = false;
+        for (std::size_t l = 0; l < lane_free.size() && !backfilled; ++l) {
+          const TimePoint at = std::max(ready_at, gap_begin[l]);
+          if (at + c > gap_end[l]) continue;
+          unit_end[u] = at + c;
+          gap_begin[l] = unit_end[u];
+          backfilled = true;
+        }
+        if (backfilled) {
+          end = std::max(end, unit_end[u]);
+          continue;
+        }
         // The lane free the latest by ready_at (the smallest gap), else the one free first.
         std::size_t best = 0;
         bool fits = false;
@@ -725,7 +742,12 @@ struct Scheduler::Impl {
             best = l;
           fits = fits || f;
         }
-        unit_end[u] = std::max(ready_at, lane_free[best]) + c;
+        const TimePoint at = std::max(ready_at, lane_free[best]);
+        if (at - lane_free[best] > gap_end[best] - gap_begin[best]) {
+          gap_begin[best] = lane_free[best];  // keep the larger idle gap of the lane
+          gap_end[best] = at;
+        }
+        unit_end[u] = at + c;
         lane_free[best] = unit_end[u];
         end = std::max(end, unit_end[u]);
       }
