@@ -4,6 +4,8 @@
 // decision.
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <limits>
 
 #include "scheduler_impl.hpp"
@@ -146,10 +148,21 @@ bool Scheduler::Impl::saturated() const {
   return false;
 }
 
+void Scheduler::Impl::note_offered(Job& j, TimePoint now) {
+  const double dt = std::chrono::duration<double>(now - offered_at).count();
+  offered = offered * std::exp(-dt / kOfferedWindow) +
+            std::chrono::duration<double>(work_left(j, now, idx(opt.drop_estimate))).count();
+  offered_at = now;
+}
+
 void Scheduler::Impl::admit(TimePoint now) {
   const std::size_t k = idx(opt.drop_estimate);
+  // Below capacity the list schedule's order (jobs by deadline) is not the policy's, and
+  // it would reject jobs that the policy's intermediate deadlines fit in; the lower bound
+  // decides there. Past capacity the list schedule keeps what the lanes cannot finish out.
+  const bool schedule = offered > kOfferedWindow * static_cast<double>(s.config_.lanes);
   for (;;) {
-    const int over = first_overrun(now, k, true);
+    const int over = first_overrun(now, k, schedule);
     if (over < 0) return;
     int victim = -1;
     Duration victim_work{0};

@@ -254,6 +254,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   notify_job(j, JobOutcome::Unfinished, now, true);
   for (std::size_t i = 0; i < g.units.size(); ++i)
     if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
+  if (opt.admission == Admission::Shed) note_offered(j, now);
 }
 
 void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {

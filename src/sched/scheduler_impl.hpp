@@ -177,6 +177,10 @@ struct Scheduler::Impl {
   // since the last admission test; whether the lanes are judged overloaded this round.
   std::vector<int> by_deadline;
   bool released_since_admission = false;
+  // The offered load: work released (drop estimate, seconds), decayed over kOfferedWindow.
+  static constexpr double kOfferedWindow = 0.25;  // seconds
+  double offered = 0.0;
+  TimePoint offered_at{0};
   bool overloaded = false;
   bool mixed_criticality = false;
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
@@ -291,6 +295,9 @@ struct Scheduler::Impl {
   // then the latest. On one lane this is Moore and Hodgson's rule (1968: drop the longest
   // job when a deadline is overrun), which minimizes the number of late jobs.
   void admit(TimePoint now);
+
+  // Adds a released job's work to the offered load (§15 detect overload from demand).
+  void note_offered(Job& j, TimePoint now);
 
   // ---- tasks --------------------------------------------------------------------------
 
