@@ -186,6 +186,14 @@ int rewrite_section(const std::string& file, const std::string& body) {
   return 0;
 }
 
+// The scenario red-robust runs with --with set (ablations); other policies run it as is.
+red::Scenario with_options(const red::Scenario& s, const std::string& policy,
+                           const std::string& with) {
+  red::Scenario out = s;
+  if (policy == "red-robust" && !with.empty()) out.scheduler.policy_with = with;
+  return out;
+}
+
 // One point's diagnostics (--point): where red-robust loses jobs that edf or red keep.
 int diagnose(const red::grid::SetSpec& spec, double load, const std::string& with) {
   const red::Profile profile = red::default_profile();
@@ -312,7 +320,8 @@ int main(int argc, char** argv) {
     for (double load : kLoads) {
       const red::Scenario s = red::grid::set_scenario(spec, profile, load);
       std::map<std::string, Point> pts;
-      for (const std::string& p : kPolicies) pts[p] = red::grid::evaluate(s, profile, p);
+      for (const std::string& p : kPolicies)
+        pts[p] = red::grid::evaluate(with_options(s, p, with), profile, p);
       add_point(sum, family, label, load, pts, red::grid::work_bound(s, profile));
     }
   }
@@ -329,7 +338,8 @@ int main(int argc, char** argv) {
       red::Scenario s = *base;
       if (auto err = red::apply_override(s, "rate_scale", load)) continue;
       std::map<std::string, Point> pts;
-      for (const std::string& pol : kPolicies) pts[pol] = red::grid::evaluate(s, *p, pol);
+      for (const std::string& pol : kPolicies)
+        pts[pol] = red::grid::evaluate(with_options(s, pol, with), *p, pol);
       add_point(sum, std::string("bundled ") + name, name, load, pts, red::grid::work_bound(s, *p));
     }
   }

@@ -536,7 +536,9 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
   // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
   // batching is checked against.
-  if (opt.rank == RankMode::JobDeadline || (opt.rank == RankMode::Overload && overloaded)) {
+  if (opt.rank == RankMode::JobDeadline ||
+      (opt.rank == RankMode::Overload && overloaded &&
+       (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || demand_overrun))) {
     TaskView by_job = v;
     by_job.deadline = v.job_deadline;
     best.rank = s.policy_->rank(by_job, now);
@@ -970,7 +972,16 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
                    m.first_overrun(now, idx(config_.estimate), false) >= 0;
     // §5 max_inflight: an operation at its limit skips its next release, so finishing its
     // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
+    m.demand_overrun = m.overloaded;
     if (m.opt.rank == RankMode::Overload && !m.overloaded) m.overloaded = m.saturated();
+    // §15 "finish what was started": once overloaded, the jobs in flight then are finished
+    // by job deadline; ranking them back by intermediate deadlines between two overloaded
+    // rounds would start newer jobs' early levels ahead of them again.
+    if (m.opt.rank == RankMode::Overload) {
+      if (m.overloaded && !m.by_deadline.empty())
+        m.overload_hold = std::max(m.overload_hold, m.job(m.by_deadline.back()).deadline);
+      m.overloaded = m.overloaded || now < m.overload_hold;
+    }
     while (idle > 0 && m.pick(now)) --idle;
   }
   // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed

@@ -182,6 +182,8 @@ struct Scheduler::Impl {
   double offered = 0.0;
   TimePoint offered_at{0};
   bool overloaded = false;
+  bool demand_overrun = false;  // this round's demand test found more work than the lanes do
+  TimePoint overload_hold{0};   // red-robust ranks by job deadline until then (§15)
   bool mixed_criticality = false;
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
   std::vector<TimePoint> unit_end;
