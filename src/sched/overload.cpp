@@ -155,12 +155,16 @@ void Scheduler::Impl::note_offered(Job& j, TimePoint now) {
   offered_at = now;
 }
 
+bool Scheduler::Impl::past_capacity() const {
+  return offered > kOfferedWindow * static_cast<double>(s.config_.lanes);
+}
+
 void Scheduler::Impl::admit(TimePoint now) {
   const std::size_t k = idx(opt.drop_estimate);
   // Below capacity the list schedule's order (jobs by deadline) is not the policy's, and
   // it would reject jobs that the policy's intermediate deadlines fit in; the lower bound
   // decides there. Past capacity the list schedule keeps what the lanes cannot finish out.
-  const bool schedule = offered > kOfferedWindow * static_cast<double>(s.config_.lanes);
+  const bool schedule = past_capacity();
   for (;;) {
     const int over = first_overrun(now, k, schedule);
     if (over < 0) return;

@@ -750,7 +750,10 @@ bool Scheduler::Impl::pick(TimePoint now) {
       if (opt.drop == DropMode::Hopeless && (opt.rank != RankMode::Overload || overloaded)) {
         for (const auto& [slot, unit] : k.members) {
           Job& j = job(slot);
-          if (now + rt + remaining_for_drop(j, now) > j.deadline) {
+          // Below capacity a job is kept while its best case (0.9 × the drop estimate, the
+          // default profile's min) still makes it: aborting it frees lanes no one lacks.
+          const Duration cp = remaining_for_drop(j, now);
+          if (now + rt + (past_capacity() ? cp : cp * 9 / 10) > j.deadline) {
             j.reason = "hopeless";
             ++s.stats_.hopeless;
             end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again

@@ -298,6 +298,9 @@ struct Scheduler::Impl {
   // job when a deadline is overrun), which minimizes the number of late jobs.
   void admit(TimePoint now);
 
+  // True when the offered load exceeds what the lanes can do (§15 detect from demand).
+  bool past_capacity() const;
+
   // Adds a released job's work to the offered load (§15 detect overload from demand).
   void note_offered(Job& j, TimePoint now);
 
