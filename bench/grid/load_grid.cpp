@@ -54,6 +54,9 @@ struct Summary {
   double wasted_15 = 0;
   int wasted_15_n = 0;
   int points = 0;
+  // points that miss a §15 target: below edf, below red − 0.005, below 0.9 × the bound past
+  // capacity (of `overloaded` points), over 10 % wasted at 1.5×
+  int below_edf = 0, below_red = 0, below_bound = 0, overloaded = 0, over_waste_15 = 0;
 };
 
 void add_point(Summary& sum, const std::string& family, const std::string& label, double load,
@@ -78,6 +81,13 @@ void add_point(Summary& sum, const std::string& family, const std::string& label
     sum.worst_vs_red = robust - pts.at("red").on_time;
     sum.worst_vs_red_at = at;
   }
+  sum.below_edf += robust < pts.at("edf").on_time - 0.005 ? 1 : 0;
+  sum.below_red += robust < pts.at("red").on_time - 0.005 ? 1 : 0;
+  if (load > 1.05 && bound > 0) {
+    ++sum.overloaded;
+    sum.below_bound += robust < 0.9 * bound ? 1 : 0;
+  }
+  if (load == 1.5) sum.over_waste_15 += pts.at("red-robust").wasted > 0.10 ? 1 : 0;
   if (load > 1.05 && bound > 0 && robust / bound < sum.worst_vs_bound) {
     sum.worst_vs_bound = robust / bound;
     sum.worst_vs_bound_at = at;
@@ -119,6 +129,11 @@ std::string render(const Summary& sum, int seeds, double duration) {
       "wasted lane time at 1.5× load ≤ {:.1f} %.\n",
       sum.points, sum.worst_vs_edf, sum.worst_vs_edf_at, sum.worst_vs_red, sum.worst_vs_red_at,
       sum.worst_vs_bound, sum.worst_vs_bound_at, 100 * sum.wasted_15);
+  out += fmt::format(
+      "Points that miss a §15 target: {} of {} below edf − 0.005; {} of {} below red − 0.005; "
+      "{} of {} past capacity below 0.9 × the bound; {} of {} at 1.5× over 10 % wasted.\n",
+      sum.below_edf, sum.points, sum.below_red, sum.points, sum.below_bound, sum.overloaded,
+      sum.over_waste_15, sum.wasted_15_n);
   return out;
 }
 
