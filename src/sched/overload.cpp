@@ -64,10 +64,17 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule) 
   Duration due{0};
   for (std::size_t i = 0; i < by_deadline.size(); ++i) {
     Job& j = job(by_deadline[i]);
-    due += work_left(j, now, k);
-    Duration finish = due;
-    if (lane_count > 1) finish = std::max(due / lane_count, critical_path(j, now, k));
-    if (now + finish > j.deadline) return static_cast<int>(i);
+    const Duration w = work_left(j, now, k);
+    due += w;
+    if (lane_count == 1) {
+      if (now + due > j.deadline) return static_cast<int>(i);
+      continue;
+    }
+    if (now + due / lane_count > j.deadline) return static_cast<int>(i);
+    // The job's critical path is at most its own work: only a job whose work alone does not
+    // fit needs the longer walk.
+    if (now + w > j.deadline && now + critical_path(j, now, k) > j.deadline)
+      return static_cast<int>(i);
   }
   return -1;
 }
