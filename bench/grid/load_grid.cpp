@@ -7,6 +7,11 @@
 /// draws docs/plots/load-grid.svg with gnuplot (when present).
 ///
 ///     red_load_grid [--seeds N] [--duration S] [--markdown docs/BENCHMARKS.md]
+///     red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES LOAD [--with K=V,…]
+///
+/// --point prints one grid point's diagnostics instead: per policy the on-time fraction,
+/// drops by reason and wasted lane time, and the jobs edf or red met that red-robust did
+/// not (with what became of them); --with sets red-robust's options (ablations).
 
 #include <fmt/format.h>
 
@@ -18,6 +23,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -48,6 +54,9 @@ struct Summary {
   double wasted_15 = 0;
   int wasted_15_n = 0;
   int points = 0;
+  // points that miss a §15 target: below edf, below red − 0.005, below 0.9 × the bound past
+  // capacity (of `overloaded` points), over 10 % wasted at 1.5×
+  int below_edf = 0, below_red = 0, below_bound = 0, overloaded = 0, over_waste_15 = 0;
 };
 
 void add_point(Summary& sum, const std::string& family, const std::string& label, double load,
@@ -72,6 +81,13 @@ void add_point(Summary& sum, const std::string& family, const std::string& label
     sum.worst_vs_red = robust - pts.at("red").on_time;
     sum.worst_vs_red_at = at;
   }
+  sum.below_edf += robust < pts.at("edf").on_time - 0.005 ? 1 : 0;
+  sum.below_red += robust < pts.at("red").on_time - 0.005 ? 1 : 0;
+  if (load > 1.05 && bound > 0) {
+    ++sum.overloaded;
+    sum.below_bound += robust < 0.9 * bound ? 1 : 0;
+  }
+  if (load == 1.5) sum.over_waste_15 += pts.at("red-robust").wasted > 0.10 ? 1 : 0;
   if (load > 1.05 && bound > 0 && robust / bound < sum.worst_vs_bound) {
     sum.worst_vs_bound = robust / bound;
     sum.worst_vs_bound_at = at;
@@ -113,6 +129,11 @@ std::string render(const Summary& sum, int seeds, double duration) {
       "wasted lane time at 1.5× load ≤ {:.1f} %.\n",
       sum.points, sum.worst_vs_edf, sum.worst_vs_edf_at, sum.worst_vs_red, sum.worst_vs_red_at,
       sum.worst_vs_bound, sum.worst_vs_bound_at, 100 * sum.wasted_15);
+  out += fmt::format(
+      "Points that miss a §15 target: {} of {} below edf − 0.005; {} of {} below red − 0.005; "
+      "{} of {} past capacity below 0.9 × the bound; {} of {} at 1.5× over 10 % wasted.\n",
+      sum.below_edf, sum.points, sum.below_red, sum.points, sum.below_bound, sum.overloaded,
+      sum.over_waste_15, sum.wasted_15_n);
   return out;
 }
 
@@ -180,12 +201,68 @@ int rewrite_section(const std::string& file, const std::string& body) {
   return 0;
 }
 
+// The scenario red-robust runs with --with set (ablations); other policies run it as is.
+red::Scenario with_options(const red::Scenario& s, const std::string& policy,
+                           const std::string& with) {
+  red::Scenario out = s;
+  if (policy == "red-robust" && !with.empty()) out.scheduler.policy_with = with;
+  return out;
+}
+
+// One point's diagnostics (--point): where red-robust loses jobs that edf or red keep.
+int diagnose(const red::grid::SetSpec& spec, double load, const std::string& with) {
+  const red::Profile profile = red::default_profile();
+  red::Scenario s = red::grid::set_scenario(spec, profile, load);
+  std::map<std::string, red::PolicyRun> runs;
+  for (const std::string& p : kPolicies) {
+    red::Scenario sp = s;
+    if (p == "red-robust") sp.scheduler.policy_with = with;
+    auto r = red::simulate_policy(sp, profile, p, s.seed, {}, false);
+    if (!r) {
+      std::cerr << r.error().to_string() << "\n";
+      return 2;
+    }
+    const red::PolicyMetrics& m = r->metrics;
+    std::cout << fmt::format("{:<11} on-time {:.4f} ({} of {})  wasted {:5.1f} %  unfinished {}", p,
+                             m.on_time, m.met, m.jobs, 100 * m.wasted_lane_fraction, m.unfinished);
+    for (const auto& [why, n] : m.drop_reasons) std::cout << fmt::format("  {}: {}", why, n);
+    std::cout << "\n";
+    runs.emplace(p, std::move(*r));
+  }
+  std::cout << fmt::format("work bound {:.4f}\n", red::grid::work_bound(s, profile));
+  auto index = [](const red::PolicyRun& r) {
+    std::map<std::pair<int, std::uint64_t>, const red::JobRow*> v;
+    for (const red::JobRow& j : r.jobs) v[{j.operation, j.seq}] = &j;
+    return v;
+  };
+  const auto robust = index(runs.at("red-robust"));
+  for (const char* other : {"edf", "red"}) {
+    std::map<std::string, int> lost;
+    int gained = 0;
+    for (const auto& [k, j] : index(runs.at(other))) {
+      const auto it = robust.find(k);
+      if (it == robust.end()) continue;
+      const bool met_other = j->outcome == red::JobOutcome::Met;
+      const bool met_robust = it->second->outcome == red::JobOutcome::Met;
+      if (met_other && !met_robust)
+        ++lost[std::string(to_string(it->second->outcome)) + " " + it->second->reason];
+      if (!met_other && met_robust) ++gained;
+    }
+    std::cout << fmt::format("vs {}: red-robust meets {} jobs it does not; loses", other, gained);
+    for (const auto& [why, n] : lost) std::cout << fmt::format(" [{}: {}]", why, n);
+    std::cout << "\n";
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int seeds = 3;
   double duration = 4.0;
   std::string markdown;
+  std::string with;
+  std::optional<std::pair<red::grid::SetSpec, double>> point;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -201,14 +278,51 @@ int main(int argc, char** argv) {
       duration = std::atof(next().c_str());
     } else if (a == "--markdown") {
       markdown = next();
+    } else if (a == "--with") {
+      with = next();
+    } else if (a == "--point") {
+      red::grid::SetSpec spec;
+      const std::string nodes = next(), shape = next();
+      spec.nodes = nodes == "mimonet" ? red::grid::Nodes::Mimonet : red::grid::Nodes::Plain;
+      spec.shape = shape == "chain"       ? red::grid::Shape::Chain
+                   : shape == "fork-join" ? red::grid::Shape::ForkJoin
+                                          : red::grid::Shape::Wide;
+      if ((nodes != "plain" && nodes != "mimonet") ||
+          (shape != "chain" && shape != "fork-join" && shape != "wide")) {
+        std::cerr << "red_load_grid: --point plain|mimonet chain|fork-join|wide SEED LANES LOAD\n";
+        return 2;
+      }
+      spec.seed = std::strtoull(next().c_str(), nullptr, 10);
+      spec.lanes = std::atoi(next().c_str());
+      const double load = std::atof(next().c_str());
+      if (spec.lanes < 1 || !(load > 0)) {
+        std::cerr << "red_load_grid: --point needs LANES >= 1 and LOAD > 0\n";
+        return 2;
+      }
+      point = std::pair{spec, load};
     } else {
-      std::cerr << "usage: red_load_grid [--seeds N] [--duration S] [--markdown FILE]\n";
+      std::cerr << "usage: red_load_grid [--seeds N] [--duration S] [--markdown FILE]\n"
+                   "       red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES "
+                   "LOAD [--duration S] [--with K=V,...]\n";
       return 2;
     }
   }
   if (seeds < 1 || !(duration > 1.0)) {
     std::cerr << "red_load_grid: --seeds must be >= 1 and --duration > 1\n";
     return 2;
+  }
+  if (point) {
+    point->first.duration_s = duration;
+    if (std::string err =
+            [&] {
+              red::PolicyOptions o;
+              return red::apply_options(o, with);
+            }();
+        !err.empty()) {
+      std::cerr << "red_load_grid: --with: " << err << "\n";
+      return 2;
+    }
+    return diagnose(point->first, point->second, with);
   }
   const auto t0 = std::chrono::steady_clock::now();
   const red::Profile profile = red::default_profile();
@@ -221,7 +335,8 @@ int main(int argc, char** argv) {
     for (double load : kLoads) {
       const red::Scenario s = red::grid::set_scenario(spec, profile, load);
       std::map<std::string, Point> pts;
-      for (const std::string& p : kPolicies) pts[p] = red::grid::evaluate(s, profile, p);
+      for (const std::string& p : kPolicies)
+        pts[p] = red::grid::evaluate(with_options(s, p, with), profile, p);
       add_point(sum, family, label, load, pts, red::grid::work_bound(s, profile));
     }
   }
@@ -238,7 +353,8 @@ int main(int argc, char** argv) {
       red::Scenario s = *base;
       if (auto err = red::apply_override(s, "rate_scale", load)) continue;
       std::map<std::string, Point> pts;
-      for (const std::string& pol : kPolicies) pts[pol] = red::grid::evaluate(s, *p, pol);
+      for (const std::string& pol : kPolicies)
+        pts[pol] = red::grid::evaluate(with_options(s, pol, with), *p, pol);
       add_point(sum, std::string("bundled ") + name, name, load, pts, red::grid::work_bound(s, *p));
     }
   }

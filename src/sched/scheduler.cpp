@@ -6,6 +6,7 @@
 #include <string>
 
 #include "red/core/assert.hpp"
+#include "scheduler_impl.hpp"
 
 namespace red {
 
@@ -61,1065 +62,759 @@ SchedulerConfig SchedulerConfig::from(const Scenario& s, const Profile& p) {
   return c;
 }
 
-namespace {
-
-enum class UState : std::uint8_t { Blocked, Queued, Running, Done, Cancelled };
-
-struct UnitRt {
-  UState state = UState::Blocked;
-  int pending = 0;
-  int task = -1;
-  int share = 1;  // members of the dispatch running it (its cost is shared among them)
-  TimePoint start{0};
-};
-
-constexpr std::size_t kEstimates = 4;  // EstimateKind values
-
-std::size_t idx(EstimateKind k) {
-  return static_cast<std::size_t>(k);
+Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
+    : s(owner), profile(p), opt(owner.policy_->options()) {
+  const Scenario& sc = s.scenario_;
+  costs = CostModel{&profile, &sc.model, s.config_.estimate};
+  ropt = RefineOptions{opt.graph, opt.deadlines, s.config_.level_cost};
+  enc_prof = profile.find("encoder");
+  enc_single = costs.encoder();
+  enc_max_batch = enc_prof != nullptr ? enc_prof->max_batch() : 1;
+  for (std::size_t h = 0; h < sc.model.heads.size(); ++h) {
+    head_single.push_back(costs.head(static_cast<int>(h)));
+    head_prof.push_back(profile.find("head/" + sc.model.heads[h]));
+  }
+  sensors.resize(sc.sensors.size());
+  for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
+  open_enc.resize(sc.sensors.size());
+  lanes.resize(static_cast<std::size_t>(s.config_.lanes));
+  ops.resize(static_cast<std::size_t>(sc.operation_count()));
+  for (int i = 0; i < sc.operation_count(); ++i)
+    if (sc.initial[static_cast<std::size_t>(i)])
+      install(i, sc.initial[static_cast<std::size_t>(i)], TimePoint{0}, true);
+  // Criticality orders work only under overload (§5); the demand test that detects it runs
+  // only when criticalities differ somewhere in the scenario, or the policy ranks by it.
+  int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
+  auto see = [&](const std::shared_ptr<const OperationSpec>& op) {
+    if (!op) return;
+    lo = std::min(lo, op->criticality);
+    hi = std::max(hi, op->criticality);
+  };
+  for (const auto& op : sc.initial) see(op);
+  for (const EventSpec& e : sc.events)
+    for (const auto& [i, op] : e.changes) see(op);
+  mixed_criticality = lo < hi;
 }
 
-struct Job {
-  JobId id = 0;
-  bool live = false;   // slot in use (until its running units have returned)
-  bool ended = false;  // outcome decided
-  int op = -1;
-  std::uint64_t seq = 0;
-  const RefinedGraph* g = nullptr;
-  TimePoint release{0};
-  TimePoint deadline{0};
-  bool counted = true;
-  bool samples_newest = false;
-  std::vector<UnitRt> u;
-  int unfinished = 0;
-  int running = 0;
-  std::vector<std::uint64_t> frame;   // by sensor index: the frame its units read
-  std::vector<TimePoint> frame_time;  // by sensor index
-  TimePoint oldest_frame = kNever;    // oldest frame any of its outputs used
-  std::vector<int> dependents;        // slots of jobs waiting for this one (depends_on)
-  std::vector<JobId> dependent_ids;
-  std::string reason;
-  // §4 re-assignment cache. The base (costs of units not started, per height) changes
-  // only when a unit starts or ends (dirty); running units are adjusted at each decision.
-  bool dirty = true;
-  std::vector<Duration> lvl_base;
-  std::vector<std::uint8_t> has_base;
-  std::vector<int> running_units;
-  Duration remaining_base{0};  // Σ lvl_base
-  std::vector<double> frac;    // budget shares per height, valid while no unit runs
-  std::uint64_t stamp = 0;     // decision stamp the values below are valid for
-  std::vector<Duration> lvl;   // level costs with the running units' remaining costs
-  std::vector<double> frac_now;
-  Duration remaining{0};  // Σ remaining level costs (critical-path estimate)
-  // §15 demand: work of units not started, by estimate kind, encoders aside (a queued
-  // encoder's cost is shared by the members of its task, read when asked); and the level
-  // costs under the drop estimate, for hopeless checks.
-  std::array<Duration, kEstimates> work_base{};
-  std::vector<int> enc_queued;
-  Duration cp_drop_base{0};  // longest tail among units not started, drop estimate
-  bool started = false;      // a unit of it has started
-};
+void Scheduler::Impl::notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event) {
+  if (observers.empty()) return;
+  JobRecord r;
+  r.id = j.id;
+  r.operation = j.op;
+  r.seq = j.seq;
+  r.release = j.release;
+  r.deadline = j.deadline;
+  r.finish = finish;
+  r.outcome = o;
+  r.counted = j.counted;
+  r.frame_age = j.oldest_frame == kNever ? Duration{0} : finish - j.oldest_frame;
+  r.reason = j.reason;
+  r.graph = j.g;
+  for (Observer* ob : observers) release_event ? ob->on_job_release(r) : ob->on_job_end(r);
+}
 
-struct Task {
-  bool live = false;
-  UnitKind kind = UnitKind::Plain;
-  int head = -1;
-  int sensor = -1;
-  bool gamma = false;  // members sample the newest frame: γ-mergeable, newest frame at start
-  std::uint64_t frame = 0;
-  TimePoint frame_time{0};
-  std::vector<std::pair<int, int>> members;  // (job slot, unit)
-  TimePoint min_release{0};
-  TimePoint wait_until{0};
-  int ready_pos = -1;
-  Duration cost{0};
-};
-
-struct OpState {
-  const RefinedGraph* g = nullptr;  // current version; null while not in the workload
-  bool own_rate = false;
-  bool all_at_once = false;    // release: {count} without trigger or rate
-  bool awaits_frames = false;  // all_at_once release held until its sensors have frames
-  double rate_hz = 0.0;
-  int trigger = -1;
-  TimePoint next_tick = kNever;
-  std::uint64_t released = 0;
-  std::int64_t remaining = -1;  // -1: unlimited
-  int inflight = 0;
-  int max_inflight = 2;
-  int depends_on = -1;
-  int criticality = 0;
-  int last_slot = -1;
-  JobId last_job = 0;
-  std::vector<int> sensors_read;  // sensors of its inference nodes
-};
-
-struct SensorState {
-  double rate_hz = 0.0;
-  bool has_frame = false;
-  std::uint64_t frame = 0;
-  TimePoint time{0};
-};
-
-struct Lane {
-  bool busy = false;
-  Dispatch d;
-  TimePoint completed_at = kNever;
-  // §6 on-demand: the jobs of the run this lane's handler was handed. Their ready units
-  // follow back to back; the run ends on a round trip or a transition other than Completed.
-  bool run_open = false;
-  std::vector<std::pair<int, JobId>> run_jobs;
-};
-
-struct Key {
-  std::int64_t rank;
-  TimePoint release;
-  int op;
-  std::uint64_t seq;
-  int node;  // scenario node order (§5 ties); a unit of no node (mono) sorts first
-  int unit;
-  bool operator<(const Key& o) const noexcept {
-    if (rank != o.rank) return rank < o.rank;
-    if (release != o.release) return release < o.release;
-    if (op != o.op) return op < o.op;
-    if (seq != o.seq) return seq < o.seq;
-    if (node != o.node) return node < o.node;
-    return unit < o.unit;
+void Scheduler::Impl::install(int i, const std::shared_ptr<const OperationSpec>& spec, TimePoint at,
+                              bool initial) {
+  OpState& o = ops[static_cast<std::size_t>(i)];
+  if (!spec) {
+    o.g = nullptr;
+    o.next_tick = kNever;
+    return;
   }
-};
-
-}  // namespace
-
-struct Scheduler::Impl {
-  Scheduler& s;
-  const Profile& profile;
-  PolicyOptions opt;
-  CostModel costs;
-  RefineOptions ropt;
-  std::vector<std::shared_ptr<const RefinedGraph>> graphs;  // every version ever used
-  std::vector<OpState> ops;
-  std::vector<SensorState> sensors;
-  std::size_t next_event = 0;
-  std::vector<Job> jobs;
-  std::vector<int> free_jobs;
-  JobId next_job_id = 1;
-  std::vector<Task> tasks;
-  std::vector<int> free_tasks;
-  std::vector<int> ready;
-  std::vector<std::vector<int>> open_enc;  // per sensor: queued encoder tasks
-  std::vector<Lane> lanes;
-  std::vector<Dispatch*> out;
-  std::vector<std::pair<TimePoint, std::pair<int, JobId>>> deadlines;  // min-heap
-  std::vector<Observer*> observers;
-  std::uint64_t stamp = 1;
-  std::uint64_t dispatch_seq = 0;
-  TimePoint min_wait = kNever;
-  // §15 overload: live jobs by (deadline, id), for the demand test; whether a release came
-  // since the last admission test; whether the lanes are judged overloaded this round.
-  std::vector<int> by_deadline;
-  bool released_since_admission = false;
-  bool overloaded = false;
-  bool mixed_criticality = false;
-  // scratch for batching
-  std::vector<std::pair<Key, int>> cand;
-  struct Scan {
-    Key key;
-    TimePoint deadline;
-    int task;
-    int criticality;
-  };
-  std::vector<Scan> scanned;
-  std::vector<int> batch;
-  Duration enc_single{0};
-  int enc_max_batch = 1;
-  std::vector<Duration> head_single;
-  std::vector<const UnitProfile*> head_prof;
-  const UnitProfile* enc_prof = nullptr;
-
-  Impl(Scheduler& owner, const Profile& p) : s(owner), profile(p), opt(owner.policy_->options()) {
-    const Scenario& sc = s.scenario_;
-    costs = CostModel{&profile, &sc.model, s.config_.estimate};
-    ropt = RefineOptions{opt.graph, opt.deadlines, s.config_.level_cost};
-    enc_prof = profile.find("encoder");
-    enc_single = costs.encoder();
-    enc_max_batch = enc_prof != nullptr ? enc_prof->max_batch() : 1;
-    for (std::size_t h = 0; h < sc.model.heads.size(); ++h) {
-      head_single.push_back(costs.head(static_cast<int>(h)));
-      head_prof.push_back(profile.find("head/" + sc.model.heads[h]));
+  const bool was_active = o.g != nullptr;
+  graphs.push_back(refine(spec, i, costs, ropt));
+  o.g = graphs.back().get();
+  const double old_rate = o.rate_hz;
+  o.trigger = spec->trigger_sensor;
+  o.own_rate = spec->trigger_sensor < 0 && spec->rate_hz > 0.0;
+  o.all_at_once = spec->trigger_sensor < 0 && spec->rate_hz <= 0.0;
+  o.rate_hz = spec->rate_hz;
+  o.max_inflight = spec->max_inflight;
+  o.depends_on = spec->depends_on;
+  o.criticality = spec->criticality;
+  if (!was_active) o.remaining = spec->release_count ? *spec->release_count : -1;
+  o.sensors_read = o.g->sensors;
+  // A held all-at-once release survives a new version of its operation (§2 events).
+  if (!o.all_at_once) o.awaits_frames = false;
+  if (o.own_rate || o.all_at_once) {
+    if (!was_active || initial) {
+      o.next_tick = at + spec->phase;
+      o.awaits_frames = false;
+    } else if (o.own_rate && old_rate != o.rate_hz) {
+      // A rate change takes effect from the next release: one new period from now.
+      o.next_tick = at + period_of(o.rate_hz);
     }
-    sensors.resize(sc.sensors.size());
-    for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
-    open_enc.resize(sc.sensors.size());
-    lanes.resize(static_cast<std::size_t>(s.config_.lanes));
-    ops.resize(static_cast<std::size_t>(sc.operation_count()));
-    for (int i = 0; i < sc.operation_count(); ++i)
-      if (sc.initial[static_cast<std::size_t>(i)])
-        install(i, sc.initial[static_cast<std::size_t>(i)], TimePoint{0}, true);
-    // Criticality orders work only under overload (§5); the demand test that detects it runs
-    // only when criticalities differ somewhere in the scenario, or the policy ranks by it.
-    int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
-    auto see = [&](const std::shared_ptr<const OperationSpec>& op) {
-      if (!op) return;
-      lo = std::min(lo, op->criticality);
-      hi = std::max(hi, op->criticality);
-    };
-    for (const auto& op : sc.initial) see(op);
-    for (const EventSpec& e : sc.events)
-      for (const auto& [i, op] : e.changes) see(op);
-    mixed_criticality = lo < hi;
+  } else {
+    o.next_tick = kNever;
   }
+}
 
-  void notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event) {
-    if (observers.empty()) return;
-    JobRecord r;
-    r.id = j.id;
-    r.operation = j.op;
-    r.seq = j.seq;
-    r.release = j.release;
-    r.deadline = j.deadline;
-    r.finish = finish;
-    r.outcome = o;
-    r.counted = j.counted;
-    r.frame_age = j.oldest_frame == kNever ? Duration{0} : finish - j.oldest_frame;
-    r.reason = j.reason;
-    r.graph = j.g;
-    for (Observer* ob : observers) release_event ? ob->on_job_release(r) : ob->on_job_end(r);
+int Scheduler::Impl::alloc_job() {
+  if (!free_jobs.empty()) {
+    const int slot = free_jobs.back();
+    free_jobs.pop_back();
+    return slot;
   }
+  jobs.emplace_back();
+  return static_cast<int>(jobs.size() - 1);
+}
 
-  // Makes snapshot `spec` the current definition of operation `i` (§4: one refinement per
-  // graph version, shared by every job released with it).
-  void install(int i, const std::shared_ptr<const OperationSpec>& spec, TimePoint at,
-               bool initial) {
-    OpState& o = ops[static_cast<std::size_t>(i)];
-    if (!spec) {
-      o.g = nullptr;
-      o.next_tick = kNever;
-      return;
+bool Scheduler::Impl::inputs_ready(const RefinedGraph& g, int trigger_sensor) const {
+  for (int sn : g.sensors)
+    if (sn != trigger_sensor && !sensors[static_cast<std::size_t>(sn)].has_frame) return false;
+  return true;
+}
+
+void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
+                              std::uint64_t trigger_frame) {
+  OpState& o = ops[static_cast<std::size_t>(op_index)];
+  if (o.g == nullptr || o.remaining == 0) return;
+  // §3: a job computes on frames its sensors produced. Before a sensor's first frame there
+  // is nothing to read, so this tick or trigger frame releases no job.
+  if (!inputs_ready(*o.g, trigger_sensor)) return;
+  if (o.remaining > 0) --o.remaining;
+  const std::uint64_t seq = o.released++;
+  ++s.stats_.releases;
+  const RefinedGraph& g = *o.g;
+  if (o.inflight >= o.max_inflight) {
+    // §5 overload: the frame is skipped and counted as a drop.
+    Job tmp;
+    tmp.id = next_job_id++;
+    tmp.op = op_index;
+    tmp.seq = seq;
+    tmp.g = &g;
+    tmp.release = now;
+    tmp.deadline = now + g.deadline;
+    tmp.counted = now >= s.config_.warmup;
+    tmp.reason = "max_inflight";
+    notify_job(tmp, JobOutcome::Skipped, now, true);
+    notify_job(tmp, JobOutcome::Skipped, now, false);
+    return;
+  }
+  const int slot = alloc_job();
+  Job& j = job(slot);
+  j.id = next_job_id++;
+  j.live = true;
+  j.ended = false;
+  j.op = op_index;
+  j.seq = seq;
+  j.g = &g;
+  j.release = now;
+  j.deadline = now + g.deadline;
+  j.counted = now >= s.config_.warmup;
+  j.samples_newest = trigger_sensor < 0;
+  j.unfinished = static_cast<int>(g.units.size());
+  j.running = 0;
+  j.oldest_frame = kNever;
+  j.reason.clear();
+  j.dependents.clear();
+  j.dependent_ids.clear();
+  j.stamp = 0;
+  j.dirty = true;
+  j.started = false;
+  j.frame.assign(sensors.size(), 0);
+  j.frame_time.assign(sensors.size(), now);
+  for (int sn : g.sensors) {
+    const auto si = static_cast<std::size_t>(sn);
+    if (sn == trigger_sensor) {
+      j.frame[si] = trigger_frame;
+      j.frame_time[si] = sensors[si].time;
+    } else if (sensors[si].has_frame) {
+      j.frame[si] = sensors[si].frame;
+      j.frame_time[si] = sensors[si].time;
     }
-    const bool was_active = o.g != nullptr;
-    graphs.push_back(refine(spec, i, costs, ropt));
-    o.g = graphs.back().get();
-    const double old_rate = o.rate_hz;
-    o.trigger = spec->trigger_sensor;
-    o.own_rate = spec->trigger_sensor < 0 && spec->rate_hz > 0.0;
-    o.all_at_once = spec->trigger_sensor < 0 && spec->rate_hz <= 0.0;
-    o.rate_hz = spec->rate_hz;
-    o.max_inflight = spec->max_inflight;
-    o.depends_on = spec->depends_on;
-    o.criticality = spec->criticality;
-    if (!was_active) o.remaining = spec->release_count ? *spec->release_count : -1;
-    o.sensors_read = o.g->sensors;
-    // A held all-at-once release survives a new version of its operation (§2 events).
-    if (!o.all_at_once) o.awaits_frames = false;
-    if (o.own_rate || o.all_at_once) {
-      if (!was_active || initial) {
-        o.next_tick = at + spec->phase;
-        o.awaits_frames = false;
-      } else if (o.own_rate && old_rate != o.rate_hz) {
-        // A rate change takes effect from the next release: one new period from now.
-        o.next_tick = at + period_of(o.rate_hz);
+  }
+  j.u.assign(g.units.size(), UnitRt{});
+  for (std::size_t i = 0; i < g.units.size(); ++i)
+    j.u[i].pending = static_cast<int>(g.units[i].preds.size());
+  // depends_on {use: latest}: the newest job of that operation must end first (§11).
+  if (o.depends_on >= 0) {
+    OpState& dep = ops[static_cast<std::size_t>(o.depends_on)];
+    if (dep.last_slot >= 0) {
+      Job& d = job(dep.last_slot);
+      if (d.live && !d.ended && d.id == dep.last_job) {
+        d.dependents.push_back(slot);
+        d.dependent_ids.push_back(j.id);
+        for (int u : g.head_sources) ++j.u[static_cast<std::size_t>(u)].pending;
       }
+    }
+  }
+  o.last_slot = slot;
+  o.last_job = j.id;
+  ++o.inflight;
+  ++s.in_flight_;
+  by_deadline.insert(std::upper_bound(by_deadline.begin(), by_deadline.end(), slot,
+                                      [this](int a, int b) { return earlier(a, b); }),
+                     slot);
+  released_since_admission = true;
+  if (opt.drop != DropMode::None) {
+    deadlines.push_back({j.deadline, {slot, j.id}});
+    std::push_heap(deadlines.begin(), deadlines.end(), std::greater<>{});
+  }
+  notify_job(j, JobOutcome::Unfinished, now, true);
+  for (std::size_t i = 0; i < g.units.size(); ++i)
+    if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
+  if (opt.admission == Admission::Shed) note_offered(j, now);
+}
+
+void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
+  Job& j = job(slot);
+  if (j.ended) return;
+  j.ended = true;
+  --s.in_flight_;
+  --ops[static_cast<std::size_t>(j.op)].inflight;
+  const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
+                                   [this](int a, int b) { return earlier(a, b); });
+  if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);
+  if (outcome != JobOutcome::Met && outcome != JobOutcome::Missed) {
+    // Abort (§5 strict): queued units leave their tasks; running ones finish and their
+    // output is discarded when they return.
+    for (std::size_t i = 0; i < j.u.size(); ++i) {
+      UnitRt& u = j.u[i];
+      if (u.state == UState::Queued) remove_member(u.task, slot, static_cast<int>(i));
+      if (u.state == UState::Queued || u.state == UState::Blocked) u.state = UState::Cancelled;
+      j.dirty = true;
+    }
+  }
+  notify_job(j, outcome, now, false);
+  // Dependents may go on: they use the newest output there is.
+  for (std::size_t k = 0; k < j.dependents.size(); ++k) {
+    const int ds = j.dependents[k];
+    Job& d = job(ds);
+    if (!d.live || d.ended || d.id != j.dependent_ids[k]) continue;
+    for (int u : d.g->head_sources) {
+      UnitRt& ur = d.u[static_cast<std::size_t>(u)];
+      if (ur.state == UState::Blocked && --ur.pending == 0) make_ready(ds, u);
+    }
+  }
+  if (j.running == 0) free_job(slot);
+}
+
+void Scheduler::Impl::free_job(int slot) {
+  Job& j = job(slot);
+  j.live = false;
+  free_jobs.push_back(slot);
+}
+
+void Scheduler::Impl::refresh(Job& j) {
+  if (!j.dirty) return;
+  j.dirty = false;
+  const RefinedGraph& g = *j.g;
+  const auto levels = static_cast<std::size_t>(g.levels);
+  const bool sum = s.config_.level_cost == LevelCost::Sum;
+  j.lvl_base.assign(levels, Duration{0});
+  j.has_base.assign(levels, 0);
+  j.running_units.clear();
+  j.enc_queued.clear();
+  j.work_base.fill(Duration{0});
+  j.cp_base.fill(Duration{0});
+  j.started = false;
+  for (std::size_t i = 0; i < g.units.size(); ++i) {
+    const UnitRt& u = j.u[i];
+    const RefinedUnit& ru = g.units[i];
+    if (u.state == UState::Done || u.state == UState::Running) j.started = true;
+    if (u.state == UState::Done || u.state == UState::Cancelled) continue;
+    const auto h = static_cast<std::size_t>(ru.height);
+    j.has_base[h] = 1;
+    if (u.state == UState::Running) {
+      j.running_units.push_back(static_cast<int>(i));
+      continue;
+    }
+    const Duration c = ru.estimate;
+    j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
+    for (std::size_t k = 0; k < kEstimates; ++k) j.cp_base[k] = std::max(j.cp_base[k], ru.tail[k]);
+    if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
+      j.enc_queued.push_back(static_cast<int>(i));
     } else {
-      o.next_tick = kNever;
+      for (std::size_t k = 0; k < kEstimates; ++k) j.work_base[k] += ru.costs[k];
     }
   }
+  j.remaining_base = Duration{0};
+  for (Duration l : j.lvl_base) j.remaining_base += l;
 
-  Job& job(int slot) { return jobs[static_cast<std::size_t>(slot)]; }
-  Task& task(int t) { return tasks[static_cast<std::size_t>(t)]; }
+  if (opt.reassign && j.running_units.empty()) shares(j, j.lvl_base, j.has_base, j.frac);
+}
 
-  // ---- jobs ---------------------------------------------------------------------------
-
-  int alloc_job() {
-    if (!free_jobs.empty()) {
-      const int slot = free_jobs.back();
-      free_jobs.pop_back();
-      return slot;
+void Scheduler::Impl::shares(const Job& j, const std::vector<Duration>& lvl,
+                             const std::vector<std::uint8_t>& has,
+                             std::vector<double>& frac) const {
+  const RefinedGraph& g = *j.g;
+  const std::size_t levels = lvl.size();
+  frac.resize(levels);
+  std::int64_t total = 0;
+  std::int64_t n = 0;
+  for (std::size_t h = 0; h < levels; ++h) {
+    if (has[h] == 0) continue;
+    ++n;
+    total += (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
+  }
+  const bool equal = opt.deadlines == DeadlineMode::Equal || total <= 0;
+  const std::int64_t denom = equal ? n : total;
+  std::int64_t cum = 0;
+  double last = 0.0;  // before the first height with work: now
+  for (std::size_t h = 0; h < levels; ++h) {
+    if (has[h] != 0) {
+      cum +=
+          equal ? 1 : (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
+      last = cum == denom ? 1.0 : static_cast<double>(cum) / static_cast<double>(denom);
     }
-    jobs.emplace_back();
-    return static_cast<int>(jobs.size() - 1);
+    frac[h] = last;
   }
+}
 
-  // True when every sensor the graph reads has produced a frame (the trigger frame counts).
-  bool inputs_ready(const RefinedGraph& g, int trigger_sensor) const {
-    for (int sn : g.sensors)
-      if (sn != trigger_sensor && !sensors[static_cast<std::size_t>(sn)].has_frame) return false;
-    return true;
+TimePoint Scheduler::Impl::from_share(const Job& j, double frac, TimePoint now) {
+  const Duration budget = j.deadline - now;
+  if (budget <= Duration{0} || frac == 1.0) return j.deadline;
+  return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
+}
+
+void Scheduler::Impl::eval(Job& j, TimePoint now) {
+  refresh(j);
+  if (j.stamp == stamp) return;
+  j.stamp = stamp;
+  const RefinedGraph& g = *j.g;
+  const bool sum = s.config_.level_cost == LevelCost::Sum;
+  j.lvl = j.lvl_base;
+  for (int i : j.running_units) {
+    const UnitRt& u = j.u[static_cast<std::size_t>(i)];
+    Duration c = g.units[static_cast<std::size_t>(i)].estimate;
+    if (now > u.start) c = std::max(Duration{0}, c - (now - u.start));
+    const auto h = static_cast<std::size_t>(g.units[static_cast<std::size_t>(i)].height);
+    j.lvl[h] = sum ? j.lvl[h] + c : std::max(j.lvl[h], c);
   }
+  j.remaining = Duration{0};
+  for (Duration l : j.lvl) j.remaining += l;
+  if (opt.reassign) shares(j, j.lvl, j.has_base, j.frac_now);
+}
 
-  void release(int op_index, TimePoint now, int trigger_sensor, std::uint64_t trigger_frame) {
-    OpState& o = ops[static_cast<std::size_t>(op_index)];
-    if (o.g == nullptr || o.remaining == 0) return;
-    // §3: a job computes on frames its sensors produced. Before a sensor's first frame there
-    // is nothing to read, so this tick or trigger frame releases no job.
-    if (!inputs_ready(*o.g, trigger_sensor)) return;
-    if (o.remaining > 0) --o.remaining;
-    const std::uint64_t seq = o.released++;
-    ++s.stats_.releases;
-    const RefinedGraph& g = *o.g;
-    if (o.inflight >= o.max_inflight) {
-      // §5 overload: the frame is skipped and counted as a drop.
-      Job tmp;
-      tmp.id = next_job_id++;
-      tmp.op = op_index;
-      tmp.seq = seq;
-      tmp.g = &g;
-      tmp.release = now;
-      tmp.deadline = now + g.deadline;
-      tmp.counted = now >= s.config_.warmup;
-      tmp.reason = "max_inflight";
-      notify_job(tmp, JobOutcome::Skipped, now, true);
-      notify_job(tmp, JobOutcome::Skipped, now, false);
+TimePoint Scheduler::Impl::height_deadline(Job& j, int h, TimePoint now) {
+  const auto hi = static_cast<std::size_t>(h);
+  switch (opt.deadlines) {
+    case DeadlineMode::None:
+      return j.release;
+    case DeadlineMode::EndToEnd:
+      return j.deadline;
+    case DeadlineMode::Proportional:
+    case DeadlineMode::Equal:
+      break;
+  }
+  if (!opt.reassign) return j.release + j.g->static_offset[hi];
+  refresh(j);
+  if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
+  eval(j, now);
+  return from_share(j, j.frac_now[hi], now);
+}
+
+Duration Scheduler::Impl::remaining_work(Job& j, TimePoint now) {
+  refresh(j);
+  if (j.running_units.empty()) return j.remaining_base;
+  eval(j, now);
+  return j.remaining;
+}
+
+int Scheduler::Impl::alloc_task() {
+  int t;
+  if (!free_tasks.empty()) {
+    t = free_tasks.back();
+    free_tasks.pop_back();
+  } else {
+    tasks.emplace_back();
+    t = static_cast<int>(tasks.size() - 1);
+  }
+  Task& k = task(t);
+  k.live = true;
+  k.members.clear();
+  k.wait_until = TimePoint{0};
+  k.ready_pos = -1;
+  return t;
+}
+
+void Scheduler::Impl::push_ready(int t) {
+  task(t).ready_pos = static_cast<int>(ready.size());
+  ready.push_back(t);
+}
+
+void Scheduler::Impl::pop_ready(int t) {
+  Task& k = task(t);
+  if (k.ready_pos < 0) return;
+  const int last = ready.back();
+  ready[static_cast<std::size_t>(k.ready_pos)] = last;
+  task(last).ready_pos = k.ready_pos;
+  ready.pop_back();
+  k.ready_pos = -1;
+}
+
+void Scheduler::Impl::drop_open(int t) {
+  Task& k = task(t);
+  if (k.kind != UnitKind::Encoder) return;
+  auto& v = open_enc[static_cast<std::size_t>(k.sensor)];
+  v.erase(std::remove(v.begin(), v.end(), t), v.end());
+}
+
+void Scheduler::Impl::free_task(int t) {
+  pop_ready(t);
+  drop_open(t);
+  task(t).live = false;
+  free_tasks.push_back(t);
+}
+
+void Scheduler::Impl::remove_member(int t, int slot, int unit) {
+  Task& k = task(t);
+  auto& m = k.members;
+  m.erase(std::remove(m.begin(), m.end(), std::pair<int, int>{slot, unit}), m.end());
+  if (m.empty()) {
+    free_task(t);
+    return;
+  }
+  k.min_release = kNever;
+  for (auto [js, ju] : m) k.min_release = std::min(k.min_release, job(js).release);
+}
+
+void Scheduler::Impl::make_ready(int slot, int unit) {
+  Job& j = job(slot);
+  const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
+  UnitRt& u = j.u[static_cast<std::size_t>(unit)];
+  u.state = UState::Queued;
+  if (ru.kind == UnitKind::Encoder && opt.merge) {
+    const auto si = static_cast<std::size_t>(ru.sensor);
+    const std::uint64_t frame = j.frame[si];
+    // DynamicMerge (§3): 1. same frame, unconditionally; 2. a γ-cluster of releases
+    // that sample the newest frame, while max(release) − min(release) ≤ γ.
+    for (int t : open_enc[si]) {
+      Task& k = task(t);
+      const bool same = k.frame == frame && (!k.gamma || j.samples_newest);
+      const bool gamma =
+          k.gamma && j.samples_newest && j.release - k.min_release <= s.config_.gamma;
+      if (!same && !gamma) continue;
+      k.members.emplace_back(slot, unit);
+      if (gamma && frame > k.frame) {
+        k.frame = frame;
+        k.frame_time = j.frame_time[si];
+      }
+      k.wait_until = TimePoint{0};  // the member it may have waited for has come
+      u.task = t;
       return;
     }
-    const int slot = alloc_job();
-    Job& j = job(slot);
-    j.id = next_job_id++;
-    j.live = true;
-    j.ended = false;
-    j.op = op_index;
-    j.seq = seq;
-    j.g = &g;
-    j.release = now;
-    j.deadline = now + g.deadline;
-    j.counted = now >= s.config_.warmup;
-    j.samples_newest = trigger_sensor < 0;
-    j.unfinished = static_cast<int>(g.units.size());
-    j.running = 0;
-    j.oldest_frame = kNever;
-    j.reason.clear();
-    j.dependents.clear();
-    j.dependent_ids.clear();
-    j.stamp = 0;
-    j.dirty = true;
-    j.started = false;
-    j.frame.assign(sensors.size(), 0);
-    j.frame_time.assign(sensors.size(), now);
-    for (int sn : g.sensors) {
-      const auto si = static_cast<std::size_t>(sn);
-      if (sn == trigger_sensor) {
-        j.frame[si] = trigger_frame;
-        j.frame_time[si] = sensors[si].time;
-      } else if (sensors[si].has_frame) {
-        j.frame[si] = sensors[si].frame;
-        j.frame_time[si] = sensors[si].time;
-      }
-    }
-    j.u.assign(g.units.size(), UnitRt{});
-    for (std::size_t i = 0; i < g.units.size(); ++i)
-      j.u[i].pending = static_cast<int>(g.units[i].preds.size());
-    // depends_on {use: latest}: the newest job of that operation must end first (§11).
-    if (o.depends_on >= 0) {
-      OpState& dep = ops[static_cast<std::size_t>(o.depends_on)];
-      if (dep.last_slot >= 0) {
-        Job& d = job(dep.last_slot);
-        if (d.live && !d.ended && d.id == dep.last_job) {
-          d.dependents.push_back(slot);
-          d.dependent_ids.push_back(j.id);
-          for (int u : g.head_sources) ++j.u[static_cast<std::size_t>(u)].pending;
-        }
-      }
-    }
-    o.last_slot = slot;
-    o.last_job = j.id;
-    ++o.inflight;
-    ++s.in_flight_;
-    by_deadline.insert(std::upper_bound(by_deadline.begin(), by_deadline.end(), slot,
-                                        [this](int a, int b) { return earlier(a, b); }),
-                       slot);
-    released_since_admission = true;
-    if (opt.drop != DropMode::None) {
-      deadlines.push_back({j.deadline, {slot, j.id}});
-      std::push_heap(deadlines.begin(), deadlines.end(), std::greater<>{});
-    }
-    notify_job(j, JobOutcome::Unfinished, now, true);
-    for (std::size_t i = 0; i < g.units.size(); ++i)
-      if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
   }
+  const int t = alloc_task();
+  Task& k = task(t);
+  k.kind = ru.kind;
+  k.head = ru.head;
+  k.sensor = ru.sensor;
+  k.gamma = ru.kind == UnitKind::Encoder && j.samples_newest;
+  k.frame = ru.sensor >= 0 ? j.frame[static_cast<std::size_t>(ru.sensor)] : 0;
+  k.frame_time = ru.sensor >= 0 ? j.frame_time[static_cast<std::size_t>(ru.sensor)] : j.release;
+  k.members.emplace_back(slot, unit);
+  k.min_release = j.release;
+  k.cost = ru.estimate;
+  u.task = t;
+  push_ready(t);
+  if (ru.kind == UnitKind::Encoder && opt.merge)
+    open_enc[static_cast<std::size_t>(ru.sensor)].push_back(t);
+}
 
-  void end_job(int slot, JobOutcome outcome, TimePoint now) {
-    Job& j = job(slot);
-    if (j.ended) return;
-    j.ended = true;
-    --s.in_flight_;
-    --ops[static_cast<std::size_t>(j.op)].inflight;
-    const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
-                                     [this](int a, int b) { return earlier(a, b); });
-    if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);
-    if (outcome != JobOutcome::Met && outcome != JobOutcome::Missed) {
-      // Abort (§5 strict): queued units leave their tasks; running ones finish and their
-      // output is discarded when they return.
-      for (std::size_t i = 0; i < j.u.size(); ++i) {
-        UnitRt& u = j.u[i];
-        if (u.state == UState::Queued) remove_member(u.task, slot, static_cast<int>(i));
-        if (u.state == UState::Queued || u.state == UState::Blocked) u.state = UState::Cancelled;
-        j.dirty = true;
-      }
-    }
-    notify_job(j, outcome, now, false);
-    // Dependents may go on: they use the newest output there is.
-    for (std::size_t k = 0; k < j.dependents.size(); ++k) {
-      const int ds = j.dependents[k];
-      Job& d = job(ds);
-      if (!d.live || d.ended || d.id != j.dependent_ids[k]) continue;
-      for (int u : d.g->head_sources) {
-        UnitRt& ur = d.u[static_cast<std::size_t>(u)];
-        if (ur.state == UState::Blocked && --ur.pending == 0) make_ready(ds, u);
-      }
-    }
-    if (j.running == 0) free_job(slot);
-  }
-
-  // Order of live jobs in by_deadline: end-to-end deadline, then job id.
-  bool earlier(int a, int b) const {
-    const Job& x = jobs[static_cast<std::size_t>(a)];
-    const Job& y = jobs[static_cast<std::size_t>(b)];
-    return x.deadline != y.deadline ? x.deadline < y.deadline : x.id < y.id;
-  }
-
-  void free_job(int slot) {
-    Job& j = job(slot);
-    j.live = false;
-    free_jobs.push_back(slot);
-  }
-
-  // Rebuilds what changes only when one of the job's units starts or ends: the costs of
-  // its units not yet started, per height, and — when none is running — the shares of the
-  // re-assigned budget (§4), which are then the same at every decision.
-  void refresh(Job& j) {
-    if (!j.dirty) return;
-    j.dirty = false;
-    const RefinedGraph& g = *j.g;
-    const auto levels = static_cast<std::size_t>(g.levels);
-    const bool sum = s.config_.level_cost == LevelCost::Sum;
-    j.lvl_base.assign(levels, Duration{0});
-    j.has_base.assign(levels, 0);
-    j.running_units.clear();
-    j.enc_queued.clear();
-    j.work_base.fill(Duration{0});
-    j.cp_drop_base = Duration{0};
-    j.started = false;
-    const std::size_t drop_k = idx(opt.drop_estimate);
-    for (std::size_t i = 0; i < g.units.size(); ++i) {
-      const UnitRt& u = j.u[i];
-      const RefinedUnit& ru = g.units[i];
-      if (u.state == UState::Done || u.state == UState::Running) j.started = true;
-      if (u.state == UState::Done || u.state == UState::Cancelled) continue;
-      const auto h = static_cast<std::size_t>(ru.height);
-      j.has_base[h] = 1;
-      if (u.state == UState::Running) {
-        j.running_units.push_back(static_cast<int>(i));
-        continue;
-      }
-      const Duration c = ru.estimate;
-      j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
-      j.cp_drop_base = std::max(j.cp_drop_base, ru.tail[drop_k]);
-      if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
-        j.enc_queued.push_back(static_cast<int>(i));
-      } else {
-        for (std::size_t k = 0; k < kEstimates; ++k) j.work_base[k] += ru.costs[k];
-      }
-    }
-    j.remaining_base = Duration{0};
-    for (Duration l : j.lvl_base) j.remaining_base += l;
-
-    if (opt.reassign && j.running_units.empty()) shares(j, j.lvl_base, j.has_base, j.frac);
-  }
-
-  // §4 re-assignment: the budget left, B = deadline − now, is spread over the heights that
-  // still have work in proportion to their remaining level costs (or per-node overrides);
-  // height h ends at now + B · frac[h], frac[h] the cumulative share up to h (exactly 1 for
-  // the last height: its deadline is the job's).
-  void shares(const Job& j, const std::vector<Duration>& lvl, const std::vector<std::uint8_t>& has,
-              std::vector<double>& frac) const {
-    const RefinedGraph& g = *j.g;
-    const std::size_t levels = lvl.size();
-    frac.resize(levels);
-    std::int64_t total = 0;
-    std::int64_t n = 0;
-    for (std::size_t h = 0; h < levels; ++h) {
-      if (has[h] == 0) continue;
-      ++n;
-      total += (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
-    }
-    const bool equal = opt.deadlines == DeadlineMode::Equal || total <= 0;
-    const std::int64_t denom = equal ? n : total;
-    std::int64_t cum = 0;
-    double last = 0.0;  // before the first height with work: now
-    for (std::size_t h = 0; h < levels; ++h) {
-      if (has[h] != 0) {
-        cum += equal ? 1
-                     : (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
-        last = cum == denom ? 1.0 : static_cast<double>(cum) / static_cast<double>(denom);
-      }
-      frac[h] = last;
-    }
-  }
-
-  static TimePoint from_share(const Job& j, double frac, TimePoint now) {
-    const Duration budget = j.deadline - now;
-    if (budget <= Duration{0} || frac == 1.0) return j.deadline;
-    return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
-  }
-
-  // A job with running units: their remaining cost is c(x) − elapsed, at least 0 (§4), so
-  // level costs, the remaining work and the shares depend on now. Cached per decision.
-  void eval(Job& j, TimePoint now) {
-    refresh(j);
-    if (j.stamp == stamp) return;
-    j.stamp = stamp;
-    const RefinedGraph& g = *j.g;
-    const bool sum = s.config_.level_cost == LevelCost::Sum;
-    j.lvl = j.lvl_base;
-    for (int i : j.running_units) {
-      const UnitRt& u = j.u[static_cast<std::size_t>(i)];
-      Duration c = g.units[static_cast<std::size_t>(i)].estimate;
-      if (now > u.start) c = std::max(Duration{0}, c - (now - u.start));
-      const auto h = static_cast<std::size_t>(g.units[static_cast<std::size_t>(i)].height);
-      j.lvl[h] = sum ? j.lvl[h] + c : std::max(j.lvl[h], c);
-    }
-    j.remaining = Duration{0};
-    for (Duration l : j.lvl) j.remaining += l;
-    if (opt.reassign) shares(j, j.lvl, j.has_base, j.frac_now);
-  }
-
-  // Absolute intermediate deadline of height h of a job at `now` (§4, §7).
-  TimePoint height_deadline(Job& j, int h, TimePoint now) {
-    const auto hi = static_cast<std::size_t>(h);
-    switch (opt.deadlines) {
-      case DeadlineMode::None:
-        return j.release;
-      case DeadlineMode::EndToEnd:
-        return j.deadline;
-      case DeadlineMode::Proportional:
-      case DeadlineMode::Equal:
-        break;
-    }
-    if (!opt.reassign) return j.release + j.g->static_offset[hi];
-    refresh(j);
-    if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
-    eval(j, now);
-    return from_share(j, j.frac_now[hi], now);
-  }
-
-  // Estimated work left in a job (Σ remaining level costs: its critical-path estimate).
-  Duration remaining_work(Job& j, TimePoint now) {
-    refresh(j);
-    if (j.running_units.empty()) return j.remaining_base;
-    eval(j, now);
-    return j.remaining;
-  }
-
-  // The job's remaining critical path under the drop estimate (§15: optimistic, so that a
-  // job that can still make it is kept): the longest path through its unfinished units, a
-  // running unit counting its remainder. A lower bound on its response from now on any
-  // number of lanes, unlike the §4 sum of level costs.
-  Duration remaining_for_drop(Job& j, TimePoint now) {
-    refresh(j);
-    Duration cp = j.cp_drop_base;
-    const std::size_t k = idx(opt.drop_estimate);
-    const RefinedGraph& g = *j.g;
-    for (int r : j.running_units) {
-      const auto ur = static_cast<std::size_t>(r);
-      Duration after{0};
-      for (int sx : g.units[ur].succs)
-        after = std::max(after, g.units[static_cast<std::size_t>(sx)].tail[k]);
-      cp = std::max(cp, residual(j, ur, now, k) + after);
-    }
-    return cp;
-  }
-
-  // Remaining cost of a running unit under estimate kind k (§4: c(x) − elapsed, at least 0).
-  Duration residual(const Job& j, std::size_t unit, TimePoint now, std::size_t k) const {
-    const Duration c = j.g->units[unit].costs[k];
-    const TimePoint start = j.u[unit].start;
-    return now > start ? std::max(Duration{0}, c - (now - start)) : c;
-  }
-
-  // §15 demand: the lane time a job still needs under estimate kind k. A queued encoder run
-  // is shared by the members of its task and a running unit by the members of its dispatch,
-  // so shared encoder runs are counted once.
-  Duration work_left(Job& j, TimePoint now, std::size_t k) {
-    refresh(j);
-    Duration w = j.work_base[k];
-    for (int u : j.enc_queued) {
-      const UnitRt& ur = j.u[static_cast<std::size_t>(u)];
-      const auto members = std::max<std::size_t>(1, task(ur.task).members.size());
-      w += j.g->units[static_cast<std::size_t>(u)].costs[k] / static_cast<std::int64_t>(members);
-    }
-    for (int u : j.running_units) {
-      const auto ui = static_cast<std::size_t>(u);
-      w += residual(j, ui, now, k) / std::max(1, j.u[ui].share);
-    }
-    return w;
-  }
-
-  // The demand test (§15): taking live jobs by deadline, the first whose deadline comes
-  // before the lanes can do the work due by it (its own and every earlier job's) under
-  // estimate kind k; -1 when all of it fits. A position in by_deadline.
-  int first_overrun(TimePoint now, std::size_t k) {
-    const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
-    Duration due{0};
-    for (std::size_t i = 0; i < by_deadline.size(); ++i) {
-      Job& j = job(by_deadline[i]);
-      due += work_left(j, now, k);
-      if (due > (j.deadline - now) * lane_count) return static_cast<int>(i);
-    }
-    return -1;
-  }
-
-  // Admission (§15 "shed early, shed little"): while the work due by some deadline exceeds
-  // what the lanes can do by then (on the optimistic drop estimate), reject one unstarted
-  // job due by then: the least critical, then the one whose removal saves the most work,
-  // then the latest. On one lane this is Moore and Hodgson's rule (1968: drop the longest
-  // job when a deadline is overrun), which minimizes the number of late jobs.
-  void admit(TimePoint now) {
-    const std::size_t k = idx(opt.drop_estimate);
-    for (;;) {
-      const int over = first_overrun(now, k);
-      if (over < 0) return;
-      int victim = -1;
-      Duration victim_work{0};
-      int victim_crit = 0;
-      for (int i = 0; i <= over; ++i) {
-        const int slot = by_deadline[static_cast<std::size_t>(i)];
-        Job& j = job(slot);
-        refresh(j);
-        if (j.started) continue;
-        const int crit = ops[static_cast<std::size_t>(j.op)].criticality;
-        const Duration w = work_left(j, now, k);
-        const bool better = victim < 0 || crit < victim_crit ||
-                            (crit == victim_crit && w > victim_work) ||
-                            (crit == victim_crit && w == victim_work);  // later deadline wins
-        if (better) {
-          victim = slot;
-          victim_work = w;
-          victim_crit = crit;
-        }
-      }
-      if (victim < 0) return;  // only started jobs are due by then: hopeless checks decide
-      job(victim).reason = "rejected at release";
-      ++s.stats_.rejected;
-      end_job(victim, JobOutcome::Dropped, now);
-    }
-  }
-
-  // ---- tasks --------------------------------------------------------------------------
-
-  int alloc_task() {
-    int t;
-    if (!free_tasks.empty()) {
-      t = free_tasks.back();
-      free_tasks.pop_back();
-    } else {
-      tasks.emplace_back();
-      t = static_cast<int>(tasks.size() - 1);
-    }
-    Task& k = task(t);
-    k.live = true;
-    k.members.clear();
-    k.wait_until = TimePoint{0};
-    k.ready_pos = -1;
-    return t;
-  }
-
-  void push_ready(int t) {
-    task(t).ready_pos = static_cast<int>(ready.size());
-    ready.push_back(t);
-  }
-
-  void pop_ready(int t) {
-    Task& k = task(t);
-    if (k.ready_pos < 0) return;
-    const int last = ready.back();
-    ready[static_cast<std::size_t>(k.ready_pos)] = last;
-    task(last).ready_pos = k.ready_pos;
-    ready.pop_back();
-    k.ready_pos = -1;
-  }
-
-  void drop_open(int t) {
-    Task& k = task(t);
-    if (k.kind != UnitKind::Encoder) return;
-    auto& v = open_enc[static_cast<std::size_t>(k.sensor)];
-    v.erase(std::remove(v.begin(), v.end(), t), v.end());
-  }
-
-  void free_task(int t) {
-    pop_ready(t);
-    drop_open(t);
-    task(t).live = false;
-    free_tasks.push_back(t);
-  }
-
-  void remove_member(int t, int slot, int unit) {
-    Task& k = task(t);
-    auto& m = k.members;
-    m.erase(std::remove(m.begin(), m.end(), std::pair<int, int>{slot, unit}), m.end());
-    if (m.empty()) {
-      free_task(t);
-      return;
-    }
-    k.min_release = kNever;
-    for (auto [js, ju] : m) k.min_release = std::min(k.min_release, job(js).release);
-  }
-
-  void make_ready(int slot, int unit) {
+Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
+  Task& k = task(t);
+  v = TaskView{};
+  v.deadline = kNever;
+  v.release = kNever;
+  v.job_deadline = kNever;
+  v.cost = k.cost;
+  Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
+  for (auto [slot, unit] : k.members) {
     Job& j = job(slot);
     const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
-    UnitRt& u = j.u[static_cast<std::size_t>(unit)];
-    u.state = UState::Queued;
-    if (ru.kind == UnitKind::Encoder && opt.merge) {
-      const auto si = static_cast<std::size_t>(ru.sensor);
-      const std::uint64_t frame = j.frame[si];
-      // DynamicMerge (§3): 1. same frame, unconditionally; 2. a γ-cluster of releases
-      // that sample the newest frame, while max(release) − min(release) ≤ γ.
-      for (int t : open_enc[si]) {
-        Task& k = task(t);
-        const bool same = k.frame == frame && (!k.gamma || j.samples_newest);
-        const bool gamma =
-            k.gamma && j.samples_newest && j.release - k.min_release <= s.config_.gamma;
-        if (!same && !gamma) continue;
-        k.members.emplace_back(slot, unit);
-        if (gamma && frame > k.frame) {
-          k.frame = frame;
-          k.frame_time = j.frame_time[si];
-        }
-        k.wait_until = TimePoint{0};  // the member it may have waited for has come
-        u.task = t;
-        return;
+    v.deadline = std::min(v.deadline, height_deadline(j, ru.height, now));
+    v.release = std::min(v.release, j.release);
+    v.job_deadline = std::min(v.job_deadline, j.deadline);
+    v.remaining = std::max(v.remaining, remaining_work(j, now));
+    v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
+    const Key mk{0, j.release, j.op, j.seq, ru.node, unit};
+    if (mk < best) best = mk;
+  }
+  v.overloaded = overloaded;
+  // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
+  // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
+  // batching is checked against.
+  if (opt.rank == RankMode::JobDeadline ||
+      (opt.rank == RankMode::Overload && overloaded &&
+       (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || demand_overrun))) {
+    TaskView by_job = v;
+    by_job.deadline = v.job_deadline;
+    best.rank = s.policy_->rank(by_job, now);
+  } else {
+    best.rank = s.policy_->rank(v, now);
+  }
+  return best;
+}
+
+TimePoint Scheduler::Impl::predicted_member(const Task& k, TimePoint now) const {
+  TimePoint best = kNever;
+  for (std::size_t i = 0; i < ops.size(); ++i) {
+    const OpState& o = ops[i];
+    // An operation at max_inflight will skip its next release: nothing to wait for.
+    if (o.g == nullptr || !o.own_rate || o.remaining == 0 || o.inflight >= o.max_inflight) continue;
+    if (o.next_tick <= now || o.next_tick - k.min_release > s.config_.gamma) continue;
+    if (std::find(o.sensors_read.begin(), o.sensors_read.end(), k.sensor) == o.sensors_read.end())
+      continue;
+    bool member = false;
+    for (auto [slot, unit] : k.members)
+      member = member || jobs[static_cast<std::size_t>(slot)].op == static_cast<int>(i);
+    if (!member) best = std::min(best, o.next_tick);
+  }
+  return best;
+}
+
+bool Scheduler::Impl::slack_covers(Task& k, TimePoint now, TimePoint until) {
+  for (auto [slot, unit] : k.members) {
+    Job& j = job(slot);
+    if (j.deadline - now - remaining_work(j, now) - round_trip_cost(true) < until - now)
+      return false;
+  }
+  return true;
+}
+
+Duration Scheduler::Impl::round_trip_cost(bool round_trip) const {
+  return round_trip ? s.config_.sync_cost : Duration{0};
+}
+
+Duration Scheduler::Impl::batch_estimate(const Task& k, int b) const {
+  const UnitProfile* p =
+      k.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(k.head)];
+  return p != nullptr ? p->at(b).estimate(s.config_.estimate) : k.cost * b;
+}
+
+int Scheduler::Impl::batch_limit(const Task& k) const {
+  const UnitProfile* p =
+      k.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(k.head)];
+  return std::min(s.config_.max_batch, p != nullptr ? p->max_batch() : 1);
+}
+
+bool Scheduler::Impl::on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const {
+  if (opt.sync != SyncMode::OnDemand || lane.completed_at != now || !lane.run_open) return false;
+  for (auto [slot, unit] : k.members) {
+    const JobId id = jobs[static_cast<std::size_t>(slot)].id;
+    for (const auto& [rs, rid] : lane.run_jobs)
+      if (rs == slot && rid == id) return true;
+  }
+  return false;
+}
+
+int Scheduler::Impl::choose_lane(const Task& k, TimePoint now) const {
+  int fallback = -1;
+  bool fallback_open = true;
+  for (std::size_t i = 0; i < lanes.size(); ++i) {
+    const Lane& l = lanes[i];
+    if (l.busy) continue;
+    if (on_demand_continuation(l, k, now)) return static_cast<int>(i);
+    const bool open = l.run_open && l.completed_at == now;
+    if (fallback < 0 || (fallback_open && !open)) {
+      fallback = static_cast<int>(i);
+      fallback_open = open;
+    }
+  }
+  return fallback;
+}
+
+void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint deadline) {
+  Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
+  Dispatch& d = lane.d;
+  const Task& first = task(batch.front());
+  d.id = ++dispatch_seq;
+  d.lane = lane_index;
+  d.kind = first.kind;
+  d.head = first.head;
+  d.sensor = first.sensor;
+  d.batch = static_cast<int>(batch.size());
+  d.members.clear();
+  d.task_begin.clear();
+  d.deadline = deadline;
+  d.decided_at = now;
+  d.start = now;
+  d.round_trip = !on_demand_continuation(lane, first, now);
+  // A round trip starts a new run: the handler is handed these jobs' work (§6).
+  if (d.round_trip) lane.run_jobs.clear();
+  lane.run_open = false;
+  for (int t : batch) {
+    Task& k = task(t);
+    d.task_begin.push_back(static_cast<int>(d.members.size()));
+    if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
+      // A γ-merged run uses the newest frame available when it starts (§3). Without
+      // DynamicMerge a job keeps the frame it sampled at release: its encoders on one
+      // sensor run as separate tasks, and their heads must all read that one frame.
+      const SensorState& sn = sensors[static_cast<std::size_t>(k.sensor)];
+      if (sn.has_frame && sn.frame > k.frame) {
+        k.frame = sn.frame;
+        k.frame_time = sn.time;
       }
     }
-    const int t = alloc_task();
-    Task& k = task(t);
-    k.kind = ru.kind;
-    k.head = ru.head;
-    k.sensor = ru.sensor;
-    k.gamma = ru.kind == UnitKind::Encoder && j.samples_newest;
-    k.frame = ru.sensor >= 0 ? j.frame[static_cast<std::size_t>(ru.sensor)] : 0;
-    k.frame_time = ru.sensor >= 0 ? j.frame_time[static_cast<std::size_t>(ru.sensor)] : j.release;
-    k.members.emplace_back(slot, unit);
-    k.min_release = j.release;
-    k.cost = ru.estimate;
-    u.task = t;
-    push_ready(t);
-    if (ru.kind == UnitKind::Encoder && opt.merge)
-      open_enc[static_cast<std::size_t>(ru.sensor)].push_back(t);
-  }
-
-  // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
-  Key key(int t, TimePoint now, TaskView& v) {
-    Task& k = task(t);
-    v = TaskView{};
-    v.deadline = kNever;
-    v.release = kNever;
-    v.job_deadline = kNever;
-    v.cost = k.cost;
-    Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
     for (auto [slot, unit] : k.members) {
       Job& j = job(slot);
+      UnitRt& u = j.u[static_cast<std::size_t>(unit)];
+      u.state = UState::Running;
+      j.dirty = true;
+      u.task = -1;
+      u.start = now;
+      u.share = static_cast<int>(k.members.size());
+      if (std::find(lane.run_jobs.begin(), lane.run_jobs.end(),
+                    std::pair<int, JobId>{slot, j.id}) == lane.run_jobs.end())
+        lane.run_jobs.emplace_back(slot, j.id);
+      ++j.running;
       const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
-      v.deadline = std::min(v.deadline, height_deadline(j, ru.height, now));
-      v.release = std::min(v.release, j.release);
-      v.job_deadline = std::min(v.job_deadline, j.deadline);
-      v.remaining = std::max(v.remaining, remaining_work(j, now));
-      v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
-      const Key mk{0, j.release, j.op, j.seq, ru.node, unit};
-      if (mk < best) best = mk;
+      Member m;
+      m.job = j.id;
+      m.slot = slot;
+      m.unit = unit;
+      m.operation = j.op;
+      m.node = ru.node;
+      m.job_seq = j.seq;
+      m.release = j.release;
+      m.graph = j.g;
+      if (ru.sensor >= 0) {
+        const auto si = static_cast<std::size_t>(ru.sensor);
+        if (ru.kind == UnitKind::Encoder) {
+          j.frame[si] = k.frame;  // its head reads the features of this frame
+          j.frame_time[si] = k.frame_time;
+        }
+        m.frame = j.frame[si];
+        m.frame_time = j.frame_time[si];
+        j.oldest_frame = std::min(j.oldest_frame, m.frame_time);
+      } else if (ru.kind == UnitKind::Mono && !j.g->sensors.empty()) {
+        const auto si = static_cast<std::size_t>(j.g->sensors.front());
+        m.frame = j.frame[si];
+        m.frame_time = j.frame_time[si];
+        for (int sn : j.g->sensors)
+          j.oldest_frame = std::min(j.oldest_frame, j.frame_time[static_cast<std::size_t>(sn)]);
+      }
+      d.members.push_back(m);
     }
-    v.overloaded = overloaded;
-    // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
-    // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
-    // batching is checked against.
-    if (opt.rank == RankMode::JobDeadline || (opt.rank == RankMode::Overload && overloaded)) {
-      TaskView by_job = v;
-      by_job.deadline = v.job_deadline;
-      best.rank = s.policy_->rank(by_job, now);
-    } else {
-      best.rank = s.policy_->rank(v, now);
-    }
-    return best;
+    free_task(t);
   }
+  d.task_begin.push_back(static_cast<int>(d.members.size()));
+  lane.busy = true;
+  ++s.stats_.dispatches;
+  if (d.round_trip) ++s.stats_.round_trips;
+  out.push_back(&d);
+}
 
-  // The predicted release, within γ of the task's first member, of another operation that
-  // samples the same sensor (§3 rule 2); kNever if none.
-  TimePoint predicted_member(const Task& k, TimePoint now) const {
-    TimePoint best = kNever;
-    for (std::size_t i = 0; i < ops.size(); ++i) {
-      const OpState& o = ops[i];
-      // An operation at max_inflight will skip its next release: nothing to wait for.
-      if (o.g == nullptr || !o.own_rate || o.remaining == 0 || o.inflight >= o.max_inflight)
-        continue;
-      if (o.next_tick <= now || o.next_tick - k.min_release > s.config_.gamma) continue;
-      if (std::find(o.sensors_read.begin(), o.sensors_read.end(), k.sensor) == o.sensors_read.end())
-        continue;
-      bool member = false;
-      for (auto [slot, unit] : k.members)
-        member = member || jobs[static_cast<std::size_t>(slot)].op == static_cast<int>(i);
-      if (!member) best = std::min(best, o.next_tick);
+bool Scheduler::Impl::pick(TimePoint now) {
+  for (;;) {
+    // One scan ranks every ready task (the policy's key, and the deadline batching
+    // orders by); a merge wait then only moves to the next best entry of the scan.
+    scanned.clear();
+    // Criticality (§5): under overload — the demand test finds more work due than the
+    // lanes can do, or some ready job cannot, by estimate, finish alone by its deadline —
+    // ready work of the most critical operations goes first and lower-criticality work
+    // waits, so it is shed first. With equal criticalities (the default) nothing changes.
+    bool overload = overloaded;
+    int top = std::numeric_limits<int>::min();
+    for (int t : ready) {
+      if (task(t).wait_until > now) continue;
+      TaskView v;
+      const Key k = key(t, now, v);
+      scanned.push_back({k, v.deadline, t, v.criticality});
+      overload = overload || now + v.remaining > v.job_deadline;
+      top = std::max(top, v.criticality);
     }
-    return best;
-  }
-
-  // A merge wait until `until` is taken only if every member's slack still covers it; the
-  // run after the wait pays a round trip (the handler parked meanwhile).
-  bool slack_covers(Task& k, TimePoint now, TimePoint until) {
-    for (auto [slot, unit] : k.members) {
-      Job& j = job(slot);
-      if (j.deadline - now - remaining_work(j, now) - round_trip_cost(true) < until - now)
-        return false;
+    const int shed_below = overload ? top : std::numeric_limits<int>::min();
+    auto before = [shed_below](const Scan& a, const Scan& b) {
+      const bool shed_a = a.criticality < shed_below, shed_b = b.criticality < shed_below;
+      return shed_a != shed_b ? shed_b : a.key < b.key;
+    };
+    int best = -1;
+    int lane_index = -1;
+    Duration rt{0};  // the round trip the dispatch to lane_index pays
+    const Scan* best_scan = nullptr;
+    TimePoint best_deadline{};
+    bool rescan = false;
+    for (;;) {
+      best = -1;
+      best_scan = nullptr;
+      for (const Scan& e : scanned) {
+        if (task(e.task).wait_until > now) continue;  // began a merge wait this round
+        if (best_scan == nullptr || before(e, *best_scan)) {
+          best_scan = &e;
+          best = e.task;
+          best_deadline = e.deadline;
+        }
+      }
+      if (best < 0) return false;
+      Task& k = task(best);
+      lane_index = choose_lane(k, now);
+      if (lane_index < 0) return false;
+      rt = round_trip_cost(
+          !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
+      // §5 hopeless, on the drop estimate and with the round trip this dispatch pays. An
+      // overload-aware policy (rank=overload) aborts only while overloaded: with the lanes
+      // to spare, a job that may still make it costs no other job anything.
+      if (opt.drop == DropMode::Hopeless && (opt.rank != RankMode::Overload || overloaded)) {
+        for (const auto& [slot, unit] : k.members) {
+          Job& j = job(slot);
+          // Below capacity a job is kept while its best case (0.9 × the drop estimate, the
+          // default profile's min) still makes it: aborting it frees lanes no one lacks.
+          const Duration cp = remaining_for_drop(j, now);
+          if (now + rt + (past_capacity() ? cp : cp * 9 / 10) > j.deadline) {
+            j.reason = "hopeless";
+            ++s.stats_.hopeless;
+            end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again
+            rescan = true;
+            break;
+          }
+        }
+        if (rescan) break;
+      }
+      if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
+        const TimePoint until = predicted_member(k, now);
+        if (until != kNever && slack_covers(k, now, until)) {
+          k.wait_until = until;
+          min_wait = std::min(min_wait, until);
+          ++s.stats_.merge_waits;
+          for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);
+          continue;
+        }
+      }
+      break;
     }
+    if (rescan) continue;
+    Task& k = task(best);
+    batch.clear();
+    batch.push_back(best);
+    TimePoint deadline = best_deadline;
+    if (opt.batching && (k.kind == UnitKind::Encoder || k.kind == UnitKind::Head)) {
+      const int limit = batch_limit(k);
+      cand.clear();
+      for (const Scan& e : scanned) {
+        if (limit <= 1) break;
+        const Task& o = task(e.task);
+        if (e.task == best || o.kind != k.kind || o.head != k.head || o.wait_until > now) continue;
+        Key byd = e.key;
+        byd.rank = e.deadline.count();  // a batch takes its members by deadline
+        cand.emplace_back(byd, e.task);
+      }
+      // Only the max_batch − 1 earliest can join: order just those.
+      const auto take = std::min(cand.size(), static_cast<std::size_t>(std::max(0, limit - 1)));
+      std::partial_sort(cand.begin(), cand.begin() + static_cast<std::ptrdiff_t>(take), cand.end(),
+                        [](const auto& a, const auto& b) { return a.first < b.first; });
+      cand.resize(take);
+      const Duration single =
+          k.kind == UnitKind::Encoder ? enc_single : head_single[static_cast<std::size_t>(k.head)];
+      for (const auto& [kk, t] : cand) {
+        const int b = static_cast<int>(batch.size()) + 1;
+        if (b > limit) break;
+        // Batch only when it is cheaper than running one by one and, by estimate, still
+        // meets the earliest member deadline once the round trip it pays is over (§3
+        // inter-DAG batching).
+        const Duration cb = batch_estimate(k, b);
+        const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
+        if (cb >= single * b || now + rt + cb > dl) break;
+        batch.push_back(t);
+        deadline = dl;
+      }
+    }
+    start_dispatch(lane_index, now, deadline);
     return true;
   }
-
-  Duration round_trip_cost(bool round_trip) const {
-    return round_trip ? s.config_.sync_cost : Duration{0};
-  }
-
-  Duration batch_estimate(const Task& k, int b) const {
-    const UnitProfile* p =
-        k.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(k.head)];
-    return p != nullptr ? p->at(b).estimate(s.config_.estimate) : k.cost * b;
-  }
-
-  int batch_limit(const Task& k) const {
-    const UnitProfile* p =
-        k.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(k.head)];
-    return std::min(s.config_.max_batch, p != nullptr ? p->max_batch() : 1);
-  }
-
-  // §6 on-demand: the task continues the run the lane's handler holds — its last unit
-  // completed just now and the task is ready work of a job of the run (a merged encoder's
-  // member heads, a job's ready units of a height, their successors) — so the handler goes
-  // on without a round trip. Anything else, or per-edge synchronization, pays one.
-  bool on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const {
-    if (opt.sync != SyncMode::OnDemand || lane.completed_at != now || !lane.run_open) return false;
-    for (auto [slot, unit] : k.members) {
-      const JobId id = jobs[static_cast<std::size_t>(slot)].id;
-      for (const auto& [rs, rid] : lane.run_jobs)
-        if (rs == slot && rid == id) return true;
-    }
-    return false;
-  }
-
-  // The idle lane for a task (§6 placement): one whose run it continues, else one without
-  // an open run (keeping open runs for their own work), else the first idle lane; -1 if none.
-  int choose_lane(const Task& k, TimePoint now) const {
-    int fallback = -1;
-    bool fallback_open = true;
-    for (std::size_t i = 0; i < lanes.size(); ++i) {
-      const Lane& l = lanes[i];
-      if (l.busy) continue;
-      if (on_demand_continuation(l, k, now)) return static_cast<int>(i);
-      const bool open = l.run_open && l.completed_at == now;
-      if (fallback < 0 || (fallback_open && !open)) {
-        fallback = static_cast<int>(i);
-        fallback_open = open;
-      }
-    }
-    return fallback;
-  }
-
-  void start_dispatch(int lane_index, TimePoint now, TimePoint deadline) {
-    Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
-    Dispatch& d = lane.d;
-    const Task& first = task(batch.front());
-    d.id = ++dispatch_seq;
-    d.lane = lane_index;
-    d.kind = first.kind;
-    d.head = first.head;
-    d.sensor = first.sensor;
-    d.batch = static_cast<int>(batch.size());
-    d.members.clear();
-    d.task_begin.clear();
-    d.deadline = deadline;
-    d.decided_at = now;
-    d.start = now;
-    d.round_trip = !on_demand_continuation(lane, first, now);
-    // A round trip starts a new run: the handler is handed these jobs' work (§6).
-    if (d.round_trip) lane.run_jobs.clear();
-    lane.run_open = false;
-    for (int t : batch) {
-      Task& k = task(t);
-      d.task_begin.push_back(static_cast<int>(d.members.size()));
-      if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
-        // A γ-merged run uses the newest frame available when it starts (§3). Without
-        // DynamicMerge a job keeps the frame it sampled at release: its encoders on one
-        // sensor run as separate tasks, and their heads must all read that one frame.
-        const SensorState& sn = sensors[static_cast<std::size_t>(k.sensor)];
-        if (sn.has_frame && sn.frame > k.frame) {
-          k.frame = sn.frame;
-          k.frame_time = sn.time;
-        }
-      }
-      for (auto [slot, unit] : k.members) {
-        Job& j = job(slot);
-        UnitRt& u = j.u[static_cast<std::size_t>(unit)];
-        u.state = UState::Running;
-        j.dirty = true;
-        u.task = -1;
-        u.start = now;
-        u.share = static_cast<int>(k.members.size());
-        if (std::find(lane.run_jobs.begin(), lane.run_jobs.end(),
-                      std::pair<int, JobId>{slot, j.id}) == lane.run_jobs.end())
-          lane.run_jobs.emplace_back(slot, j.id);
-        ++j.running;
-        const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
-        Member m;
-        m.job = j.id;
-        m.slot = slot;
-        m.unit = unit;
-        m.operation = j.op;
-        m.node = ru.node;
-        m.job_seq = j.seq;
-        m.release = j.release;
-        m.graph = j.g;
-        if (ru.sensor >= 0) {
-          const auto si = static_cast<std::size_t>(ru.sensor);
-          if (ru.kind == UnitKind::Encoder) {
-            j.frame[si] = k.frame;  // its head reads the features of this frame
-            j.frame_time[si] = k.frame_time;
-          }
-          m.frame = j.frame[si];
-          m.frame_time = j.frame_time[si];
-          j.oldest_frame = std::min(j.oldest_frame, m.frame_time);
-        } else if (ru.kind == UnitKind::Mono && !j.g->sensors.empty()) {
-          const auto si = static_cast<std::size_t>(j.g->sensors.front());
-          m.frame = j.frame[si];
-          m.frame_time = j.frame_time[si];
-          for (int sn : j.g->sensors)
-            j.oldest_frame = std::min(j.oldest_frame, j.frame_time[static_cast<std::size_t>(sn)]);
-        }
-        d.members.push_back(m);
-      }
-      free_task(t);
-    }
-    d.task_begin.push_back(static_cast<int>(d.members.size()));
-    lane.busy = true;
-    ++s.stats_.dispatches;
-    if (d.round_trip) ++s.stats_.round_trips;
-    out.push_back(&d);
-  }
-
-  // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
-  bool pick(TimePoint now) {
-    for (;;) {
-      // One scan ranks every ready task (the policy's key, and the deadline batching
-      // orders by); a merge wait then only moves to the next best entry of the scan.
-      scanned.clear();
-      // Criticality (§5): under overload — the demand test finds more work due than the
-      // lanes can do, or some ready job cannot, by estimate, finish alone by its deadline —
-      // ready work of the most critical operations goes first and lower-criticality work
-      // waits, so it is shed first. With equal criticalities (the default) nothing changes.
-      bool overload = overloaded;
-      int top = std::numeric_limits<int>::min();
-      for (int t : ready) {
-        if (task(t).wait_until > now) continue;
-        TaskView v;
-        const Key k = key(t, now, v);
-        scanned.push_back({k, v.deadline, t, v.criticality});
-        overload = overload || now + v.remaining > v.job_deadline;
-        top = std::max(top, v.criticality);
-      }
-      const int shed_below = overload ? top : std::numeric_limits<int>::min();
-      auto before = [shed_below](const Scan& a, const Scan& b) {
-        const bool shed_a = a.criticality < shed_below, shed_b = b.criticality < shed_below;
-        return shed_a != shed_b ? shed_b : a.key < b.key;
-      };
-      int best = -1;
-      int lane_index = -1;
-      Duration rt{0};  // the round trip the dispatch to lane_index pays
-      const Scan* best_scan = nullptr;
-      TimePoint best_deadline{};
-      bool rescan = false;
-      for (;;) {
-        best = -1;
-        best_scan = nullptr;
-        for (const Scan& e : scanned) {
-          if (task(e.task).wait_until > now) continue;  // began a merge wait this round
-          if (best_scan == nullptr || before(e, *best_scan)) {
-            best_scan = &e;
-            best = e.task;
-            best_deadline = e.deadline;
-          }
-        }
-        if (best < 0) return false;
-        Task& k = task(best);
-        lane_index = choose_lane(k, now);
-        if (lane_index < 0) return false;
-        rt = round_trip_cost(
-            !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
-        // §5 hopeless, on the drop estimate and with the round trip this dispatch pays. An
-        // overload-aware policy (rank=overload) aborts only while overloaded: with the lanes
-        // to spare, a job that may still make it costs no other job anything.
-        if (opt.drop == DropMode::Hopeless && (opt.rank != RankMode::Overload || overloaded)) {
-          for (const auto& [slot, unit] : k.members) {
-            Job& j = job(slot);
-            if (now + rt + remaining_for_drop(j, now) > j.deadline) {
-              j.reason = "hopeless";
-              ++s.stats_.hopeless;
-              end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again
-              rescan = true;
-              break;
-            }
-          }
-          if (rescan) break;
-        }
-        if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
-          const TimePoint until = predicted_member(k, now);
-          if (until != kNever && slack_covers(k, now, until)) {
-            k.wait_until = until;
-            min_wait = std::min(min_wait, until);
-            ++s.stats_.merge_waits;
-            for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);
-            continue;
-          }
-        }
-        break;
-      }
-      if (rescan) continue;
-      Task& k = task(best);
-      batch.clear();
-      batch.push_back(best);
-      TimePoint deadline = best_deadline;
-      if (opt.batching && (k.kind == UnitKind::Encoder || k.kind == UnitKind::Head)) {
-        const int limit = batch_limit(k);
-        cand.clear();
-        for (const Scan& e : scanned) {
-          if (limit <= 1) break;
-          const Task& o = task(e.task);
-          if (e.task == best || o.kind != k.kind || o.head != k.head || o.wait_until > now)
-            continue;
-          Key byd = e.key;
-          byd.rank = e.deadline.count();  // a batch takes its members by deadline
-          cand.emplace_back(byd, e.task);
-        }
-        // Only the max_batch − 1 earliest can join: order just those.
-        const auto take = std::min(cand.size(), static_cast<std::size_t>(std::max(0, limit - 1)));
-        std::partial_sort(cand.begin(), cand.begin() + static_cast<std::ptrdiff_t>(take),
-                          cand.end(),
-                          [](const auto& a, const auto& b) { return a.first < b.first; });
-        cand.resize(take);
-        const Duration single = k.kind == UnitKind::Encoder
-                                    ? enc_single
-                                    : head_single[static_cast<std::size_t>(k.head)];
-        for (const auto& [kk, t] : cand) {
-          const int b = static_cast<int>(batch.size()) + 1;
-          if (b > limit) break;
-          // Batch only when it is cheaper than running one by one and, by estimate, still
-          // meets the earliest member deadline once the round trip it pays is over (§3
-          // inter-DAG batching).
-          const Duration cb = batch_estimate(k, b);
-          const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
-          if (cb >= single * b || now + rt + cb > dl) break;
-          batch.push_back(t);
-          deadline = dl;
-        }
-      }
-      start_dispatch(lane_index, now, deadline);
-      return true;
-    }
-  }
-};
+}
 
 Scheduler::Scheduler(const Scenario& scenario, const Profile& profile,
                      std::unique_ptr<Policy> policy, SchedulerConfig config)
@@ -1277,7 +972,19 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (idle > 0 && !m.ready.empty()) {
     ++stats_.decisions;
     m.overloaded = (m.opt.rank == RankMode::Overload || m.mixed_criticality) &&
-                   m.first_overrun(now, idx(config_.estimate)) >= 0;
+                   m.first_overrun(now, idx(config_.estimate), false) >= 0;
+    // §5 max_inflight: an operation at its limit skips its next release, so finishing its
+    // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
+    m.demand_overrun = m.overloaded;
+    if (m.opt.rank == RankMode::Overload && !m.overloaded) m.overloaded = m.saturated();
+    // §15 "finish what was started": once overloaded, the jobs in flight then are finished
+    // by job deadline; ranking them back by intermediate deadlines between two overloaded
+    // rounds would start newer jobs' early levels ahead of them again.
+    if (m.opt.rank == RankMode::Overload) {
+      if (m.overloaded && !m.by_deadline.empty())
+        m.overload_hold = std::max(m.overload_hold, m.job(m.by_deadline.back()).deadline);
+      m.overloaded = m.overloaded || now < m.overload_hold;
+    }
     while (idle > 0 && m.pick(now)) --idle;
   }
   // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed

@@ -34,8 +34,10 @@ struct Worst {
 };
 
 // At every load, on average over the grid, red-robust does at least as well as edf and as
-// red (within 0.5 points). The worst single points are recorded (and in docs/BENCHMARKS.md):
-// the §15 target of "never worse at any point" is not met everywhere yet.
+// red (within 0.5 points); from capacity on, it is never worse than edf by more than 0.5
+// points at any single point. The worst single points are recorded (and in
+// docs/BENCHMARKS.md): below capacity "never worse at any point" is not met everywhere yet
+// (a few 2 s task sets on 4 lanes lose up to 4 points to hopeless aborts and admission).
 TEST(Overload, RedRobustKeepsUpWithEdfAndRedAtEveryLoad) {
   const Profile p = default_profile();
   for (double load : {0.6, 1.0, 1.2, 2.0}) {
@@ -48,6 +50,9 @@ TEST(Overload, RedRobustKeepsUpWithEdfAndRedAtEveryLoad) {
       const double c = grid::evaluate(s, p, "red").on_time;
       vs_edf.see(a - b, spec, load);
       vs_red.see(a - c, spec, load);
+      if (load >= 1.0) {
+        EXPECT_GE(a, b - 0.005) << s.name << " at load " << load;
+      }
       robust += a;
       edf += b;
       red += c;
@@ -57,6 +62,10 @@ TEST(Overload, RedRobustKeepsUpWithEdfAndRedAtEveryLoad) {
                    std::to_string(vs_edf.diff) + " at " + vs_edf.where);
     RecordProperty("load_" + std::to_string(load) + "_worst_vs_red",
                    std::to_string(vs_red.diff) + " at " + vs_red.where);
+    RecordProperty("load_" + std::to_string(load) + "_mean_robust_edf_red",
+                   std::to_string(robust / static_cast<double>(sets().size())) + " " +
+                       std::to_string(edf / static_cast<double>(sets().size())) + " " +
+                       std::to_string(red / static_cast<double>(sets().size())));
     EXPECT_GE(robust / n, edf / n - 0.005) << "load " << load;
     EXPECT_GE(robust / n, red / n - 0.005) << "load " << load;
   }
@@ -83,13 +92,14 @@ TEST(Overload, BelowCapacityRedRobustMatchesRedOnAverage) {
   }
   ASSERT_GT(compared, 200);
   RecordProperty("largest_difference", std::to_string(-low.diff) + " at " + low.where);
+  RecordProperty("mean_difference", std::to_string(sum / compared));
   EXPECT_LE(sum / compared, 0.005);
 }
 
 TEST(Overload, WastedLaneTimeStaysSmallAtTwiceCapacity) {
   const Profile p = default_profile();
   double worst = 0, sum = 0;
-  int n = 0;
+  int n = 0, over = 0;
   std::string where;
   for (const grid::SetSpec& spec : sets()) {
     const Scenario s = grid::set_scenario(spec, p, 2.0);
@@ -99,13 +109,19 @@ TEST(Overload, WastedLaneTimeStaysSmallAtTwiceCapacity) {
     EXPECT_LE(robust.wasted, edf.wasted + 1e-9) << s.name;
     sum += robust.wasted;
     ++n;
+    over += robust.wasted > 0.20 ? 1 : 0;
     if (robust.wasted > worst) {
       worst = robust.wasted;
       where = s.name;
     }
   }
   RecordProperty("worst_wasted", std::to_string(worst) + " at " + where);
-  EXPECT_LT(sum / n, 0.20) << "mean wasted lane time at 2x";
+  RecordProperty("mean_wasted", std::to_string(sum / n));
+  RecordProperty("points_over_20_percent", std::to_string(over));
+  // The issue's 20 % holds on average with room to spare; a few single points exceed it
+  // (recorded above and in docs/BENCHMARKS.md).
+  EXPECT_LT(sum / n, 0.10) << "mean wasted lane time at 2x";
+  EXPECT_LE(over * 20, n) << "more than 1 point in 20 wastes over 20 % of the lanes at 2x";
 }
 
 TEST(Overload, EveryReleaseIsAccountedFor) {
@@ -145,6 +161,26 @@ TEST(Overload, RedRobustBeatsEveryPaperPresetPastCapacityOnTheGrid) {
   }
   EXPECT_GT(robust, red);
   EXPECT_GT(robust, edf);
+}
+
+// The minibenchmark past its breakdown rate: every miss is a frame skipped at max_inflight.
+// Ranking by job deadline while an operation is at its limit finishes the older job first,
+// as mono (one unit per frame) does, so red-robust keeps up with mono where red does not.
+TEST(Overload, RedRobustKeepsUpWithMonoOnTheMinibenchmarkPastItsLimit) {
+  for (const char* name : {"minibench-tight", "minibench-loose"}) {
+    auto base = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/" + name + ".yaml");
+    ASSERT_TRUE(base.has_value()) << base.error().to_string();
+    for (double load : {1.5, 2.0, 2.5}) {
+      Scenario s = *base;
+      ASSERT_FALSE(apply_override(s, "rate_scale", load).has_value());
+      const Profile p = default_profile();
+      const grid::Point robust = grid::evaluate(s, p, "red-robust");
+      const grid::Point mono = grid::evaluate(s, p, "mono");
+      const grid::Point red = grid::evaluate(s, p, "red");
+      EXPECT_GE(robust.on_time, mono.on_time - 0.005) << name << " at " << load;
+      EXPECT_GE(robust.on_time, red.on_time - 0.005) << name << " at " << load;
+    }
+  }
 }
 
 // §5 with issue 13's case: one lane, Hi (10 ms, deadline 11) and Lo (10 ms, deadline 12,

@@ -1,0 +1,204 @@
+// §15 overload: the demand test (the work due by each deadline against what the lanes can
+// do by then), admission at release, and the critical-path estimates hopeless aborts use.
+// Part of the scheduler (scheduler_impl.hpp): scheduler.cpp calls these in the order of a
+// decision.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "scheduler_impl.hpp"
+
+namespace red {
+
+bool Scheduler::Impl::earlier(int a, int b) const {
+  const Job& x = jobs[static_cast<std::size_t>(a)];
+  const Job& y = jobs[static_cast<std::size_t>(b)];
+  return x.deadline != y.deadline ? x.deadline < y.deadline : x.id < y.id;
+}
+
+Duration Scheduler::Impl::remaining_for_drop(Job& j, TimePoint now) {
+  return critical_path(j, now, idx(opt.drop_estimate));
+}
+
+Duration Scheduler::Impl::critical_path(Job& j, TimePoint now, std::size_t k) {
+  refresh(j);
+  Duration cp = j.cp_base[k];
+  const RefinedGraph& g = *j.g;
+  for (int r : j.running_units) {
+    const auto ur = static_cast<std::size_t>(r);
+    Duration after{0};
+    for (int sx : g.units[ur].succs)
+      after = std::max(after, g.units[static_cast<std::size_t>(sx)].tail[k]);
+    cp = std::max(cp, residual(j, ur, now, k) + after);
+  }
+  return cp;
+}
+
+Duration Scheduler::Impl::residual(const Job& j, std::size_t unit, TimePoint now,
+                                   std::size_t k) const {
+  const Duration c = j.g->units[unit].costs[k];
+  const TimePoint start = j.u[unit].start;
+  return now > start ? std::max(Duration{0}, c - (now - start)) : c;
+}
+
+Duration Scheduler::Impl::work_left(Job& j, TimePoint now, std::size_t k) {
+  refresh(j);
+  Duration w = j.work_base[k];
+  for (int u : j.enc_queued) {
+    const UnitRt& ur = j.u[static_cast<std::size_t>(u)];
+    const auto members = std::max<std::size_t>(1, task(ur.task).members.size());
+    w += j.g->units[static_cast<std::size_t>(u)].costs[k] / static_cast<std::int64_t>(members);
+  }
+  for (int u : j.running_units) {
+    const auto ui = static_cast<std::size_t>(u);
+    w += residual(j, ui, now, k) / std::max(1, j.u[ui].share);
+  }
+  return w;
+}
+
+int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule) {
+  const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
+  if (lane_count > 1 && schedule) return first_overrun_lanes(now, k);
+  Duration due{0};
+  for (std::size_t i = 0; i < by_deadline.size(); ++i) {
+    Job& j = job(by_deadline[i]);
+    const Duration w = work_left(j, now, k);
+    due += w;
+    if (lane_count == 1) {
+      if (now + due > j.deadline) return static_cast<int>(i);
+      continue;
+    }
+    if (now + due / lane_count > j.deadline) return static_cast<int>(i);
+    // The job's critical path is at most its own work: only a job whose work alone does not
+    // fit needs the longer walk.
+    if (now + w > j.deadline && now + critical_path(j, now, k) > j.deadline)
+      return static_cast<int>(i);
+  }
+  return -1;
+}
+
+int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k) {
+  lane_free.assign(lanes.size(), now);
+  gap_begin.assign(lanes.size(), now);
+  gap_end.assign(lanes.size(), now);
+  for (std::size_t l = 0; l < lanes.size(); ++l) {
+    if (!lanes[l].busy) continue;
+    for (const Member& mb : lanes[l].d.members) {
+      const Job& j = job(mb.slot);
+      if (!j.live || j.id != mb.job) continue;
+      lane_free[l] =
+          std::max(lane_free[l], now + residual(j, static_cast<std::size_t>(mb.unit), now, k));
+    }
+  }
+  for (std::size_t i = 0; i < by_deadline.size(); ++i) {
+    Job& j = job(by_deadline[i]);
+    const RefinedGraph& g = *j.g;
+    unit_end.assign(g.units.size(), now);
+    TimePoint end = now;
+    for (std::size_t u = 0; u < g.units.size(); ++u) {
+      const UnitRt& ur = j.u[u];
+      if (ur.state == UState::Done || ur.state == UState::Cancelled) continue;
+      if (ur.state == UState::Running) {
+        unit_end[u] = now + residual(j, u, now, k);
+        end = std::max(end, unit_end[u]);
+        continue;
+      }
+      TimePoint ready_at = now;
+      for (int p : g.units[u].preds)
+        ready_at = std::max(ready_at, unit_end[static_cast<std::size_t>(p)]);
+      Duration c = g.units[u].costs[k];
+      if (ur.state == UState::Queued && ur.task >= 0)  // a merged encoder run is shared
+        c /= static_cast<std::int64_t>(std::max<std::size_t>(1, task(ur.task).members.size()));
+      // An idle gap left on a lane by a unit that waited for its predecessors takes the
+      // unit if it fits (backfilling, as a work-conserving dispatcher would run it there).
+      bool backfilled = false;
+      for (std::size_t l = 0; l < lane_free.size() && !backfilled; ++l) {
+        const TimePoint at = std::max(ready_at, gap_begin[l]);
+        if (at + c > gap_end[l]) continue;
+        unit_end[u] = at + c;
+        gap_begin[l] = unit_end[u];
+        backfilled = true;
+      }
+      if (backfilled) {
+        end = std::max(end, unit_end[u]);
+        continue;
+      }
+      // The lane free the latest by ready_at (the smallest gap), else the one free first.
+      std::size_t best = 0;
+      bool fits = false;
+      for (std::size_t l = 0; l < lane_free.size(); ++l) {
+        const bool f = lane_free[l] <= ready_at;
+        if (f ? (!fits || lane_free[l] > lane_free[best])
+              : (!fits && lane_free[l] < lane_free[best]))
+          best = l;
+        fits = fits || f;
+      }
+      const TimePoint at = std::max(ready_at, lane_free[best]);
+      if (at - lane_free[best] > gap_end[best] - gap_begin[best]) {
+        gap_begin[best] = lane_free[best];  // keep the larger idle gap of the lane
+        gap_end[best] = at;
+      }
+      unit_end[u] = at + c;
+      lane_free[best] = unit_end[u];
+      end = std::max(end, unit_end[u]);
+    }
+    if (end > j.deadline) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+bool Scheduler::Impl::saturated() const {
+  for (const OpState& o : ops)
+    if (o.g != nullptr && o.remaining != 0 && o.inflight >= o.max_inflight) return true;
+  return false;
+}
+
+void Scheduler::Impl::note_offered(Job& j, TimePoint now) {
+  const double dt = std::chrono::duration<double>(now - offered_at).count();
+  offered = offered * std::exp(-dt / kOfferedWindow) +
+            std::chrono::duration<double>(work_left(j, now, idx(opt.drop_estimate))).count();
+  offered_at = now;
+}
+
+bool Scheduler::Impl::past_capacity() const {
+  return offered > kOfferedWindow * static_cast<double>(s.config_.lanes);
+}
+
+void Scheduler::Impl::admit(TimePoint now) {
+  const std::size_t k = idx(opt.drop_estimate);
+  // Below capacity the list schedule's order (jobs by deadline) is not the policy's, and
+  // it would reject jobs that the policy's intermediate deadlines fit in; the lower bound
+  // decides there. Past capacity the list schedule keeps what the lanes cannot finish out.
+  const bool schedule = past_capacity();
+  for (;;) {
+    const int over = first_overrun(now, k, schedule);
+    if (over < 0) return;
+    int victim = -1;
+    Duration victim_work{0};
+    int victim_crit = 0;
+    for (int i = 0; i <= over; ++i) {
+      const int slot = by_deadline[static_cast<std::size_t>(i)];
+      Job& j = job(slot);
+      refresh(j);
+      if (j.started) continue;
+      const int crit = ops[static_cast<std::size_t>(j.op)].criticality;
+      const Duration w = work_left(j, now, k);
+      const bool better = victim < 0 || crit < victim_crit ||
+                          (crit == victim_crit && w > victim_work) ||
+                          (crit == victim_crit && w == victim_work);  // later deadline wins
+      if (better) {
+        victim = slot;
+        victim_work = w;
+        victim_crit = crit;
+      }
+    }
+    if (victim < 0) return;  // only started jobs are due by then: hopeless checks decide
+    job(victim).reason = "rejected at release";
+    ++s.stats_.rejected;
+    end_job(victim, JobOutcome::Dropped, now);
+  }
+}
+
+}  // namespace red

@@ -1,0 +1,356 @@
+#pragma once
+/// \file
+/// Internal to src/sched: the scheduler's state (jobs, tasks, lanes, the ready set) behind
+/// Scheduler::Impl, shared by the files of its mechanisms. scheduler.cpp keeps the order of
+/// a decision (releases, deadlines, DynamicMerge, batching, dispatch); overload.cpp holds
+/// §15's demand test, admission and the estimates hopeless aborts judge by.
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "red/sched/scheduler.hpp"
+
+namespace red {
+namespace sched_detail {
+
+enum class UState : std::uint8_t { Blocked, Queued, Running, Done, Cancelled };
+
+struct UnitRt {
+  UState state = UState::Blocked;
+  int pending = 0;
+  int task = -1;
+  int share = 1;  // members of the dispatch running it (its cost is shared among them)
+  TimePoint start{0};
+};
+
+inline constexpr std::size_t kEstimates = 4;  // EstimateKind values
+
+inline std::size_t idx(EstimateKind k) {
+  return static_cast<std::size_t>(k);
+}
+
+struct Job {
+  JobId id = 0;
+  bool live = false;   // slot in use (until its running units have returned)
+  bool ended = false;  // outcome decided
+  int op = -1;
+  std::uint64_t seq = 0;
+  const RefinedGraph* g = nullptr;
+  TimePoint release{0};
+  TimePoint deadline{0};
+  bool counted = true;
+  bool samples_newest = false;
+  std::vector<UnitRt> u;
+  int unfinished = 0;
+  int running = 0;
+  std::vector<std::uint64_t> frame;   // by sensor index: the frame its units read
+  std::vector<TimePoint> frame_time;  // by sensor index
+  TimePoint oldest_frame = kNever;    // oldest frame any of its outputs used
+  std::vector<int> dependents;        // slots of jobs waiting for this one (depends_on)
+  std::vector<JobId> dependent_ids;
+  std::string reason;
+  // §4 re-assignment cache. The base (costs of units not started, per height) changes
+  // only when a unit starts or ends (dirty); running units are adjusted at each decision.
+  bool dirty = true;
+  std::vector<Duration> lvl_base;
+  std::vector<std::uint8_t> has_base;
+  std::vector<int> running_units;
+  Duration remaining_base{0};  // Σ lvl_base
+  std::vector<double> frac;    // budget shares per height, valid while no unit runs
+  std::uint64_t stamp = 0;     // decision stamp the values below are valid for
+  std::vector<Duration> lvl;   // level costs with the running units' remaining costs
+  std::vector<double> frac_now;
+  Duration remaining{0};  // Σ remaining level costs (critical-path estimate)
+  // §15 demand: work of units not started, by estimate kind, encoders aside (a queued
+  // encoder's cost is shared by the members of its task, read when asked); and the level
+  // costs under the drop estimate, for hopeless checks.
+  std::array<Duration, kEstimates> work_base{};
+  std::vector<int> enc_queued;
+  std::array<Duration, kEstimates> cp_base{};  // longest tail among units not started
+  bool started = false;                        // a unit of it has started
+};
+
+struct Task {
+  bool live = false;
+  UnitKind kind = UnitKind::Plain;
+  int head = -1;
+  int sensor = -1;
+  bool gamma = false;  // members sample the newest frame: γ-mergeable, newest frame at start
+  std::uint64_t frame = 0;
+  TimePoint frame_time{0};
+  std::vector<std::pair<int, int>> members;  // (job slot, unit)
+  TimePoint min_release{0};
+  TimePoint wait_until{0};
+  int ready_pos = -1;
+  Duration cost{0};
+};
+
+struct OpState {
+  const RefinedGraph* g = nullptr;  // current version; null while not in the workload
+  bool own_rate = false;
+  bool all_at_once = false;    // release: {count} without trigger or rate
+  bool awaits_frames = false;  // all_at_once release held until its sensors have frames
+  double rate_hz = 0.0;
+  int trigger = -1;
+  TimePoint next_tick = kNever;
+  std::uint64_t released = 0;
+  std::int64_t remaining = -1;  // -1: unlimited
+  int inflight = 0;
+  int max_inflight = 2;
+  int depends_on = -1;
+  int criticality = 0;
+  int last_slot = -1;
+  JobId last_job = 0;
+  std::vector<int> sensors_read;  // sensors of its inference nodes
+};
+
+struct SensorState {
+  double rate_hz = 0.0;
+  bool has_frame = false;
+  std::uint64_t frame = 0;
+  TimePoint time{0};
+};
+
+struct Lane {
+  bool busy = false;
+  Dispatch d;
+  TimePoint completed_at = kNever;
+  // §6 on-demand: the jobs of the run this lane's handler was handed. Their ready units
+  // follow back to back; the run ends on a round trip or a transition other than Completed.
+  bool run_open = false;
+  std::vector<std::pair<int, JobId>> run_jobs;
+};
+
+struct Key {
+  std::int64_t rank;
+  TimePoint release;
+  int op;
+  std::uint64_t seq;
+  int node;  // scenario node order (§5 ties); a unit of no node (mono) sorts first
+  int unit;
+  bool operator<(const Key& o) const noexcept {
+    if (rank != o.rank) return rank < o.rank;
+    if (release != o.release) return release < o.release;
+    if (op != o.op) return op < o.op;
+    if (seq != o.seq) return seq < o.seq;
+    if (node != o.node) return node < o.node;
+    return unit < o.unit;
+  }
+};
+
+}  // namespace sched_detail
+
+// Internal header, included only by the scheduler's own files.
+using namespace sched_detail;  // NOLINT(google-build-using-namespace)
+
+struct Scheduler::Impl {
+  Scheduler& s;
+  const Profile& profile;
+  PolicyOptions opt;
+  CostModel costs;
+  RefineOptions ropt;
+  std::vector<std::shared_ptr<const RefinedGraph>> graphs;  // every version ever used
+  std::vector<OpState> ops;
+  std::vector<SensorState> sensors;
+  std::size_t next_event = 0;
+  std::vector<Job> jobs;
+  std::vector<int> free_jobs;
+  JobId next_job_id = 1;
+  std::vector<Task> tasks;
+  std::vector<int> free_tasks;
+  std::vector<int> ready;
+  std::vector<std::vector<int>> open_enc;  // per sensor: queued encoder tasks
+  std::vector<Lane> lanes;
+  std::vector<Dispatch*> out;
+  std::vector<std::pair<TimePoint, std::pair<int, JobId>>> deadlines;  // min-heap
+  std::vector<Observer*> observers;
+  std::uint64_t stamp = 1;
+  std::uint64_t dispatch_seq = 0;
+  TimePoint min_wait = kNever;
+  // §15 overload: live jobs by (deadline, id), for the demand test; whether a release came
+  // since the last admission test; whether the lanes are judged overloaded this round.
+  std::vector<int> by_deadline;
+  bool released_since_admission = false;
+  // The offered load: work released (drop estimate, seconds), decayed over kOfferedWindow.
+  static constexpr double kOfferedWindow = 0.25;  // seconds
+  double offered = 0.0;
+  TimePoint offered_at{0};
+  bool overloaded = false;
+  bool demand_overrun = false;  // this round's demand test found more work than the lanes do
+  TimePoint overload_hold{0};   // red-robust ranks by job deadline until then (§15)
+  bool mixed_criticality = false;
+  std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
+  std::vector<TimePoint> unit_end;
+  std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
+  // scratch for batching
+  std::vector<std::pair<Key, int>> cand;
+  struct Scan {
+    Key key;
+    TimePoint deadline;
+    int task;
+    int criticality;
+  };
+  std::vector<Scan> scanned;
+  std::vector<int> batch;
+  Duration enc_single{0};
+  int enc_max_batch = 1;
+  std::vector<Duration> head_single;
+  std::vector<const UnitProfile*> head_prof;
+  const UnitProfile* enc_prof = nullptr;
+
+  Impl(Scheduler& owner, const Profile& p);
+
+  void notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event);
+
+  // Makes snapshot `spec` the current definition of operation `i` (§4: one refinement per
+  // graph version, shared by every job released with it).
+  void install(int i, const std::shared_ptr<const OperationSpec>& spec, TimePoint at, bool initial);
+
+  Job& job(int slot) { return jobs[static_cast<std::size_t>(slot)]; }
+  Task& task(int t) { return tasks[static_cast<std::size_t>(t)]; }
+
+  // ---- jobs ---------------------------------------------------------------------------
+
+  int alloc_job();
+
+  // True when every sensor the graph reads has produced a frame (the trigger frame counts).
+  bool inputs_ready(const RefinedGraph& g, int trigger_sensor) const;
+
+  void release(int op_index, TimePoint now, int trigger_sensor, std::uint64_t trigger_frame);
+
+  void end_job(int slot, JobOutcome outcome, TimePoint now);
+
+  // Order of live jobs in by_deadline: end-to-end deadline, then job id.
+  bool earlier(int a, int b) const;
+
+  void free_job(int slot);
+
+  // Rebuilds what changes only when one of the job's units starts or ends: the costs of
+  // its units not yet started, per height, and — when none is running — the shares of the
+  // re-assigned budget (§4), which are then the same at every decision.
+  void refresh(Job& j);
+
+  // §4 re-assignment: the budget left, B = deadline − now, is spread over the heights that
+  // still have work in proportion to their remaining level costs (or per-node overrides);
+  // height h ends at now + B · frac[h], frac[h] the cumulative share up to h (exactly 1 for
+  // the last height: its deadline is the job's).
+  void shares(const Job& j, const std::vector<Duration>& lvl, const std::vector<std::uint8_t>& has,
+              std::vector<double>& frac) const;
+
+  static TimePoint from_share(const Job& j, double frac, TimePoint now);
+
+  // A job with running units: their remaining cost is c(x) − elapsed, at least 0 (§4), so
+  // level costs, the remaining work and the shares depend on now. Cached per decision.
+  void eval(Job& j, TimePoint now);
+
+  // Absolute intermediate deadline of height h of a job at `now` (§4, §7).
+  TimePoint height_deadline(Job& j, int h, TimePoint now);
+
+  // Estimated work left in a job (Σ remaining level costs: its critical-path estimate).
+  Duration remaining_work(Job& j, TimePoint now);
+
+  // The job's remaining critical path under the drop estimate (§15: optimistic, so that a
+  // job that can still make it is kept): the longest path through its unfinished units, a
+  // running unit counting its remainder. A lower bound on its response from now on any
+  // number of lanes, unlike the §4 sum of level costs.
+  Duration remaining_for_drop(Job& j, TimePoint now);
+
+  // The longest path through a job's unfinished units under estimate kind k, a running unit
+  // counting its remainder.
+  Duration critical_path(Job& j, TimePoint now, std::size_t k);
+
+  // Remaining cost of a running unit under estimate kind k (§4: c(x) − elapsed, at least 0).
+  Duration residual(const Job& j, std::size_t unit, TimePoint now, std::size_t k) const;
+
+  // §15 demand: the lane time a job still needs under estimate kind k. A queued encoder run
+  // is shared by the members of its task and a running unit by the members of its dispatch,
+  // so shared encoder runs are counted once.
+  Duration work_left(Job& j, TimePoint now, std::size_t k);
+
+  // The demand test (§15): taking live jobs by deadline, the first that the lanes cannot
+  // finish by its deadline under estimate kind k; -1 when all of it fits. A position in
+  // by_deadline. On one lane that is the first whose deadline comes before the work due by
+  // it (its own and every earlier job's): exact for non-preemptive EDF up to blocking. On
+  // several lanes the work due does not say enough: a DAG's critical path cannot use the
+  // lanes' parallelism. `schedule` then list-schedules the remaining units (admission, at
+  // releases); without it (the per-round overload check) the bound is the larger of the
+  // job's own critical path and the work due spread over every lane, a lower bound.
+  int first_overrun(TimePoint now, std::size_t k, bool schedule);
+
+  // The demand test on several lanes: jobs by deadline, each remaining unit at its earliest
+  // start (its predecessors' end, a lane's end) on the lane that leaves the smallest gap (or in an
+  // idle gap it fits).
+  int first_overrun_lanes(TimePoint now, std::size_t k);
+
+  // True when an operation that still releases jobs is at its max_inflight (§5).
+  bool saturated() const;
+
+  // Admission (§15 "shed early, shed little"): while the work due by some deadline exceeds
+  // what the lanes can do by then (on the optimistic drop estimate), reject one unstarted
+  // job due by then: the least critical, then the one whose removal saves the most work,
+  // then the latest. On one lane this is Moore and Hodgson's rule (1968: drop the longest
+  // job when a deadline is overrun), which minimizes the number of late jobs.
+  void admit(TimePoint now);
+
+  // True when the offered load exceeds what the lanes can do (§15 detect from demand).
+  bool past_capacity() const;
+
+  // Adds a released job's work to the offered load (§15 detect overload from demand).
+  void note_offered(Job& j, TimePoint now);
+
+  // ---- tasks --------------------------------------------------------------------------
+
+  int alloc_task();
+
+  void push_ready(int t);
+
+  void pop_ready(int t);
+
+  void drop_open(int t);
+
+  void free_task(int t);
+
+  void remove_member(int t, int slot, int unit);
+
+  void make_ready(int slot, int unit);
+
+  // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
+  Key key(int t, TimePoint now, TaskView& v);
+
+  // The predicted release, within γ of the task's first member, of another operation that
+  // samples the same sensor (§3 rule 2); kNever if none.
+  TimePoint predicted_member(const Task& k, TimePoint now) const;
+
+  // A merge wait until `until` is taken only if every member's slack still covers it; the
+  // run after the wait pays a round trip (the handler parked meanwhile).
+  bool slack_covers(Task& k, TimePoint now, TimePoint until);
+
+  Duration round_trip_cost(bool round_trip) const;
+
+  Duration batch_estimate(const Task& k, int b) const;
+
+  int batch_limit(const Task& k) const;
+
+  // §6 on-demand: the task continues the run the lane's handler holds — its last unit
+  // completed just now and the task is ready work of a job of the run (a merged encoder's
+  // member heads, a job's ready units of a height, their successors) — so the handler goes
+  // on without a round trip. Anything else, or per-edge synchronization, pays one.
+  bool on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const;
+
+  // The idle lane for a task (§6 placement): one whose run it continues, else one without
+  // an open run (keeping open runs for their own work), else the first idle lane; -1 if none.
+  int choose_lane(const Task& k, TimePoint now) const;
+
+  void start_dispatch(int lane_index, TimePoint now, TimePoint deadline);
+
+  // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
+  bool pick(TimePoint now);
+};
+
+}  // namespace red
