@@ -1,5 +1,7 @@
 #include "red/analysis/response_bound.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <map>
 
@@ -78,8 +80,10 @@ ResponseBound response_bound(const Scenario& s, const Profile& p, const PolicyOp
       } else {
         c = work_coarse(*op, worst) + sync * static_cast<std::int64_t>(op->nodes.size());
       }
-      // The simulator rounds every scaled draw; a nanosecond per unit covers it.
-      c += Duration{static_cast<std::int64_t>(op->nodes.size())};
+      // Under interference the simulator rounds every scaled draw: a nanosecond per unit
+      // covers it.
+      if (s.interference && s.interference->intensity != 0.0)
+        c += Duration{static_cast<std::int64_t>(op->nodes.size())};
       b.job_cost = std::max(b.job_cost, c);
       b.deadline = std::min(b.deadline, resolve_deadline(*op, est));
       Duration period{0}, jitter{0};
@@ -108,9 +112,12 @@ ResponseBound response_bound(const Scenario& s, const Profile& p, const PolicyOp
   for (const OperationBound& b : r.operations)
     r.utilization +=
         static_cast<double>(b.job_cost.count()) / static_cast<double>(b.period.count());
-  if (r.utilization >= 1.0)
-    return none("utilization at max costs is " + std::to_string(r.utilization) +
-                " >= 1: the busy period is unbounded");
+  if (r.utilization >= 1.0) {
+    ResponseBound over = none(fmt::format(
+        "utilization at max costs is {:.3f} >= 1: the busy period is unbounded", r.utilization));
+    over.utilization = r.utilization;
+    return over;
+  }
   // Least fixed point of W(L) = Σ ⌈(L + J_i) / T_i⌉ C_i, from Σ C_i (George et al. §4).
   Duration l{0};
   for (const OperationBound& b : r.operations) l += b.job_cost;
