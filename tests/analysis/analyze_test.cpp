@@ -10,6 +10,8 @@
 #include <string>
 
 #include "../support/load_grid.hpp"
+#include "../support/random_scenario.hpp"
+#include "red/analysis/nptest.hpp"
 #include "red/analysis/workload.hpp"
 #include "red/scenario/builder.hpp"
 #include "red/scenario/loader.hpp"
@@ -195,6 +197,34 @@ TEST(AnalyzeAgreement, SeededRandomScenariosAcrossTheLoad) {
   // The grid reaches more than one verdict.
   EXPECT_GT(verdicts[static_cast<int>(Verdict::Ok)], 0);
   EXPECT_GT(verdicts[static_cast<int>(Verdict::Overloaded)], 0);
+}
+
+TEST(AnalyzeAgreement, RandomScenariosWithEveryFeature) {
+  // Events, depends_on, own rates, jitter, plain nodes, several lanes: the analysis and the
+  // export run through without error, and the verdicts agree with the simulator.
+  const Profile p = default_profile();
+  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+    test::RandomScenarioOptions ro;
+    ro.duration_s = 1.5;
+    ro.events = true;
+    ro.depends_on = true;
+    auto s = parse_scenario(test::random_scenario_yaml(seed, ro), "");
+    ASSERT_TRUE(s) << s.error().to_string();
+    for (const std::string policy : {"red", "edf", "mono", "fifo", "red-robust"}) {
+      AnalysisOptions o;
+      o.policy = policy;
+      o.headroom = seed % 8 == 0;
+      auto a = analyze(*s, p, o);
+      ASSERT_TRUE(a) << a.error().to_string();
+      expect_consistent(*a, s->name + " " + policy);
+      EXPECT_FALSE(analysis_text(*a).empty());
+      EXPECT_FALSE(analysis_json(*a).empty());
+      EXPECT_TRUE(a->response.applies || !a->response.why_not.empty());
+      auto x = export_nptest(*s, p, *policy_options(*s, policy));
+      ASSERT_TRUE(x) << x.error().to_string();
+      EXPECT_GT(x->jobs, 0u) << s->name;
+    }
+  }
 }
 
 TEST(AnalyzeHeadroom, TheSearchedRateIsMonotoneAtItsEdge) {
