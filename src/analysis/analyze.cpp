@@ -370,4 +370,28 @@ std::string analysis_json(const Analysis& a) {
   return j.dump(2) + "\n";
 }
 
+HtmlTable verdict_html_table(const std::vector<Analysis>& per_policy) {
+  HtmlTable t;
+  if (per_policy.empty()) return t;
+  t.caption = "Verdicts (red analyze, docs/ANALYSIS.md): will each operation keep its deadlines?";
+  t.header = {"phase", "operation", "rate Hz", "deadline ms"};
+  for (const Analysis& a : per_policy) t.header.push_back(a.policy);
+  t.header.push_back("why (" + per_policy.front().policy + ")");
+  const Analysis& first = per_policy.front();
+  for (std::size_t k = 0; k < first.phases.size(); ++k)
+    for (std::size_t i = 0; i < first.phases[k].operations.size(); ++i) {
+      const OperationAnalysis& op = first.phases[k].operations[i];
+      std::vector<std::string> row{first.phases[k].label, op.name,
+                                   fmt::format("{:.2f}", op.rate_hz),
+                                   fmt::format("{:.3f}", to_ms(op.deadline))};
+      for (const Analysis& a : per_policy) {
+        const bool same = k < a.phases.size() && i < a.phases[k].operations.size();
+        row.emplace_back(same ? to_string(a.phases[k].operations[i].verdict) : "-");
+      }
+      row.push_back(op.reason);
+      t.rows.push_back(std::move(row));
+    }
+  return t;
+}
+
 }  // namespace red

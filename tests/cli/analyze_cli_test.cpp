@@ -41,10 +41,11 @@ class AnalyzeCli : public ::testing::Test {
     std::error_code ec;
     fs::remove_all(dir_, ec);
   }
-  Result red(const std::string& args) {
+  Result red(const std::string& args, const std::string& command = "analyze") {
     const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-    const std::string cmd = quote(RED_CLI) + " analyze " + args + " >" + quote(out.string()) +
-                            " 2>" + quote(err.string()) + " </dev/null";
+    const std::string cmd = "RED_GNUPLOT=none " + quote(RED_CLI) + " " + command + " " + args +
+                            " >" + quote(out.string()) + " 2>" + quote(err.string()) +
+                            " </dev/null";
     const int status = std::system(cmd.c_str());
     Result r;
     if (status != -1 && WIFEXITED(status)) r.code = WEXITSTATUS(status);
@@ -146,6 +147,23 @@ TEST_F(AnalyzeCli, ExportNptest) {
   for (char c : jobs) rows += c == '\n';
   EXPECT_EQ(rows - 1, 181u * 2 + 90u * 3);
   EXPECT_TRUE(fs::exists(np / "tasks.csv"));
+}
+
+TEST_F(AnalyzeCli, CompareShowsTheVerdictTableFirst) {
+  const fs::path out = dir_ / "cmp";
+  const Result r = red(scenario("case-dynamic.yaml") +
+                           " --policies edf,red --trace-events 0 --out " + quote(out.string()),
+                       "compare");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string html = read_text(out / "index.html");
+  const auto verdicts = html.find("Verdicts (red analyze");
+  const auto results = html.find("Policies on the identical workload");
+  ASSERT_NE(verdicts, std::string::npos);
+  ASSERT_NE(results, std::string::npos);
+  EXPECT_LT(verdicts, results);
+  // edf is overloaded once detection joins; red keeps up.
+  EXPECT_NE(html.find("<td>overloaded</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>ok</td>"), std::string::npos);
 }
 
 }  // namespace

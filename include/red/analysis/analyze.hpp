@@ -20,6 +20,7 @@
 #include "red/core/expected.hpp"
 #include "red/metrics/phases.hpp"
 #include "red/profile/profile.hpp"
+#include "red/report/html.hpp"
 #include "red/scenario/scenario.hpp"
 
 namespace red {
@@ -103,5 +104,10 @@ std::string analysis_text(const Analysis& a);
 
 /// analysis.json (schema 1; fields in docs/ANALYSIS.md).
 std::string analysis_json(const Analysis& a);
+
+/// The verdict table at the top of `red compare`'s index.html: one row per (phase,
+/// operation) of the first analysis, one verdict column per analysis (one per policy, all
+/// of the same scenario), then the first policy's reason.
+HtmlTable verdict_html_table(const std::vector<Analysis>& per_policy);
 
 }  // namespace red
