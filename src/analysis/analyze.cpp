@@ -117,6 +117,7 @@ Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOp
   if (!worst) return worst.error();
   a.on_time_profiled = prof->metrics.on_time;
   a.on_time_worst = worst->metrics.on_time;
+  a.lane_busy = prof->metrics.lane_utilization;
   const TimePoint end = prof->result.end;
   const auto pm_prof = phase_metrics(s, prof->jobs, end);
   const auto pm_worst = phase_metrics(ws, worst->jobs, end);
@@ -246,6 +247,11 @@ std::string analysis_text(const Analysis& a) {
       "bound); {} simulated: {:.3f} on profiled costs, {:.3f} on worst-case costs\n",
       100 * a.peak_utilization, a.lanes, a.lanes == 1 ? "" : "s", a.on_time_bound, a.policy,
       a.on_time_profiled, a.on_time_worst);
+  if (!a.lane_busy.empty()) {
+    t += "lanes busy in the simulation on profiled costs:";
+    for (double u : a.lane_busy) t += fmt::format(" {:.1f} %", 100 * u);
+    t += "\n";
+  }
   if (!a.headroom.empty()) {
     t += fmt::format(
         "\nheadroom (every operation's miss rate <= {:g} %, bisection in the simulator):\n",
@@ -291,7 +297,8 @@ std::string analysis_json(const Analysis& a) {
   j["device"] = {{"peak_utilization", a.peak_utilization},
                  {"on_time_bound", a.on_time_bound},
                  {"on_time_profiled", a.on_time_profiled},
-                 {"on_time_worst_case", a.on_time_worst}};
+                 {"on_time_worst_case", a.on_time_worst},
+                 {"lane_busy", a.lane_busy}};
   j["phases"] = ordered_json::array();
   for (const PhaseAnalysis& ph : a.phases) {
     ordered_json pj;

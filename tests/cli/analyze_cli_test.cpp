@@ -94,6 +94,8 @@ TEST_F(AnalyzeCli, ReportAndAnalysisJson) {
                         "utilization", "simulated", "verdict", "reason"})
     EXPECT_TRUE(op.contains(k)) << k;
   EXPECT_TRUE(j["device"].contains("on_time_bound"));
+  ASSERT_EQ(j["device"]["lane_busy"].size(), 1u);  // one lane
+  EXPECT_GT(j["device"]["lane_busy"][0].get<double>(), 0.0);
   ASSERT_EQ(j["headroom"].size(), 4u);  // red and edf, profiled and worst-case
   EXPECT_EQ(j["headroom"][2]["policy"], "edf");
   EXPECT_EQ(j["headroom"][1]["costs"], "worst-case");

@@ -90,7 +90,9 @@ struct Analysis {
   double peak_utilization = 0;  ///< the highest phase utilization
   double on_time_bound = 1;     ///< work_bound(): the most on-time fraction any policy gets
   double on_time_profiled = 0, on_time_worst = 0;  ///< the policy's, simulated
-  Verdict verdict = Verdict::Ok;                   ///< the worst of every phase
+  /// Busy share of each lane in the simulation on profiled costs (after warm-up).
+  std::vector<double> lane_busy;
+  Verdict verdict = Verdict::Ok;   ///< the worst of every phase
   std::vector<Headroom> headroom;  ///< policy then edf, each on profiled then worst-case costs
   ResponseBound response;          ///< of the chosen policy
   double wall_s = 0;               ///< host time of the analysis
