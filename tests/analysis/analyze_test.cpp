@@ -92,7 +92,8 @@ TEST(AnalyzeVerdict, InfeasibleWhenTheJobsOwnWorkExceedsTheDeadlineOnOneLane) {
       .plain("B", milliseconds{10});
   auto s = b.build();
   ASSERT_TRUE(s) << s.error().to_string();
-  const OperationAnalysis& op = only_op(run(*s));
+  const Analysis a = run(*s);
+  const OperationAnalysis& op = only_op(a);
   EXPECT_EQ(op.verdict, Verdict::Infeasible) << op.reason;
   EXPECT_DOUBLE_EQ(op.miss_profiled, 1.0);
 }
