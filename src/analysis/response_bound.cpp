@@ -29,9 +29,8 @@ ResponseBound response_bound(const Scenario& s, const Profile& p, const PolicyOp
         "the fine graph merges encoder runs and may hold an encoder for a predicted member "
         "(DynamicMerge waits idle the lane: not work-conserving)");
   if (o.batching) return none("batching changes a unit's cost with the batch it joins");
-  if (o.admission == Admission::Shed || o.rank != RankMode::Policy) {
-    // Shedding and overload ranking only remove or reorder work: still work-conserving.
-  }
+  // Drops, shedding and overload ranking only remove or reorder work: the lane stays
+  // work-conserving, so they need no condition here.
   // Every snapshot of every operation, and every rate of every sensor.
   const auto n = static_cast<std::size_t>(s.operation_count());
   std::vector<std::vector<std::shared_ptr<const OperationSpec>>> snaps(n);
