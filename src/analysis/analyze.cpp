@@ -75,7 +75,7 @@ void judge(OperationAnalysis& oa, double phase_util, double limit) {
     oa.verdict = Verdict::Overloaded;
     oa.reason = fmt::format(
         "misses {:.1f} % of its jobs in simulation on profiled costs although the demand is "
-        "{:.1f} % of capacity: the policy cannot fit the work by the deadlines",
+        "{:.1f} % of capacity: the policy does not fit the work by the deadlines",
         100 * oa.miss_profiled, 100 * phase_util);
   } else if (oa.jobs_worst > 0 && oa.miss_worst > limit) {
     oa.verdict = Verdict::AtRisk;
