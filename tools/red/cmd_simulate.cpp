@@ -15,6 +15,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "real_run.hpp"
+#include "red/analysis/analyze.hpp"
 #include "red/metrics/phases.hpp"
 #include "red/report/report.hpp"
 #include "red/report/timeline.hpp"
@@ -261,6 +262,17 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     OutputOptions o;
     for (const auto& t : traces) o.traces.push_back(t.get());
     o.index_html = table;  // red compare
+    if (table) {
+      // The verdicts of `red analyze` (without its headroom search) at the top of the page.
+      std::vector<Analysis> verdicts;
+      for (const PolicyRun& r : runs) {
+        AnalysisOptions ao;
+        ao.policy = r.metrics.name;
+        ao.headroom = false;
+        if (auto an = analyze(*s, *p, ao)) verdicts.push_back(std::move(an).value());
+      }
+      o.verdicts = verdict_html_table(verdicts);
+    }
     o.timeline = timeline;
     OutputReport written;
     if (auto e = write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written)) {

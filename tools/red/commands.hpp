@@ -24,5 +24,7 @@ void register_profile(CLI::App& app, int& exit_code);
 /// `red node` and `red camera` (cmd_node.cpp; only with the DDS bridge, RED_HAVE_DDS).
 void register_node(CLI::App& app, int& exit_code);
 void register_camera(CLI::App& app, int& exit_code);
+/// `red analyze` (cmd_analyze.cpp): verdicts, headroom, response-time bound, nptest export.
+void register_analyze(CLI::App& app, int& exit_code);
 
 }  // namespace red::cli

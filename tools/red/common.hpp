@@ -17,6 +17,7 @@
 #include "red/observe/progress.hpp"
 #include "red/observe/trace.hpp"
 #include "red/profile/profile.hpp"
+#include "red/report/html.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sim/run.hpp"
 
@@ -54,6 +55,8 @@ struct OutputOptions {
   std::string gnuplot;
   /// The timeline's window (`--timeline FROM:TO`); none: the default windows.
   std::optional<std::pair<Duration, Duration>> timeline;
+  /// The verdict table shown first in index.html (red compare; red/analysis), if any.
+  std::optional<HtmlTable> verdicts;
 };
 
 /// What write_outputs wrote, relative to its directory.

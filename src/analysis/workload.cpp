@@ -1,0 +1,195 @@
+#include "red/analysis/workload.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "red/sim/cost_sampler.hpp"
+
+namespace red {
+
+UnitCosts::UnitCosts(const Scenario& s, const Profile& p, CostPoint point)
+    : point_(point),
+      estimate_(s.scheduler.estimate),
+      slowdown_(s.interference ? 1.0 + s.interference->intensity : 1.0) {
+  if (const UnitProfile* e = p.find("encoder")) encoder_ = pick(e->at(1));
+  for (const std::string& h : s.model.heads) {
+    const UnitProfile* u = p.find("head/" + h);
+    heads_.push_back(u != nullptr ? pick(u->at(1)) : Duration{0});
+  }
+}
+
+Duration UnitCosts::pick(const LatencyStats& l) const {
+  Duration d{0};
+  switch (point_) {
+    case CostPoint::Min:
+      d = l.min;
+      break;
+    case CostPoint::Mean:
+      d = l.mean;
+      break;
+    case CostPoint::Estimate:
+      d = l.estimate(estimate_);
+      break;
+    case CostPoint::Max:
+      d = l.max;
+      break;
+  }
+  if (slowdown_ == 1.0) return d;
+  // The simulator rounds each scaled draw to the nanosecond; so does this.
+  return Duration{
+      static_cast<std::int64_t>(std::llround(static_cast<double>(d.count()) * slowdown_))};
+}
+
+Duration UnitCosts::plain(const PlainCost& c) const {
+  return pick(plain_stats(c));
+}
+
+Duration UnitCosts::coarse_node(const NodeSpec& n) const {
+  return n.is_plain() ? plain(*n.cost) : encoder_ + head(n.head);
+}
+
+Duration UnitCosts::fine_node(const NodeSpec& n) const {
+  return n.is_plain() ? plain(*n.cost) : head(n.head);
+}
+
+std::vector<PhaseWorkload> phase_workloads(const Scenario& s, TimePoint end) {
+  std::vector<PhaseWorkload> out;
+  for (const PhaseSpan& span : workload_phases(s, end)) {
+    PhaseWorkload ph;
+    ph.span = span;
+    ph.label = phase_label(s, span);
+    ph.ops = s.initial;
+    for (const SensorSpec& sn : s.sensors) ph.sensor_rate.push_back(sn.rate_hz);
+    // The events due by the phase's start are in effect (they are in time order).
+    for (const EventSpec& e : s.events) {
+      if (e.at > span.from) break;
+      for (const auto& [op, snap] : e.changes) ph.ops[static_cast<std::size_t>(op)] = snap;
+      for (const auto& [sensor, rate] : e.sensor_rates)
+        ph.sensor_rate[static_cast<std::size_t>(sensor)] = rate;
+    }
+    out.push_back(std::move(ph));
+  }
+  return out;
+}
+
+Duration critical_path(const OperationSpec& op, GraphMode mode, const UnitCosts& c) {
+  if (mode == GraphMode::Mono) return work_fine(op, c);
+  // Nodes in topological order: the loader guarantees a DAG; relax edges until stable
+  // (|nodes| rounds at most, each a pass over the edges).
+  std::vector<Duration> finish(op.nodes.size(), Duration{0});
+  for (std::size_t i = 0; i < op.nodes.size(); ++i) {
+    const NodeSpec& n = op.nodes[i];
+    finish[i] = mode == GraphMode::Coarse
+                    ? c.coarse_node(n)
+                    : (n.is_plain() ? Duration{0} : c.encoder()) + c.fine_node(n);
+  }
+  for (std::size_t round = 0; round < op.nodes.size(); ++round) {
+    bool changed = false;
+    for (const EdgeSpec& e : op.edges) {
+      const NodeSpec& to = op.nodes[static_cast<std::size_t>(e.to)];
+      Duration start = finish[static_cast<std::size_t>(e.from)];
+      // Fine graph: the encoder of `to` runs from the release, beside its predecessors.
+      if (mode == GraphMode::Fine && !to.is_plain()) start = std::max(start, c.encoder());
+      const Duration f = start + c.fine_node(to) +
+                         (mode == GraphMode::Coarse && !to.is_plain() ? c.encoder() : Duration{0});
+      if (f > finish[static_cast<std::size_t>(e.to)]) {
+        finish[static_cast<std::size_t>(e.to)] = f;
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+  Duration cp{0};
+  for (Duration f : finish) cp = std::max(cp, f);
+  return cp;
+}
+
+Duration work_coarse(const OperationSpec& op, const UnitCosts& c) {
+  Duration w{0};
+  for (const NodeSpec& n : op.nodes) w += c.coarse_node(n);
+  return w;
+}
+
+namespace {
+
+std::vector<int> sensors_read(const OperationSpec& op) {
+  std::vector<int> v;
+  for (const NodeSpec& n : op.nodes)
+    if (!n.is_plain() && std::find(v.begin(), v.end(), n.sensor) == v.end()) v.push_back(n.sensor);
+  return v;
+}
+
+}  // namespace
+
+Duration work_fine(const OperationSpec& op, const UnitCosts& c) {
+  Duration w = c.encoder() * static_cast<std::int64_t>(sensors_read(op).size());
+  for (const NodeSpec& n : op.nodes) w += c.fine_node(n);
+  return w;
+}
+
+double release_rate(const OperationSpec& op, const PhaseWorkload& ph, const Scenario& s) {
+  if (op.trigger_sensor >= 0) return ph.sensor_rate[static_cast<std::size_t>(op.trigger_sensor)];
+  if (op.rate_hz > 0) return op.rate_hz;
+  const double d = to_s(s.duration);
+  return op.release_count && d > 0 ? *op.release_count / d : 0.0;
+}
+
+std::vector<double> merged_encoder_runs(const Scenario& s, const PhaseWorkload& ph) {
+  const std::size_t n = ph.ops.size();
+  std::vector<double> runs(n, 0.0);
+  // Per sensor: operations triggered by it that read it, and the others that read it.
+  std::map<int, std::vector<std::size_t>> triggered, sampling;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!ph.ops[i]) continue;
+    for (int sn : sensors_read(*ph.ops[i]))
+      (ph.ops[i]->trigger_sensor == sn ? triggered : sampling)[sn].push_back(i);
+  }
+  for (const auto& [sn, ops] : triggered)
+    for (std::size_t i : ops) runs[i] += 1.0 / static_cast<double>(ops.size());
+  const double gamma_s = to_s(s.scheduler.gamma);
+  for (const auto& [sn, ops] : sampling) {
+    double sum = 0, fastest = 0, slowest = 0;
+    for (std::size_t i : ops) {
+      const double r = release_rate(*ph.ops[i], ph, s);
+      sum += r;
+      fastest = std::max(fastest, r);
+      slowest = slowest == 0 ? r : std::min(slowest, r);
+    }
+    if (sum <= 0) continue;
+    double per_s = ops.size() > 1 && slowest > 0 && 2 * gamma_s >= 1.0 / slowest ? fastest : sum;
+    per_s = std::min(per_s, ph.sensor_rate[static_cast<std::size_t>(sn)]);
+    for (std::size_t i : ops) runs[i] += per_s / sum;
+  }
+  return runs;
+}
+
+Profile worst_case_profile(const Profile& p) {
+  Profile w = p;
+  for (auto& [name, unit] : w.units)
+    for (LatencyStats& l : unit.by_batch) l.min = l.mean = l.p50 = l.p95 = l.p99 = l.max;
+  return w;
+}
+
+Scenario worst_case_scenario(const Scenario& s, const Profile& p) {
+  Scenario w = s;
+  const CostModel costs{&p, &s.model, s.scheduler.estimate};
+  auto freeze = [&](const std::shared_ptr<const OperationSpec>& op) {
+    if (!op) return op;
+    auto c = std::make_shared<OperationSpec>(*op);
+    c->deadline.fixed = resolve_deadline(*op, costs);
+    c->deadline.critical_path_x.reset();
+    for (NodeSpec& n : c->nodes)
+      if (n.cost) {
+        const Duration m = plain_stats(*n.cost).max;
+        n.cost = PlainCost{m, m};
+      }
+    return std::shared_ptr<const OperationSpec>(std::move(c));
+  };
+  for (auto& op : w.initial) op = freeze(op);
+  for (EventSpec& e : w.events)
+    for (auto& change : e.changes) change.second = freeze(change.second);
+  return w;
+}
+
+}  // namespace red

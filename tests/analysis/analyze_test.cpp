@@ -1,0 +1,305 @@
+// `red analyze` as a library (docs/ANALYSIS.md): every verdict on a small hand-built
+// scenario, the verdicts against the simulator on the bundled and on seeded random
+// scenarios, and the searched headroom's monotonicity.
+
+#include "red/analysis/analyze.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "../support/load_grid.hpp"
+#include "../support/random_scenario.hpp"
+#include "red/analysis/nptest.hpp"
+#include "red/analysis/workload.hpp"
+#include "red/scenario/builder.hpp"
+#include "red/scenario/loader.hpp"
+#include "red/sim/run.hpp"
+
+namespace red {
+namespace {
+
+using std::chrono::milliseconds;
+
+// One operation of one plain node (mean, p99) at `hz` on one lane with deadline `d`.
+Scenario single(double hz, Duration d, Duration mean, Duration p99, int lanes = 1) {
+  ScenarioBuilder b("single");
+  b.duration(std::chrono::seconds{10}).warmup(milliseconds{500}).seed(3).lanes(lanes);
+  b.operation("op").rate(hz).deadline(d).max_inflight(4).plain("A", mean, p99);
+  auto s = b.build();
+  EXPECT_TRUE(s) << (s ? "" : s.error().to_string());
+  return std::move(s).value();
+}
+
+Analysis run(const Scenario& s, const std::string& policy = "edf") {
+  AnalysisOptions o;
+  o.policy = policy;
+  o.headroom = false;
+  auto a = analyze(s, default_profile(), o);
+  EXPECT_TRUE(a) << (a ? "" : a.error().to_string());
+  return std::move(a).value();
+}
+
+const OperationAnalysis& only_op(const Analysis& a) {
+  EXPECT_EQ(a.phases.size(), 1u);
+  EXPECT_EQ(a.phases.front().operations.size(), 1u);
+  return a.phases.front().operations.front();
+}
+
+TEST(AnalyzeVerdict, OkWhenLightAndLoose) {
+  const Analysis a = run(single(20, milliseconds{40}, milliseconds{10}, milliseconds{12}));
+  const OperationAnalysis& op = only_op(a);
+  EXPECT_EQ(op.verdict, Verdict::Ok) << op.reason;
+  EXPECT_EQ(a.verdict, Verdict::Ok);
+  EXPECT_NEAR(op.utilization, 0.2, 1e-9);  // 10 ms × 20 Hz on one lane
+  EXPECT_NEAR(op.rate_hz, 20, 1e-12);
+  EXPECT_EQ(op.deadline, milliseconds{40});
+  EXPECT_LE(op.miss_profiled, 0.01);
+  EXPECT_GT(op.jobs_profiled, 0);
+}
+
+TEST(AnalyzeVerdict, InfeasibleWhenTheDeadlineIsBelowTheBestCaseCriticalPath) {
+  // A chain of two deterministic 10 ms nodes cannot finish in 15 ms on any lane.
+  ScenarioBuilder b("chain");
+  b.duration(std::chrono::seconds{5}).lanes(2);
+  b.operation("op")
+      .rate(10)
+      .deadline(milliseconds{15})
+      .plain("A", milliseconds{10})
+      .plain("B", milliseconds{10})
+      .edge("A", "B");
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  const Analysis a = run(*s);
+  const OperationAnalysis& op = only_op(a);
+  EXPECT_EQ(op.verdict, Verdict::Infeasible) << op.reason;
+  EXPECT_EQ(op.alone_min, milliseconds{20});
+  EXPECT_NE(op.reason.find("every job misses"), std::string::npos) << op.reason;
+  // The simulator agrees: every job misses.
+  EXPECT_GT(op.jobs_profiled, 0);
+  EXPECT_DOUBLE_EQ(op.miss_profiled, 1.0);
+}
+
+TEST(AnalyzeVerdict, InfeasibleWhenTheJobsOwnWorkExceedsTheDeadlineOnOneLane) {
+  // Two parallel 10 ms nodes: critical path 10 ms, but one lane needs 20 ms.
+  ScenarioBuilder b("fork");
+  b.duration(std::chrono::seconds{5}).lanes(1);
+  b.operation("op")
+      .rate(10)
+      .deadline(milliseconds{15})
+      .plain("A", milliseconds{10})
+      .plain("B", milliseconds{10});
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  const Analysis a = run(*s);
+  const OperationAnalysis& op = only_op(a);
+  EXPECT_EQ(op.verdict, Verdict::Infeasible) << op.reason;
+  EXPECT_DOUBLE_EQ(op.miss_profiled, 1.0);
+}
+
+TEST(AnalyzeVerdict, OverloadedWhenDemandExceedsCapacity) {
+  // 10 ms every 8 ms: 125 % of one lane.
+  const Analysis a = run(single(125, milliseconds{40}, milliseconds{10}, milliseconds{10}));
+  const OperationAnalysis& op = only_op(a);
+  EXPECT_EQ(op.verdict, Verdict::Overloaded) << op.reason;
+  EXPECT_NEAR(a.peak_utilization, 1.25, 1e-9);
+  EXPECT_LT(a.on_time_bound, 1.0);
+  EXPECT_GT(op.miss_profiled, 0.01);
+  // Two lanes carry it.
+  const Analysis two =
+      run(single(125, milliseconds{40}, milliseconds{10}, milliseconds{10}, 2), "edf");
+  EXPECT_NEAR(two.peak_utilization, 0.625, 1e-9);
+}
+
+TEST(AnalyzeVerdict, AtRiskWhenOnlyWorstCaseCostsMiss) {
+  // mean 10, p99 20, so max 21.5 ms (plain_stats): a 21.4 ms deadline is missed only by
+  // the rare draws above it (< 0.1 %), and by every job at worst-case costs.
+  const Analysis a = run(single(20, Duration{21'400'000}, milliseconds{10}, milliseconds{20}));
+  const OperationAnalysis& op = only_op(a);
+  EXPECT_EQ(op.verdict, Verdict::AtRisk) << op.reason;
+  EXPECT_LE(op.miss_profiled, 0.01);
+  EXPECT_DOUBLE_EQ(op.miss_worst, 1.0);
+}
+
+TEST(AnalyzeVerdict, EachPhaseThatEventsCreateIsJudged) {
+  auto s = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/case-dynamic.yaml");
+  ASSERT_TRUE(s) << s.error().to_string();
+  const Analysis a = run(*s, "red");
+  // Before detection joins, while it is in, after it left.
+  ASSERT_EQ(a.phases.size(), 3u);
+  EXPECT_LT(a.phases[0].utilization, a.phases[1].utilization);
+  EXPECT_NEAR(a.phases[0].utilization, a.phases[2].utilization, 1e-12);
+  EXPECT_GT(a.phases[1].operations.front().work_fine, a.phases[0].operations.front().work_fine);
+  // Coarse work counts an encoder run per node; fine shares the job's one run.
+  const OperationAnalysis& nav = a.phases[1].operations.front();
+  EXPECT_GT(nav.work_coarse, nav.work_fine);
+  EXPECT_GE(nav.cp_coarse_estimate, nav.cp_coarse_mean);
+  EXPECT_GE(nav.cp_coarse_mean, nav.cp_fine_mean);
+}
+
+// The verdicts agree with the simulator: an `ok` operation shows <= 1 % misses at the
+// profile's costs; an operation infeasible on best-case costs misses every job.
+void expect_consistent(const Analysis& a, const std::string& what) {
+  for (const PhaseAnalysis& ph : a.phases)
+    for (const OperationAnalysis& op : ph.operations) {
+      SCOPED_TRACE(what + " / " + ph.label + " / " + op.name + ": " + op.reason);
+      if (op.verdict == Verdict::Ok) {
+        EXPECT_LE(op.miss_profiled, a.miss_limit);
+      }
+      if (op.verdict == Verdict::AtRisk) {
+        EXPECT_LE(op.miss_profiled, a.miss_limit);
+        EXPECT_GT(op.miss_worst, a.miss_limit);
+      }
+      if (op.verdict == Verdict::Infeasible && op.deadline < op.alone_min && op.jobs_profiled > 0) {
+        EXPECT_DOUBLE_EQ(op.miss_profiled, 1.0);
+      }
+    }
+}
+
+TEST(AnalyzeAgreement, BundledScenarios) {
+  const std::string dir = std::string(RED_SOURCE_DIR) + "/scenarios";
+  int seen = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".yaml") continue;
+    auto s = load_scenario(entry.path().string());
+    ASSERT_TRUE(s) << s.error().to_string();
+    for (const std::string policy : {"red", "edf"}) {
+      const Analysis a = run(*s, policy);
+      expect_consistent(a, entry.path().filename().string() + " " + policy);
+      ++seen;
+    }
+  }
+  EXPECT_GE(seen, 2 * 9);
+}
+
+TEST(AnalyzeAgreement, SeededRandomScenariosAcrossTheLoad) {
+  const Profile p = default_profile();
+  int verdicts[4] = {0, 0, 0, 0};
+  for (const grid::SetSpec& spec : grid::grid_sets(1, 2.0))
+    for (double load : {0.5, 1.4}) {
+      const Scenario s = grid::set_scenario(spec, p, load);
+      for (const std::string policy : {"red", "edf"}) {
+        AnalysisOptions o;
+        o.policy = policy;
+        o.headroom = false;
+        auto a = analyze(s, p, o);
+        ASSERT_TRUE(a) << a.error().to_string();
+        expect_consistent(*a, s.name + " " + policy);
+        for (const PhaseAnalysis& ph : a->phases)
+          for (const OperationAnalysis& op : ph.operations)
+            ++verdicts[static_cast<int>(op.verdict)];
+        // Past capacity on the policy's work, no operation is called ok.
+        if (a->peak_utilization > 1.0) {
+          EXPECT_NE(a->verdict, Verdict::Ok) << s.name;
+        }
+      }
+    }
+  // The grid reaches more than one verdict.
+  EXPECT_GT(verdicts[static_cast<int>(Verdict::Ok)], 0);
+  EXPECT_GT(verdicts[static_cast<int>(Verdict::Overloaded)], 0);
+}
+
+TEST(AnalyzeAgreement, RandomScenariosWithEveryFeature) {
+  // Events, depends_on, own rates, jitter, plain nodes, several lanes: the analysis and the
+  // export run through without error, and the verdicts agree with the simulator.
+  const Profile p = default_profile();
+  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+    test::RandomScenarioOptions ro;
+    ro.duration_s = 1.5;
+    ro.events = true;
+    ro.depends_on = true;
+    auto s = parse_scenario(test::random_scenario_yaml(seed, ro), "");
+    ASSERT_TRUE(s) << s.error().to_string();
+    for (const std::string policy : {"red", "edf", "mono", "fifo", "red-robust"}) {
+      AnalysisOptions o;
+      o.policy = policy;
+      o.headroom = seed % 8 == 0;
+      auto a = analyze(*s, p, o);
+      ASSERT_TRUE(a) << a.error().to_string();
+      expect_consistent(*a, s->name + " " + policy);
+      EXPECT_FALSE(analysis_text(*a).empty());
+      EXPECT_FALSE(analysis_json(*a).empty());
+      EXPECT_TRUE(a->response.applies || !a->response.why_not.empty());
+      auto x = export_nptest(*s, p, *policy_options(*s, policy));
+      ASSERT_TRUE(x) << x.error().to_string();
+      EXPECT_GT(x->jobs, 0u) << s->name;
+    }
+  }
+}
+
+TEST(AnalyzeHeadroom, TheSearchedRateIsMonotoneAtItsEdge) {
+  auto s = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/minibench-tight.yaml");
+  ASSERT_TRUE(s) << s.error().to_string();
+  const Profile p = default_profile();
+  for (const std::string policy : {"red", "edf"})
+    for (bool worst : {false, true}) {
+      SCOPED_TRACE(policy + (worst ? " worst-case" : " profiled"));
+      auto h = search_headroom(*s, p, policy, worst);
+      ASSERT_TRUE(h) << h.error().to_string();
+      EXPECT_EQ(h->costs, worst ? "worst-case" : "profiled");
+      const Scenario base = worst ? worst_case_scenario(*s, p) : *s;
+      const Profile prof = worst ? worst_case_profile(p) : p;
+      auto at = [&](const char* key, double v) {
+        Scenario x = base;
+        EXPECT_FALSE(apply_override(x, key, v).has_value());
+        auto t = run_trial(x, prof, policy, 0.01);
+        EXPECT_TRUE(t);
+        return t->pass;
+      };
+      if (h->rate.pass > 0 && h->rate.fail > 0) {
+        EXPECT_LT(h->rate.pass, h->rate.fail);
+        EXPECT_LE(h->rate.fail / h->rate.pass, 1.0101);
+        EXPECT_TRUE(at("rate_scale", h->rate.pass));   // a slightly lower rate passes
+        EXPECT_FALSE(at("rate_scale", h->rate.fail));  // a slightly higher one fails
+        EXPECT_FALSE(h->rate.first_to_fail.empty());
+        EXPECT_GT(h->rate.first_miss, 0.01);
+      }
+      if (h->deadline.pass > 0 && h->deadline.fail > 0) {
+        EXPECT_GT(h->deadline.pass, h->deadline.fail);
+        EXPECT_TRUE(at("deadline_scale", h->deadline.pass));
+        EXPECT_FALSE(at("deadline_scale", h->deadline.fail));
+      }
+      if (policy == "red") {
+        // RED fits minibench-tight (its scenario comment): headroom above 1 on profiled costs.
+        if (!worst) {
+          EXPECT_GT(h->rate.pass, 1.0);
+        }
+      } else {
+        // Coarse EDF is overloaded by it: it fails already at the scenario's rate.
+        EXPECT_LT(h->rate.pass, 1.0);
+      }
+      EXPECT_GT(h->simulations, 2);
+    }
+}
+
+TEST(AnalyzeWorstCase, ProfileAndScenarioPinEveryCostAtItsMax) {
+  const Profile w = worst_case_profile(default_profile());
+  for (const auto& [name, unit] : w.units)
+    for (const LatencyStats& l : unit.by_batch) {
+      EXPECT_EQ(l.quantile(0.0), l.max) << name;
+      EXPECT_EQ(l.quantile(0.5), l.max) << name;
+      EXPECT_EQ(l.mean, l.max) << name;
+    }
+  ScenarioBuilder b("cp-x");
+  b.duration(std::chrono::seconds{2}).sensor("camera", 10);
+  b.operation("op").trigger("camera").deadline_critical_path(1.5).inference("L", "lane", "camera");
+  b.operation("post")
+      .rate(5)
+      .deadline(milliseconds{50})
+      .plain("P", milliseconds{4}, milliseconds{6});
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  const Profile p = default_profile();
+  const Scenario ws = worst_case_scenario(*s, p);
+  const CostModel est{&p, &s->model, s->scheduler.estimate};
+  // The deadline stays what the profiled estimate made it.
+  EXPECT_EQ(resolve_deadline(*ws.initial[0], CostModel{&w, &ws.model, ws.scheduler.estimate}),
+            resolve_deadline(*s->initial[0], est));
+  const PlainCost& c = *ws.initial[1]->nodes[0].cost;
+  EXPECT_EQ(c.mean, c.p99);
+  EXPECT_EQ(c.mean, plain_stats(*s->initial[1]->nodes[0].cost).max);
+}
+
+}  // namespace
+}  // namespace red
