@@ -15,6 +15,7 @@
 #include "red/metrics/phases.hpp"
 #include "red/report/report.hpp"
 #include "red/report/timeline.hpp"
+#include "signals.hpp"
 
 namespace red::cli {
 
@@ -61,6 +62,7 @@ void print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
 // simulator every policy sees the same releases and the same sampled unit times (common
 // random numbers, §10); on a real backend the same releases. Returns the exit code.
 int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool table) {
+  install_stop_signals();
   auto s = load(a.scenario);
   if (!s) {
     print_error(s.error());
@@ -128,6 +130,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   const SteadyClock clock;
   ProgressReporter progress(clock, std::cerr, ProgressReporter::stderr_is_terminal());
   for (std::size_t i = 0; i < names.size(); ++i) {
+    // A stop signal: no further policy starts (a simulation in progress ends first).
+    if (stop_signal() != 0) break;
     const std::string& n = names[i];
     traces.push_back(a.out ? make_trace(*s, a.trace_events, names.size()) : nullptr);
     std::vector<Observer*> extra{&progress};
@@ -155,6 +159,12 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
           to_s(traces.back()->truncated_at()), traces.back()->events());
     runs.push_back(std::move(r.value()));
   }
+  if (stop_signal() != 0) {
+    std::cerr << fmt::format("red: stopped by {} after {} of {} run(s){}\n", stop_signal_name(),
+                             runs.size(), names.size(),
+                             runs.empty() || !a.out ? "" : "; writing what they measured");
+    if (runs.empty()) return stop_exit_code();
+  }
   std::vector<PolicyMetrics> metrics;
   for (const PolicyRun& r : runs) metrics.push_back(r.metrics);
   apply_ratios(metrics, "edf");
@@ -162,7 +172,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
              s->name, sim ? "sim" : backend->name(), seed, p->source, s->device.lanes,
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
-  if (!sim) print_prediction(*s, *p, seed, runs, real.sync);
+  if (!sim && stop_signal() == 0) print_prediction(*s, *p, seed, runs, real.sync);
   if (a.phases) {
     std::vector<std::string> names_run;
     std::vector<std::vector<PhaseMetrics>> phases;
@@ -205,7 +215,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     }
     fmt::print("{}\n", wrote_message(*a.out, written));
   }
-  return kOk;
+  return stop_signal() != 0 ? stop_exit_code() : kOk;
 }
 
 void add_common(CLI::App* cmd, RunArgs& a) {
