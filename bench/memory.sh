@@ -38,15 +38,16 @@ def runs(name):
 def mlock(name):
     m = re.search(r"mlockall: (.*)", open(f"{out}/{name}.err").read())
     return m.group(1) if m else "?"
-def spread(xs):
-    return f"{min(xs):.1f}..{max(xs):.1f}" if len(xs) > 1 else f"{xs[0]:.1f}"
+def spread(xs, digits=1):
+    f = f"{{:.{digits}f}}"
+    return f"{f.format(min(xs))}..{f.format(max(xs))}" if len(xs) > 1 else f.format(xs[0])
 rt = [runs(f"rt-{i}")[0] for i in range(1, n + 1)]
 nort = [runs(f"nort-{i}")[0] for i in range(1, n + 1)]
 print(f"mlockall: {mlock('rt-1')}")
-print("red run, LibTorch     peak MB (runs)                      ratio")
+print("red run, LibTorch: peak RSS MB")
 for i in range(n):
     print(f"  repeat {i + 1}: real-time {rt[i][2]:.1f}, --no-realtime {nort[i][2]:.1f} -> {rt[i][2] / nort[i][2]:.3f}")
-print(f"  real-time / no-realtime peak: {spread([r[2] / q[2] for r, q in zip(rt, nort)])} (target <= 1.1)")
+print(f"  real-time / no-realtime peak: {spread([r[2] / q[2] for r, q in zip(rt, nort)], 3)} (target <= 1.1)")
 print("red compare, LibTorch, six policies: RSS after each policy (after release) and peak, MB")
 ratios = []
 for i in range(1, n + 1):
@@ -55,7 +56,7 @@ for i in range(1, n + 1):
     peaks = [x[2] for x in c]
     ratios.append(after[-1] / after[0])
     print(f"  repeat {i}: after " + " ".join(f"{x:.1f}" for x in after) + "; peak " + " ".join(f"{x:.1f}" for x in peaks))
-print(f"  after the sixth / after the first: {spread(ratios)} (target <= 1.1)")
+print(f"  after the sixth / after the first: " + " ".join(f"{r:.3f}" for r in ratios) + " (target <= 1.1)")
 own_t = [r[2] - r[1] for r in nort]
 own_s = [x[2] - x[1] for i in range(1, n + 1) for x in runs(f"synthetic-{i}")]
 print(f"RED's own memory, peak - after warm-up: LibTorch run (no real-time) {spread(own_t)} MB; "
