@@ -641,8 +641,10 @@ struct Runtime::Impl {
     }
     cameras_on.store(false, std::memory_order_release);
     accepting.store(false, std::memory_order_release);
-    if (camera.joinable()) camera.join();
+    // Before waiting for the camera (asleep until its next frame): from here a handler
+    // whose unit completes reports it instead of deciding its next unit itself.
     stopping.store(true, std::memory_order_release);
+    if (camera.joinable()) camera.join();
     for (auto& h : handlers) {
       { std::lock_guard lock(h->mu); }
       h->cv.notify_all();

@@ -193,7 +193,9 @@ TEST_F(Signals, RunStopsOnSigintWithJobsUnfinished) {
   for (const auto& row : jobs) unfinished += row[6] == "unfinished" ? 1 : 0;
   EXPECT_EQ(unfinished, p[0]["unfinished"].get<std::size_t>());
   whole_csv(fs::path(out_dir()) / "rss.csv");
-  EXPECT_NO_THROW((void)json::parse(read_text(fs::path(out_dir()) / "trace.json")));
+  json trace;
+  EXPECT_NO_THROW(trace = json::parse(read_text(fs::path(out_dir()) / "trace.json")));
+  EXPECT_TRUE(trace.contains("traceEvents")) << "trace.json is whole";
 }
 
 TEST_F(Signals, RunStopsOnSigterm) {
@@ -220,12 +222,14 @@ TEST_F(Signals, CompareWritesThePoliciesRunSoFar) {
 }
 
 TEST_F(Signals, SweepWritesTheValuesDone) {
-  // Thousands of simulations: the signal comes long before the end. A sweep prints nothing
-  // while it runs (off a terminal), so the signal is sent after a short wait; a value in
-  // progress is left out, and when none was done nothing is written.
+  // Thousands of simulations: the signal comes long before the end. Off a terminal a sweep
+  // says nothing between its first line and its end, so the signal follows that line after
+  // a short wait, to let some values finish; a value in progress is left out, and when none
+  // was done nothing is written.
   start({"sweep", data("signal.yaml"), "--set", "deadline_scale=0.5:50:0.01", "--policies",
          "edf,red", "--out", out_dir()});
-  std::this_thread::sleep_for(std::chrono::milliseconds{1500});
+  ASSERT_TRUE(wait_for_stderr("red: sweep of deadline_scale over 4951 value(s)")) << err();
+  std::this_thread::sleep_for(std::chrono::milliseconds{1000});
   EXPECT_EQ(stop_with(SIGTERM), 143) << err();
   EXPECT_NE(err().find("stopped by SIGTERM after"), std::string::npos) << err();
   const fs::path json_path = fs::path(out_dir()) / "sweep.json";

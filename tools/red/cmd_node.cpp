@@ -173,8 +173,8 @@ int run_node(const NodeArgs& a) {
     run.metrics = metrics.summarize(a.policy, report.end);
     run.metrics.decision_p50_us = percentile(report.decision_us, 0.5);
     run.metrics.decision_p99_us = percentile(report.decision_us, 0.99);
-    run.jobs = metrics.jobs();
-    run.units = metrics.units();
+    run.jobs = metrics.take_jobs();
+    run.units = metrics.take_units();
     run.result.end = report.end;
     run.result.stats = report.stats;
     OutputOptions oo;

@@ -152,7 +152,14 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
           static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
     else
       print_runtime_report(n, report);
-    if (!sim) reports.push_back(std::move(report));
+    if (!sim) {
+      // Only the samples are needed later (rss.csv): the timing samples go now, so a
+      // compare of many policies does not keep them all.
+      report.decision_us = {};
+      report.handoff_us = {};
+      report.frame_release_us = {};
+      reports.push_back(std::move(report));
+    }
     if (traces.back() && traces.back()->truncated())
       std::cerr << fmt::format(
           "red: trace of {} stops at {:.3f} s (limit of {} events; see --trace-events)\n", n,

@@ -122,6 +122,10 @@ void register_sweep(CLI::App& app, int& exit_code) {
     ProgressReporter progress(clock, std::cerr, ProgressReporter::stderr_is_terminal());
     const std::size_t total = all_values.size() * names.size();
     std::size_t done = 0;
+    std::cerr << fmt::format(
+        "red: sweep of {} over {} value(s) x {} policies (SIGINT or SIGTERM stops it; the "
+        "values done are written)\n",
+        key, all_values.size(), names.size());
     for (double v : all_values) {
       // A stop signal: no further value starts; the finished values are written (a
       // simulation in progress ends first, its value is left out).

@@ -102,11 +102,11 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   std::int64_t peak = 0;
   for (const RuntimeSample& x : report.samples) peak = std::max(peak, x.rss_bytes);
   if (peak > 0) run.metrics.peak_rss_mb = std::round(static_cast<double>(peak) / 1e5) / 10;
-  run.jobs = metrics.jobs();
-  run.units = metrics.units();
+  run.jobs = metrics.take_jobs();
+  run.units = metrics.take_units();
   run.result.end = report.end;
   run.result.stats = report.stats;
-  if (out != nullptr) *out = report;
+  if (out != nullptr) *out = std::move(report);
   return run;
 }
 
