@@ -132,10 +132,11 @@ void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
   for (const RuntimeSample& x : r.samples) peak = std::max(peak, x.rss_bytes);
   auto mb = [](std::int64_t b) { return static_cast<double>(b) / 1e6; };
   std::cerr << fmt::format(
-      "red:   RSS MB: before {:.1f}, after warm-up {:.1f}, peak {:.1f}, end {:.1f}, after "
-      "release {:.1f}\n",
+      "red:   RSS MB: before {:.1f}, after warm-up {:.1f}, peak {:.1f}, end {:.1f}{}\n",
       mb(r.resident_bytes_before), mb(r.resident_bytes_warm), mb(peak), mb(r.resident_bytes_after),
-      mb(r.resident_bytes_released));
+      r.resident_bytes_released > 0
+          ? fmt::format(", after release {:.1f}", mb(r.resident_bytes_released))
+          : std::string());
   if (r.late_returns > 0)
     std::cerr << fmt::format(
         "red:   {} timed-out unit(s) returned late; lanes out of service {:.1f} ms\n",
