@@ -8,7 +8,7 @@
 #        bench/soak.sh runtime [SECONDS]   the runtime alone, without red's per-job records:
 #                                          tests/soak (red_soak_tests) for SECONDS
 #   RED=path/to/red (default build/tools/red/red), REALTIME=1 to try the real-time knobs
-#   (default --no-realtime: mlockall would lock every mapped page, see issue 10 item 4).
+#   (default --no-realtime; mlockall now locks only touched pages, bench/memory.sh).
 # Not part of CI: it takes SECONDS of wall time (60 s, and 600 s for the long soak).
 set -euo pipefail
 cd "$(dirname "$0")/.."

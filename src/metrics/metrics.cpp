@@ -29,6 +29,14 @@ MetricsCollector::MetricsCollector(const Scenario& s, double qoe_lambda, bool ke
 }
 
 void MetricsCollector::on_job_end(const JobRecord& j) {
+  if (const auto it = spent_.find(j.id); it != spent_.end()) {
+    Spent& sp = it->second;
+    sp.ended = true;
+    sp.wasted = j.counted && (j.outcome == JobOutcome::Dropped ||
+                              j.outcome == JobOutcome::Skipped || j.outcome == JobOutcome::Failed);
+    if (sp.wasted) wasted_ += sp.time;
+    if (sp.running <= 0) spent_.erase(it);
+  }
   if (!j.counted) return;
   JobRow r;
   r.operation = j.operation;
@@ -51,15 +59,23 @@ void MetricsCollector::on_merge_wait(int /*sensor*/, TimePoint now, TimePoint /*
 
 void MetricsCollector::on_unit_start(const Dispatch& d) {
   started_[static_cast<std::size_t>(d.lane)] = d.start;
+  for (const Member& m : d.members) ++spent_[m.job].running;
 }
 
 void MetricsCollector::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus s) {
   const TimePoint start = started_[static_cast<std::size_t>(d.lane)];
   const TimePoint from = std::max(start, scenario_.warmup);
-  if (end > from) {
-    busy_[static_cast<std::size_t>(d.lane)] += end - from;
-    const Duration share = (end - from) / static_cast<std::int64_t>(d.members.size());
-    for (const Member& m : d.members) spent_[m.job] += share;
+  const Duration share =
+      end > from ? (end - from) / static_cast<std::int64_t>(d.members.size()) : Duration{0};
+  if (end > from) busy_[static_cast<std::size_t>(d.lane)] += end - from;
+  for (const Member& m : d.members) {
+    const auto it = spent_.find(m.job);
+    if (it == spent_.end()) continue;  // not seen starting (observer attached late)
+    Spent& sp = it->second;
+    sp.time += share;
+    // A unit that ran on past its job's end (the job was dropped meanwhile) still counts.
+    if (sp.wasted) wasted_ += share;
+    if (--sp.running <= 0 && sp.ended) spent_.erase(it);
   }
   if (start < scenario_.warmup) return;
   ++dispatches_;
@@ -135,14 +151,12 @@ PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end
   std::vector<double> lat;
   std::vector<double> age;
   double qoe_sum = 0;
-  Duration wasted{0};
+  const Duration wasted = wasted_;
   for (const JobRow& j : jobs_) {
     ++m.jobs;
     if (j.outcome == JobOutcome::Dropped || j.outcome == JobOutcome::Skipped ||
-        j.outcome == JobOutcome::Failed) {
+        j.outcome == JobOutcome::Failed)
       ++m.drop_reasons[j.reason.empty() ? std::string(to_string(j.outcome)) : j.reason];
-      if (const auto it = spent_.find(j.id); it != spent_.end()) wasted += it->second;
-    }
     switch (j.outcome) {
       case JobOutcome::Met:
         ++m.completed;

@@ -12,7 +12,9 @@
 #include <condition_variable>
 #include <cstring>
 #include <fstream>
+#include <latch>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "red/core/assert.hpp"
@@ -125,10 +127,12 @@ struct Runtime::Impl {
     std::atomic<std::int64_t> timed_out_ns{0};  // when the watchdog failed it
   };
   std::vector<std::unique_ptr<Handler>> handlers;
+  std::optional<std::latch> warmed;  // counts down as each lane finishes Backend::warm_up
   std::atomic<bool> stopping{false};
   std::atomic<bool> cameras_on{true};
   std::atomic<bool> accepting{false};  // external frames: between run() start and release end
   std::atomic<bool> stop_requested{false};
+  std::atomic<bool> stop_now_requested{false};  // stop_now(): no draining
   // When the global synchronizer will wake next (kNever while it recomputes): a handler
   // starting a unit whose watchdog limit comes earlier pokes it.
   std::atomic<std::int64_t> global_wake_at{kNever.count()};
@@ -345,6 +349,8 @@ struct Runtime::Impl {
   void handler_main(int lane) {
     Handler& h = *handlers[static_cast<std::size_t>(lane)];
     backend.init_lane(lane);
+    backend.warm_up(lane);
+    warmed->count_down();
     std::uint64_t seen = 0;
     const Dispatch* next = nullptr;
     TimePoint prev_end = kNever;
@@ -484,8 +490,16 @@ struct Runtime::Impl {
       report.realtime.push_back("real-time knobs: off (--no-realtime)");
       return;
     }
-    if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
-      report.realtime.push_back("mlockall: applied");
+    // Lock only the pages the process touches (MCL_ONFAULT): the ones resident after the
+    // warm-up now, others as they are first touched. Locking every mapped page instead
+    // (MCL_CURRENT | MCL_FUTURE alone) would make every page of every mapped library
+    // resident, hundreds of MB with LibTorch. A kernel without MCL_ONFAULT (before 4.4)
+    // answers EINVAL: then every page is locked, as the report says.
+    if (mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT) == 0) {
+      report.realtime.push_back("mlockall: applied (pages as they are touched, MCL_ONFAULT)");
+    } else if (errno == EINVAL && mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
+      report.realtime.push_back(
+          "mlockall: applied to every mapped page (this kernel has no MCL_ONFAULT)");
     } else {
       report.realtime.push_back(std::string("mlockall: not applied (") + std::strerror(errno) +
                                 ")");
@@ -529,8 +543,12 @@ struct Runtime::Impl {
   RuntimeReport run() {
     report.resident_bytes_before = resident_bytes();
     for (int l = 0; l < scenario.device.lanes; ++l) handlers.push_back(std::make_unique<Handler>());
+    warmed.emplace(scenario.device.lanes);
     for (int l = 0; l < scenario.device.lanes; ++l)
       handlers[static_cast<std::size_t>(l)]->thread = std::thread([this, l] { handler_main(l); });
+    // Memory is locked after the warm-up pass, when the pages the run uses are resident.
+    warmed->wait();
+    report.resident_bytes_warm = resident_bytes();
     apply_realtime();
     std::atomic<bool> load_on{true};
     std::vector<std::thread> load;
@@ -560,7 +578,8 @@ struct Runtime::Impl {
       {
         std::lock_guard lock(sched_mu);
         TimePoint now = advance_now(clock.now());
-        if (releasing && (now >= scenario.duration || stop_requested.load())) {
+        const bool stop_now = stop_now_requested.load();
+        if (releasing && (now >= scenario.duration || stop_requested.load() || stop_now)) {
           releasing = false;
           cameras_on.store(false, std::memory_order_release);
           accepting.store(false, std::memory_order_release);
@@ -568,6 +587,7 @@ struct Runtime::Impl {
           sched.stop_releases();
           hard_stop = std::min(hard_stop, now + options.drain_limit);
         }
+        if (stop_now) hard_stop = std::min(hard_stop, now);
         {
           // What is in the inbox now is handled in this round; anything posted after the
           // swap bumps inbox_seq past `seen` and ends the wait below.
@@ -621,8 +641,10 @@ struct Runtime::Impl {
     }
     cameras_on.store(false, std::memory_order_release);
     accepting.store(false, std::memory_order_release);
-    if (camera.joinable()) camera.join();
+    // Before waiting for the camera (asleep until its next frame): from here a handler
+    // whose unit completes reports it instead of deciding its next unit itself.
     stopping.store(true, std::memory_order_release);
+    if (camera.joinable()) camera.join();
     for (auto& h : handlers) {
       { std::lock_guard lock(h->mu); }
       h->cv.notify_all();
@@ -641,13 +663,16 @@ struct Runtime::Impl {
     }
     {
       std::lock_guard lock(sched_mu);
-      // Units that returned after the loop ended still completed: report them, so that
-      // only a unit cut by the end of the run is reported unfinished.
+      // Units that returned after the loop ended (or while the loop broke off at the hard
+      // stop, still in `batch`) still completed: report them, so that only a unit cut by
+      // the end of the run is reported unfinished.
       {
         std::lock_guard il(inbox_mu);
-        for (InEvent& e : inbox)
-          if (e.kind == InEvent::Complete && sched.running(e.index) != nullptr)
-            sched.on_complete(e.index, advance_now(e.t), e.status, e.reason);
+        for (std::vector<InEvent>* events : {&batch, &inbox})
+          for (InEvent& e : *events)
+            if (e.kind == InEvent::Complete && sched.running(e.index) != nullptr)
+              sched.on_complete(e.index, advance_now(e.t), e.status, e.reason);
+        batch.clear();
         inbox.clear();
       }
       const TimePoint end = advance_now(clock.now());
@@ -695,6 +720,11 @@ bool Runtime::accepting_frames() const noexcept {
 
 void Runtime::stop() {
   impl_->stop_requested.store(true, std::memory_order_release);
+  impl_->wake_global();
+}
+
+void Runtime::stop_now() {
+  impl_->stop_now_requested.store(true, std::memory_order_release);
   impl_->wake_global();
 }
 

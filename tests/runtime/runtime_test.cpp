@@ -210,6 +210,46 @@ TEST(Runtime, ExternalFramesAreTheReleasesAndStopEndsThem) {
   EXPECT_GT(m.completed, 0);
 }
 
+// stop_now() (SIGINT in the CLI) ends the run without draining: the jobs in flight are
+// reported unfinished, every released job still ends exactly once.
+TEST(Runtime, StopNowEndsTheRunWithJobsInFlightUnfinished) {
+  auto s = parse_scenario(kScenario, "rt.yaml");
+  ASSERT_TRUE(s.has_value());
+  s->duration = std::chrono::seconds{60};  // stop_now() ends it long before
+  const Profile p = default_profile();
+  SyntheticBackend::Options o;
+  o.time_scale = 0.05;
+  SyntheticBackend backend(*s, p, 1, o);
+  RuntimeOptions ro;
+  ro.realtime = false;
+  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  // Stops at the 10th release of `cruise`, from the scheduler's thread (stop_now() only sets
+  // a flag and wakes the synchronizer): that job has three nodes in a chain to run, and at
+  // most the units already running finish, so it is still in flight when the run ends.
+  struct StopAt final : Observer {
+    Runtime* rt = nullptr;
+    int releases = 0;
+    void on_job_release(const JobRecord& j) override {
+      if (j.operation == 0 && ++releases == 10) rt->stop_now();
+    }
+  } stop_at;
+  stop_at.rt = &rt;
+  Accounting acc;
+  MetricsCollector metrics(*s, 1.0);
+  rt.add_observer(&acc);
+  rt.add_observer(&metrics);
+  rt.add_observer(&stop_at);
+  const RuntimeReport report = rt.run();
+  const PolicyMetrics m = metrics.summarize("red", report.end);
+  EXPECT_EQ(acc.ended.size(), acc.released.size());
+  EXPECT_EQ(acc.duplicate_ends, 0);
+  EXPECT_LT(acc.released.size(), 40U) << "no releases after the stop's round";
+  EXPECT_GE(m.unfinished, 1) << "the 20th job was still in flight";
+  std::size_t unfinished = 0;
+  for (const auto& [id, outcome] : acc.ended) unfinished += outcome == JobOutcome::Unfinished;
+  EXPECT_GE(unfinished, 1U);
+}
+
 TEST(Runtime, HandlerStatesHaveNames) {
   EXPECT_STREQ(to_string(HandlerState::Idle), "idle");
   EXPECT_STREQ(to_string(HandlerState::OutOfMemory), "out-of-memory");

@@ -6,9 +6,9 @@
 
 #include <atomic>
 #include <chrono>
-#include <csignal>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -19,20 +19,11 @@
 #include "red/dds/node.hpp"
 #include "red/metrics/metrics.hpp"
 #include "red/sched/policy.hpp"
+#include "signals.hpp"
 
 namespace red::cli {
 
 namespace {
-
-// SIGINT/SIGTERM end a node or a camera cleanly: the handler only sets this flag.
-std::atomic<bool> g_stop{false};
-extern "C" void on_stop_signal(int /*sig*/) {
-  g_stop.store(true);
-}
-void install_stop_signals() {
-  std::signal(SIGINT, on_stop_signal);
-  std::signal(SIGTERM, on_stop_signal);
-}
 
 struct DdsArgs {
   int domain = 0;
@@ -148,22 +139,15 @@ int run_node(const NodeArgs& a) {
   }
   std::cerr << fmt::format("red node:   out {} (diagnostic_msgs/msg/DiagnosticArray)\n",
                            t.diagnostics);
+  // SIGINT/SIGTERM end a node as --duration does (releases end, jobs in flight drain): the
+  // normal way to stop a node, so it exits 0 (signals.hpp).
   install_stop_signals();
-  std::atomic<bool> running{true};
   dds::Node* n = node->get();
-  std::thread watcher([&running, n] {
-    while (running.load()) {
-      if (g_stop.load()) {
-        n->stop();
-        return;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds{50});
-    }
-  });
+  std::optional<StopWatch> watch;
+  watch.emplace([n] { n->stop(); });
   const auto t0 = std::chrono::steady_clock::now();
   RuntimeReport report = (*node)->run();
-  running.store(false);
-  watcher.join();
+  watch.reset();
   const dds::NodeCounters c = (*node)->counters();
   std::uint64_t rejected = 0;
   std::string reasons;
@@ -189,8 +173,8 @@ int run_node(const NodeArgs& a) {
     run.metrics = metrics.summarize(a.policy, report.end);
     run.metrics.decision_p50_us = percentile(report.decision_us, 0.5);
     run.metrics.decision_p99_us = percentile(report.decision_us, 0.99);
-    run.jobs = metrics.jobs();
-    run.units = metrics.units();
+    run.jobs = metrics.take_jobs();
+    run.units = metrics.take_units();
     run.result.end = report.end;
     run.result.stats = report.stats;
     OutputOptions oo;
@@ -233,8 +217,11 @@ int run_camera(CameraArgs& a) {
     return kBadInput;
   }
   a.o.config = *config;
+  // SIGINT/SIGTERM end the camera as --count does (exit 0).
   install_stop_signals();
-  auto r = dds::run_camera(a.o, g_stop);
+  std::atomic<bool> stop{false};
+  StopWatch watch([&stop] { stop.store(true); });
+  auto r = dds::run_camera(a.o, stop);
   if (!r) {
     print_error(r.error());
     return kBadInput;

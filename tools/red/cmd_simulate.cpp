@@ -19,6 +19,7 @@
 #include "red/metrics/phases.hpp"
 #include "red/report/report.hpp"
 #include "red/report/timeline.hpp"
+#include "signals.hpp"
 
 namespace red::cli {
 
@@ -111,6 +112,7 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
 // simulator every policy sees the same releases and the same sampled unit times (common
 // random numbers, §10); on a real backend the same releases. Returns the exit code.
 int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool table) {
+  install_stop_signals();
   auto s = load(a.scenario);
   if (!s) {
     print_error(s.error());
@@ -197,6 +199,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   const SteadyClock clock;
   ProgressReporter progress(clock, std::cerr, ProgressReporter::stderr_is_terminal());
   for (std::size_t i = 0; i < names.size(); ++i) {
+    // A stop signal: no further policy starts (a simulation in progress ends first).
+    if (stop_signal() != 0) break;
     const std::string& n = names[i];
     traces.push_back(a.out ? make_trace(*s, a.trace_events, names.size()) : nullptr);
     std::vector<Observer*> extra{&progress};
@@ -218,12 +222,25 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
           static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
     else
       print_runtime_report(n, report);
-    if (!sim) reports.push_back(std::move(report));
+    if (!sim) {
+      // Only the samples are needed later (rss.csv): the timing samples go now, so a
+      // compare of many policies does not keep them all.
+      report.decision_us = {};
+      report.handoff_us = {};
+      report.frame_release_us = {};
+      reports.push_back(std::move(report));
+    }
     if (traces.back() && traces.back()->truncated())
       std::cerr << fmt::format(
           "red: trace of {} stops at {:.3f} s (limit of {} events; see --trace-events)\n", n,
           to_s(traces.back()->truncated_at()), traces.back()->events());
     runs.push_back(std::move(r.value()));
+  }
+  if (stop_signal() != 0) {
+    std::cerr << fmt::format("red: stopped by {} after {} of {} run(s){}\n", stop_signal_name(),
+                             runs.size(), names.size(),
+                             runs.empty() || !a.out ? "" : "; writing what they measured");
+    if (runs.empty()) return stop_exit_code();
   }
   std::vector<PolicyMetrics> metrics;
   for (const PolicyRun& r : runs) metrics.push_back(r.metrics);
@@ -233,7 +250,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
   std::string prediction;
-  if (!sim) prediction = print_prediction(*s, *p, seed, runs, real.sync);
+  if (!sim && stop_signal() == 0) prediction = print_prediction(*s, *p, seed, runs, real.sync);
   if (a.phases) {
     std::vector<std::string> names_run;
     std::vector<std::vector<PhaseMetrics>> phases;
@@ -284,14 +301,15 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
         print_error(*e);
         return kRunFailure;
       }
-      if (auto e = write_file(*a.out, "prediction.json", prediction)) {
+      if (auto e = prediction.empty() ? std::nullopt
+                                      : write_file(*a.out, "prediction.json", prediction)) {
         print_error(*e);
         return kRunFailure;
       }
     }
     fmt::print("{}\n", wrote_message(*a.out, written));
   }
-  return kOk;
+  return stop_signal() != 0 ? stop_exit_code() : kOk;
 }
 
 void add_common(CLI::App* cmd, RunArgs& a) {

@@ -15,6 +15,7 @@
 #include "red/report/plots.hpp"
 #include "red/report/report.hpp"
 #include "red/scenario/loader.hpp"
+#include "signals.hpp"
 
 namespace red::cli {
 
@@ -86,6 +87,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
   cmd->add_option("--out", a->out, "Directory for sweep.json, sweep.csv, plots and index.html");
   add_with_option(cmd, a->scenario);
   cmd->callback([a, &exit_code] {
+    install_stop_signals();
     auto sw = parse_sweep(a->sweep);
     if (!sw) {
       print_error(sw.error());
@@ -111,15 +113,23 @@ void register_sweep(CLI::App& app, int& exit_code) {
         exit_code = kBadInput;
         return;
       }
-    const auto& [key, values] = sw.value();
+    const auto& [key, all_values] = sw.value();
+    std::vector<double> values;  // the values every policy ran at (all, unless stopped)
     const std::uint64_t seed = a->seed ? *a->seed : base->seed;
     // results[policy][value]
     std::vector<std::vector<PolicyMetrics>> results(names.size());
     const SteadyClock clock;
     ProgressReporter progress(clock, std::cerr, ProgressReporter::stderr_is_terminal());
-    const std::size_t total = values.size() * names.size();
+    const std::size_t total = all_values.size() * names.size();
     std::size_t done = 0;
-    for (double v : values) {
+    std::cerr << fmt::format(
+        "red: sweep of {} over {} value(s) x {} policies (SIGINT or SIGTERM stops it; the "
+        "values done are written)\n",
+        key, all_values.size(), names.size());
+    for (double v : all_values) {
+      // A stop signal: no further value starts; the finished values are written (a
+      // simulation in progress ends first, its value is left out).
+      if (stop_signal() != 0) break;
       Scenario s = *base;
       if (auto e = apply_override(s, key, v)) {
         progress.finish();
@@ -127,7 +137,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
         exit_code = kBadInput;
         return;
       }
-      for (std::size_t i = 0; i < names.size(); ++i) {
+      for (std::size_t i = 0; i < names.size() && stop_signal() == 0; ++i) {
         progress.begin_run(fmt::format("{}={:g} {} [{}/{}]", key, v, names[i], ++done, total),
                            s.duration);
         auto r = simulate_policy(s, *p, names[i], seed, {&progress}, false);
@@ -139,8 +149,18 @@ void register_sweep(CLI::App& app, int& exit_code) {
         }
         results[i].push_back(r->metrics);
       }
+      if (results.back().size() == values.size() + 1) values.push_back(v);
     }
     progress.finish();  // the line stays up across the sweep's runs
+    for (auto& per_policy : results) per_policy.resize(values.size());
+    if (stop_signal() != 0) {
+      std::cerr << fmt::format("red: stopped by {} after {} of {} value(s)\n", stop_signal_name(),
+                               values.size(), all_values.size());
+      if (values.empty()) {
+        exit_code = stop_exit_code();
+        return;
+      }
+    }
     auto table = [&](const char* title, auto get) {
       std::string out = fmt::format("{} by {}\n{:<10}", title, key, "policy");
       for (double v : values) out += fmt::format(" {:>9g}", v);
@@ -210,7 +230,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
       fmt::print("wrote {}/sweep.json, sweep.csv, index.html{}\n", *a->out,
                  images > 0 ? fmt::format(", plots/ ({} images)", images) : std::string());
     }
-    exit_code = kOk;
+    exit_code = stop_signal() != 0 ? stop_exit_code() : kOk;
   });
 }
 

@@ -2,18 +2,22 @@
 /// Real runs: backends by name, one policy on the runtime, its report (§6, §12).
 
 #include <fmt/format.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <optional>
 #include <thread>
+#include <utility>
 
 #include "commands.hpp"
 #include "common.hpp"
 #include "real_run.hpp"
 #include "red/report/report.hpp"
 #include "red/runtime/synthetic_backend.hpp"
+#include "signals.hpp"
 
 #ifdef RED_HAVE_TORCH
 #include "red/torch/torch_backend.hpp"
@@ -44,6 +48,27 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
   return Error{"", 0, "unknown backend '" + o.backend + "' (known: torch, synthetic)"};
 }
 
+namespace {
+
+// Says once, on stderr, that the measured part of a run has begun (the first job released
+// after the warm-up): from here a stop signal leaves jobs in flight, reported unfinished.
+class MeasuringNotice final : public Observer {
+ public:
+  explicit MeasuringNotice(std::string policy) : policy_(std::move(policy)) {}
+  void on_job_release(const JobRecord& j) override {
+    if (said_ || !j.counted) return;
+    said_ = true;
+    std::cerr << "red: " << policy_
+              << ": warm-up over, measuring (SIGINT or SIGTERM ends the run early)\n";
+  }
+
+ private:
+  std::string policy_;
+  bool said_ = false;
+};
+
+}  // namespace
+
 Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::string& policy,
                              Backend& backend, const RealRunOptions& o,
                              const std::vector<Observer*>& extra, RuntimeReport* out) {
@@ -56,8 +81,19 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   MetricsCollector metrics(s, s.scheduler.qoe_lambda, o.keep_units);
   rt.add_observer(&metrics);
   for (Observer* e : extra) rt.add_observer(e);
+  MeasuringNotice notice(policy);
+  rt.add_observer(&notice);
   const auto t0 = std::chrono::steady_clock::now();
+  // SIGINT/SIGTERM (when installed) end the run at once: jobs in flight are unfinished.
+  std::optional<StopWatch> watch;
+  watch.emplace([&rt] { rt.stop_now(); });
   RuntimeReport report = rt.run();
+  watch.reset();
+  // What the run kept in the backend goes, and the heap's free pages go back to the system
+  // (glibc keeps them otherwise), so that policies run one after another do not add up.
+  backend.end_run();
+  malloc_trim(0);
+  report.resident_bytes_released = resident_bytes();
   PolicyRun run;
   run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   run.metrics = metrics.summarize(policy, report.end);
@@ -66,11 +102,11 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   std::int64_t peak = 0;
   for (const RuntimeSample& x : report.samples) peak = std::max(peak, x.rss_bytes);
   if (peak > 0) run.metrics.peak_rss_mb = std::round(static_cast<double>(peak) / 1e5) / 10;
-  run.jobs = metrics.jobs();
-  run.units = metrics.units();
+  run.jobs = metrics.take_jobs();
+  run.units = metrics.take_units();
   run.result.end = report.end;
   run.result.stats = report.stats;
-  if (out != nullptr) *out = report;
+  if (out != nullptr) *out = std::move(report);
   return run;
 }
 
@@ -88,11 +124,19 @@ void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
   std::cerr << fmt::format(
       "red: policy {}: decisions {} (p50 {:.2f} us, p99 {:.2f} us), completion->next start p99 "
       "{:.2f} us "
-      "({} handoffs), sync round trips {}, local decisions {}, failures {} (timeouts {}), RSS "
-      "{:.1f} MB\n",
+      "({} handoffs), sync round trips {}, local decisions {}, failures {} (timeouts {})\n",
       policy, r.decisions, percentile(r.decision_us, 0.5), percentile(r.decision_us, 0.99),
       percentile(r.handoff_us, 0.99), r.handoffs, r.stats.round_trips, r.local_decisions,
-      r.failures, r.timeouts, static_cast<double>(r.resident_bytes_after) / 1e6);
+      r.failures, r.timeouts);
+  std::int64_t peak = 0;
+  for (const RuntimeSample& x : r.samples) peak = std::max(peak, x.rss_bytes);
+  auto mb = [](std::int64_t b) { return static_cast<double>(b) / 1e6; };
+  std::cerr << fmt::format(
+      "red:   RSS MB: before {:.1f}, after warm-up {:.1f}, peak {:.1f}, end {:.1f}{}\n",
+      mb(r.resident_bytes_before), mb(r.resident_bytes_warm), mb(peak), mb(r.resident_bytes_after),
+      r.resident_bytes_released > 0
+          ? fmt::format(", after release {:.1f}", mb(r.resident_bytes_released))
+          : std::string());
   if (r.late_returns > 0)
     std::cerr << fmt::format(
         "red:   {} timed-out unit(s) returned late; lanes out of service {:.1f} ms\n",

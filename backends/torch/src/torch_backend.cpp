@@ -6,6 +6,7 @@
 #include <c10/core/impl/DeviceGuardImplInterface.h>
 #include <c10/util/Exception.h>
 
+#include <algorithm>
 #include <chrono>
 #include <deque>
 #include <map>
@@ -48,6 +49,11 @@ class Window {
       }
     return found;
   }
+  void clear() {
+    std::lock_guard lock(mu_);
+    map_.clear();
+    order_.clear();
+  }
   bool get(int sensor, std::uint64_t frame, V& out) const {
     std::lock_guard lock(mu_);
     auto it = map_.find({sensor, frame});
@@ -81,6 +87,32 @@ class TorchBackend final : public Backend {
     const auto* impl = c10::impl::getDeviceGuardImpl(device.type());
     lane_stream_ = impl->getStreamFromGlobalPool(device);
     impl->exchangeStream(*lane_stream_);
+  }
+
+  // One pass of every head (the encoder with it) on a batch of one and on the largest
+  // batch, before the run: LibTorch's thread pools, its kernels' pages and the heap's high
+  // water mark are then in place.
+  void warm_up(int /*lane*/) noexcept override {
+    try {
+      c10::InferenceMode guard;
+      for (int batch : {1, std::max(1, scenario_.scheduler.max_batch)}) {
+        const at::Tensor input = model_->make_input(batch, scenario_.seed);
+        for (int h : head_map_) model_->full(h, input);
+        if (scenario_.scheduler.max_batch <= 1) break;
+      }
+      if (lane_stream_)
+        c10::impl::getDeviceGuardImpl(lane_stream_->device_type())
+            ->synchronizeStream(*lane_stream_);
+    } catch (...) {
+      // A failure shows again, with its reason, when the run's first unit fails.
+    }
+  }
+
+  // Between policies: the frames and encoder outputs of the run that ended go (each
+  // lane's last output went with its handler thread).
+  void end_run() override {
+    frames_.clear();
+    features_.clear();
   }
 
   void on_frame(int sensor, std::uint64_t frame) override {

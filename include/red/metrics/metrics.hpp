@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "red/scenario/scenario.hpp"
@@ -106,6 +107,10 @@ class MetricsCollector final : public Observer {
   [[nodiscard]] PolicyMetrics summarize(const std::string& name, TimePoint end) const;
   [[nodiscard]] const std::vector<JobRow>& jobs() const noexcept { return jobs_; }
   [[nodiscard]] const std::vector<UnitRow>& units() const noexcept { return units_; }
+  /// Hands over the job rows (leaves none): after summarize(), instead of copying them.
+  [[nodiscard]] std::vector<JobRow> take_jobs() noexcept { return std::move(jobs_); }
+  /// Hands over the unit rows (leaves none), as take_jobs().
+  [[nodiscard]] std::vector<UnitRow> take_units() noexcept { return std::move(units_); }
 
  private:
   const Scenario& scenario_;
@@ -118,8 +123,18 @@ class MetricsCollector final : public Observer {
                merge_waits_ = 0;
   std::map<int, std::int64_t> batches_;
   std::vector<std::int64_t> head_outputs_;
-  std::vector<TimePoint> started_;             // per lane: start of the running unit
-  std::unordered_map<JobId, Duration> spent_;  // lane time per job (shared units split)
+  std::vector<TimePoint> started_;  // per lane: start of the running unit
+  // Lane time of the jobs with units still to account for (shared units split): a job's
+  // entry goes once it has ended and none of its units is running, so the map holds about
+  // the jobs in flight, however long the run.
+  struct Spent {
+    Duration time{0};
+    int running = 0;      // its units started and not ended
+    bool ended = false;   // on_job_end seen
+    bool wasted = false;  // ended dropped, skipped or failed after the warm-up
+  };
+  std::unordered_map<JobId, Spent> spent_;
+  Duration wasted_{0};  // lane time of the jobs dropped, skipped or failed after the warm-up
 };
 
 /// Fills ratio_* of every entry against the entry named `baseline` (if present).

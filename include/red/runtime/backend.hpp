@@ -58,6 +58,15 @@ class Backend {
   /// Runs one dispatched unit (merged members share one encoder output; a batch runs as
   /// one tensor batch). Throws on failure, OutOfMemoryError when out of memory.
   virtual void run(int lane, const Dispatch& d) = 0;
+  /// Runs what a unit runs once, off the clock and outside any job, so that the memory a
+  /// run touches is mapped and resident before the runtime locks its pages (mlockall with
+  /// MCL_ONFAULT) and the first jobs do not pay for page faults. Called on each lane's
+  /// thread after init_lane(), before the run starts. Must not throw.
+  virtual void warm_up(int /*lane*/) noexcept {}
+  /// The run ended (no lane is running): let go of what it kept (frames, intermediate
+  /// outputs, allocator caches), so runs of several policies one after another on one
+  /// backend do not add up in memory. The model stays loaded.
+  virtual void end_run() {}
 };
 
 }  // namespace red

@@ -89,7 +89,12 @@ struct RuntimeReport {
   Duration out_of_service{0};              ///< lane time spent waiting for timed-out calls
   std::vector<RuntimeSample> samples;      ///< one per sample_period, and one at the end
   std::int64_t resident_bytes_before = 0;  ///< process RSS before the runtime's threads start
-  std::int64_t resident_bytes_after = 0;   ///< and after the run
+  /// after the backend's warm-up pass, before memory is locked and the run starts
+  std::int64_t resident_bytes_warm = 0;
+  std::int64_t resident_bytes_after = 0;  ///< and after the run
+  /// After the caller released what the run kept (Backend::end_run, malloc_trim); set by
+  /// the caller, 0 when it did not
+  std::int64_t resident_bytes_released = 0;
 };
 
 class Runtime {
@@ -117,6 +122,10 @@ class Runtime {
   /// Ends releases now (then in-flight jobs drain, as at the scenario's end). Thread-safe,
   /// async-signal-unsafe; may be called before run().
   void stop();
+  /// Ends the run now, without draining (e.g. on SIGINT): releases end and the jobs in
+  /// flight are reported unfinished once the units running return (a backend call cannot
+  /// be interrupted). Thread-safe, async-signal-unsafe; may be called before run().
+  void stop_now();
   /// Decision times (μs) recorded since `cursor` (a count of decisions), newest 4096 at
   /// most, and moves `cursor` past them; thread-safe (for live reports).
   [[nodiscard]] std::vector<double> decision_us_since(std::uint64_t& cursor) const;
