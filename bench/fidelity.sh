@@ -5,6 +5,10 @@
 # (`red compare --backend torch`), and compare the median real run with the simulator's
 # prediction (median over seeds). Writes DIR/fidelity.md (and .json) and prints the table.
 #
+# Then, leave one out: for each real run k, a calibration fitted from the OTHER runs' units
+# (`red profile --calibrate-from`) predicts run k in the simulator (`--costs`, 5 seeds; the
+# scheduler plans with the same profile as the real run did).
+#
 # Usage: bench/fidelity.sh [--runs N] [--out DIR] [--base PROFILE.json] [--calibrate-s S]
 #                          [--policies LIST] [--set key=value] [scenario.yaml ...]
 # Defaults: 3 runs, out/fidelity, a fresh `red profile`, 8 s per calibration policy, every
@@ -57,5 +61,18 @@ for s in "${scenarios[@]}"; do
       --trace-events 0 --out "$dir/run$k" >"$dir/run$k.txt"
     cut -d' ' -f1-3 /proc/loadavg >"$dir/run$k.load"
   done
+  if [[ $runs -ge 2 ]]; then
+    for ((k = 1; k <= runs; k++)); do
+      from=()
+      for ((j = 1; j <= runs; j++)); do [[ $j != "$k" ]] && from+=(--calibrate-from "$dir/run$j"); done
+      "$RED" profile --from "$base" --calibrate "$s" "${calib[@]}" "${from[@]}" \
+        --out "$dir/loo$k.json" >"$dir/loo$k.txt"
+      for seed in 1 2 3 4 5; do
+        "$RED" compare "$s" --backend sim --profile "$dir/profile.json" --costs "$dir/loo$k.json" \
+          "${pol[@]}" "${sets[@]}" --seed "$seed" --trace-events 0 --out "$dir/loo$k-seed$seed" \
+          >/dev/null
+      done
+    done
+  fi
 done
 "$PY" bench/fidelity_table.py "$out" "${scenarios[@]}"

@@ -69,6 +69,56 @@ def main():
     lines.append("")
     lines.append(f"{within} of {len(rows)} (scenario, policy) pairs within the target "
                  "(miss rate within 5 points, mean latency within 10 % of the median real run).")
+    # Leave one out: run k predicted by a calibration fitted from the other runs.
+    loo_rows = []
+    for s in scenarios:
+        name = os.path.splitext(os.path.basename(s))[0]
+        d = os.path.join(out, name)
+        k = 1
+        while os.path.exists(os.path.join(d, f"run{k}", "summary.json")):
+            seeds = sorted(glob.glob(os.path.join(d, f"loo{k}-seed*", "summary.json")))
+            if not seeds:
+                break
+            real = {p["name"]: p for p in json.load(open(os.path.join(d, f"run{k}", "summary.json")))["policies"]}
+            sims = [{p["name"]: p for p in json.load(open(f))["policies"]} for f in seeds]
+            for pol, r in real.items():
+                if any(pol not in x for x in sims):
+                    continue
+                sm = [100 * x[pol]["miss_rate"] for x in sims]
+                sl = [x[pol]["latency_ms"]["mean"] for x in sims if x[pol]["latency_ms"]["mean"] > 0]
+                loo_rows.append({"scenario": name, "policy": pol, "run": k,
+                                 "real_miss": 100 * r["miss_rate"], "real_mean": r["latency_ms"]["mean"],
+                                 "sim_miss": statistics.median(sm), "sim_miss_lo": min(sm),
+                                 "sim_miss_hi": max(sm),
+                                 "sim_mean": statistics.median(sl) if sl else 0.0})
+            k += 1
+    if loo_rows:
+        lines += ["", "Leave one out (run k predicted from a calibration on the other runs):", "",
+                  "| scenario | policy | real miss % per run | predicted miss % per run | "
+                  "median Δ pts | real mean ms per run | predicted mean ms per run | median Δ % | within target |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        keys = []
+        for r in loo_rows:
+            if (r["scenario"], r["policy"]) not in keys:
+                keys.append((r["scenario"], r["policy"]))
+        within = 0
+        for sc, pol in keys:
+            rs = [r for r in loo_rows if r["scenario"] == sc and r["policy"] == pol]
+            rm = statistics.median(r["real_miss"] for r in rs)
+            pm = statistics.median(r["sim_miss"] for r in rs)
+            rl = statistics.median(r["real_mean"] for r in rs)
+            pl = statistics.median(r["sim_mean"] for r in rs)
+            dl = (pl - rl) / rl * 100 if rl > 0 else 0.0
+            ok = abs(pm - rm) <= 5 and abs(dl) <= 10
+            within += ok
+            lines.append("| {} | {} | {} | {} | {:+.1f} | {} | {} | {:+.1f} | {} |".format(
+                sc, pol, ", ".join(f"{r['real_miss']:.1f}" for r in rs),
+                ", ".join(f"{r['sim_miss']:.1f}" for r in rs), pm - rm,
+                ", ".join(f"{r['real_mean']:.1f}" for r in rs),
+                ", ".join(f"{r['sim_mean']:.1f}" for r in rs), dl, "yes" if ok else "no"))
+        lines += ["", f"{within} of {len(keys)} (scenario, policy) pairs within the target, left "
+                  "one out (medians over the runs)."]
+        json.dump(loo_rows, open(os.path.join(out, "fidelity-loo.json"), "w"), indent=1)
     text = "\n".join(lines) + "\n"
     open(os.path.join(out, "fidelity.md"), "w").write(text)
     json.dump(rows, open(os.path.join(out, "fidelity.json"), "w"), indent=1)
