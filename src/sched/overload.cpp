@@ -175,6 +175,10 @@ void Scheduler::Impl::admit(TimePoint now) {
   for (;;) {
     const int over = first_overrun(now, k, schedule);
     if (over < 0) return;
+    // One job alone overrunning its deadline on the estimate: rejecting it frees the lanes
+    // for nobody now, and the estimate may be pessimistic (a profile taken under load); the
+    // hopeless check decides on its progress instead.
+    if (over == 0) return;
     int victim = -1;
     Duration victim_work{0};
     int victim_crit = 0;
