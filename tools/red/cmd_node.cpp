@@ -179,6 +179,11 @@ int run_node(const NodeArgs& a) {
       c.frames, c.released, rejected, reasons, c.masks, c.twists, c.detections, c.diagnostics,
       c.jobs_without_output);
   print_runtime_report(a.policy, report);
+  const std::vector<double> intake = (*node)->intake_us();
+  std::cerr << fmt::format(
+      "red node: frame taken -> pushed (check, convert) p50 {:.2f} us, p99 {:.2f} us ({} "
+      "frames)\n",
+      percentile(intake, 0.5), percentile(intake, 0.99), intake.size());
   std::cerr << fmt::format(
       "red node: frame received -> released p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
       percentile(report.frame_release_us, 0.5), percentile(report.frame_release_us, 0.99),

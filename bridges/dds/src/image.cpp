@@ -14,6 +14,10 @@ const char* to_string(Reject r) noexcept {
       return "bad_step";
     case Reject::DataSize:
       return "data_size";
+    case Reject::WrongType:
+      return "wrong_type";
+    case Reject::IncompatibleQos:
+      return "incompatible_qos";
   }
   return "?";
 }

@@ -48,6 +48,7 @@ namespace {
 constexpr std::size_t kFrameRing = 32;        // frames kept per sensor for outputs
 constexpr std::size_t kLatencyWindow = 1024;  // latencies kept per operation
 constexpr std::size_t kDecisionWindow = 4096;
+constexpr std::size_t kIntakeWindow = 16384;  // frame intake times kept (newest)
 
 struct FrameSlot {
   std::uint64_t id = ~std::uint64_t{0};
@@ -95,7 +96,12 @@ struct Node::Impl final : Observer {
   SteadyClock clock;
 
   std::unique_ptr<Domain> domain;
-  std::vector<dds_entity_t> readers;            // per sensor
+  std::vector<dds_entity_t> readers;  // per sensor
+  struct ReaderCtx {
+    Impl* impl = nullptr;
+    std::size_t sensor = 0;
+  };
+  std::vector<ReaderCtx> reader_ctx;            // per sensor, the argument of its reader's listener
   std::map<std::string, dds_entity_t> writers;  // by output topic
   dds_entity_t diag_writer = 0;
   dds_entity_t waitset = 0;
@@ -105,6 +111,8 @@ struct Node::Impl final : Observer {
   mutable std::mutex frames_mu;  // sensors, counters
   std::vector<SensorState> sensors;
   NodeCounters counters;
+  std::vector<double> intake_us;  // ring of the newest kIntakeWindow
+  std::uint64_t intakes = 0;
 
   // Observer state: touched only from observer callbacks (serialized by the runtime).
   std::map<JobId, std::vector<Output>> finished_heads;
@@ -155,11 +163,18 @@ struct Node::Impl final : Observer {
     wake = dds_create_guardcondition(pp);
     dds_waitset_attach(waitset, wake, -1);
     Expected<bool> result = true;
+    // A writer DDS refuses to match (another type, an incompatible QoS) is reported to a
+    // listener, one call per writer (a waitset would see only the last of several).
+    reader_ctx.resize(topics.sensors.size());
     for (std::size_t i = 0; i < topics.sensors.size() && result; ++i) {
       const dds_entity_t topic =
           dds_create_topic(pp, &sensor_msgs_msg_dds__Image__desc,
                            dds_topic_name(topics.sensors[i]).c_str(), nullptr, nullptr);
-      const dds_entity_t r = topic < 0 ? topic : dds_create_reader(pp, topic, in_qos, nullptr);
+      reader_ctx[i] = {this, i};
+      dds_listener_t* l = dds_create_listener(nullptr);
+      dds_lset_requested_incompatible_qos_arg(l, &Impl::on_unmatched_writer, &reader_ctx[i], true);
+      const dds_entity_t r = topic < 0 ? topic : dds_create_reader(pp, topic, in_qos, l);
+      dds_delete_listener(l);
       if (r < 0) {
         result = fail("cannot subscribe to " + topics.sensors[i], r);
         break;
@@ -232,7 +247,30 @@ struct Node::Impl final : Observer {
                 << img.data_._length << " data bytes; " << n << " so far)\n";
   }
 
-  void accept(std::size_t sensor, const Image& img) {
+  // A writer on the sensor's topic that DDS did not match: a type name other than
+  // sensor_msgs::msg::dds_::Image_ (Cyclone reports it as the type-consistency policy) or a
+  // QoS the reader cannot accept. Its samples never arrive, so the writer counts once.
+  // Called by Cyclone DDS on its own thread, once per writer.
+  static void on_unmatched_writer(dds_entity_t, const dds_requested_incompatible_qos_status_t st,
+                                  void* arg) {
+    const ReaderCtx& ctx = *static_cast<const ReaderCtx*>(arg);
+    if (ctx.impl == nullptr || st.total_count_change == 0) return;
+    Impl& m = *ctx.impl;
+    const bool type = st.last_policy_id == DDS_TYPE_CONSISTENCY_ENFORCEMENT_QOS_POLICY_ID;
+    const Reject why = type ? Reject::WrongType : Reject::IncompatibleQos;
+    std::uint64_t n = 0;
+    {
+      std::lock_guard lock(m.frames_mu);
+      n = m.counters.rejected[static_cast<std::size_t>(why)] += st.total_count_change;
+    }
+    std::cerr << "red node: a writer on " << m.topics.sensors[ctx.sensor] << " was not matched ("
+              << (type ? "wrong_type: its type is not sensor_msgs/msg/Image"
+                       : "incompatible_qos: DDS QoS policy id " +
+                             std::to_string(static_cast<int>(st.last_policy_id)))
+              << "; " << n << " so far): its messages are not received\n";
+  }
+
+  void accept(std::size_t sensor, const Image& img, TimePoint taken) {
     const auto& in = scenario.model.input;
     const int h = in.size() >= 3 ? static_cast<int>(in[1]) : 192;
     const int w = in.size() >= 3 ? static_cast<int>(in[2]) : 384;
@@ -260,10 +298,15 @@ struct Node::Impl final : Observer {
       to_gray(img, w, h, gray);
       px.data = gray.pixels.data();
     }
-    if (runtime->push_frame(static_cast<int>(sensor), id, &px)) {
-      std::lock_guard lock(frames_mu);
-      ++counters.released;
-    }
+    const bool released = runtime->push_frame(static_cast<int>(sensor), id, &px);
+    const double us = to_us(clock.now() - taken);
+    std::lock_guard lock(frames_mu);
+    if (released) ++counters.released;
+    if (intake_us.size() < kIntakeWindow)
+      intake_us.push_back(us);
+    else
+      intake_us[intakes % kIntakeWindow] = us;
+    ++intakes;
   }
 
   void receive_main() {
@@ -280,13 +323,14 @@ struct Node::Impl final : Observer {
           const dds_return_t n = dds_take(readers[s], samples.data(), infos.data(), samples.size(),
                                           static_cast<uint32_t>(samples.size()));
           if (n <= 0) break;
+          const TimePoint taken = clock.now();
           for (dds_return_t i = 0; i < n; ++i) {
             if (!infos[static_cast<std::size_t>(i)].valid_data) continue;
             const Image& img = *static_cast<const Image*>(samples[static_cast<std::size_t>(i)]);
             if (auto why = check_image(img))
               reject(s, *why, img);
             else
-              accept(s, img);
+              accept(s, img, taken);
           }
           dds_return_loan(readers[s], samples.data(), n);
         }
@@ -615,6 +659,11 @@ void Node::stop() {
 NodeCounters Node::counters() const {
   std::lock_guard lock(impl_->frames_mu);
   return impl_->counters;
+}
+
+std::vector<double> Node::intake_us() const {
+  std::lock_guard lock(impl_->frames_mu);
+  return impl_->intake_us;
 }
 
 const NodeTopics& Node::topics() const {

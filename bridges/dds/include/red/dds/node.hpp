@@ -94,6 +94,10 @@ class Node {
   void stop();
   /// A snapshot of the counters (thread-safe).
   [[nodiscard]] NodeCounters counters() const;
+  /// Frame intake times (μs, the newest 16384): a frame taken from its DDS reader until the
+  /// runtime has it (checked, converted to the model's input, pushed; thread-safe). The
+  /// runtime's RuntimeReport::frame_release_us goes on from there to the release.
+  [[nodiscard]] std::vector<double> intake_us() const;
   /// The topics in use.
   [[nodiscard]] const NodeTopics& topics() const;
 
