@@ -4,7 +4,8 @@
 # (lane, segmentation, detection and cruise control on one camera) runs
 #   red, red-robust, edf  one `red node` serving the four heads under that policy, or
 #   separate              four single-task `red node`s, one per head, each its own full
-#                         network (encoder + one head; policy edf)
+#                         network (encoder + one head; policy fifo, as ROS 2's executor:
+#                         release order, nothing dropped)
 # under each interference-* background load (the load runs once per configuration, in
 # the first node's process); `red_ros2_listener` measures every frame end to end: header
 # stamp -> the last of its four outputs received (/red/perceive/{L,S,O,C/stamped}). A frame
@@ -17,6 +18,7 @@
 #   into OUT_DIR, torch only; on a loaded machine that profile is far off)  THREADS=N (LibTorch
 #   intra-op threads per node; default LibTorch's)  RED=build/tools/red/red
 #   LISTENER=build/bench/red_ros2_listener  DOMAIN=40 (first DDS domain; one per configuration)
+#   WATCHDOG_X=0 (the runtime's watchdog, off by default)
 # Not part of CI: about 20 s of wall time per configuration (8 by default).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -44,7 +46,9 @@ elif [ "$BACKEND" = torch ]; then
   "$RED" profile --quiet --out "$OUT/profile.json" >/dev/null
   PROFILE_ARGS=(--profile "$OUT/profile.json")
 fi
-NODE_ARGS=(--backend "$BACKEND" "${PROFILE_ARGS[@]}")
+# The watchdog is off by default: its limits come from the profile (10 x p99), and a profile
+# from a quiet machine fails every unit of a loaded one as a "timeout".
+NODE_ARGS=(--backend "$BACKEND" --watchdog-x "${WATCHDOG_X:-0}" "${PROFILE_ARGS[@]}")
 [ -n "${THREADS:-}" ] && NODE_ARGS+=(--threads "$THREADS")
 
 # The four single-task scenarios of a load: the same camera, deadline and topics, a network
@@ -99,7 +103,7 @@ for load in "${load_list[@]}"; do
       write_separate "$load"
       for node in L S O C; do
         logs+=("$OUT/$tag-$node.log")
-        "$RED" node "$OUT/separate-$load-$node.yaml" --policy edf --domain "$d" "${NODE_ARGS[@]}" \
+        "$RED" node "$OUT/separate-$load-$node.yaml" --policy fifo --domain "$d" "${NODE_ARGS[@]}" \
           2>"$OUT/$tag-$node.log" &
         pids+=($!)
       done

@@ -390,6 +390,7 @@ TEST(DdsNodeCli, BadInputExitsTwo) {
   EXPECT_EQ(run("node " + s + " --domain 500"), 2);
   EXPECT_EQ(run("node " + s + " --backend magic"), 2);
   EXPECT_EQ(run("node " + s + " --duration -1"), 2);
+  EXPECT_EQ(run("node " + s + " --watchdog-x -1"), 2);
   EXPECT_EQ(run("camera --size 10by10 --count 1"), 2);
   EXPECT_EQ(run("camera --encoding yuv422 --count 1"), 2);
   EXPECT_EQ(run("camera --rate 0 --count 1"), 2);

@@ -93,6 +93,7 @@ int run_node(const NodeArgs& a) {
   o.policy = a.policy;
   o.domain = a.dds.domain;
   o.realtime = a.realtime;
+  o.watchdog_x = a.real.watchdog_x;
   if (a.duration_s > 0) o.duration = Duration{static_cast<std::int64_t>(a.duration_s * 1e9)};
   auto config = read_config(a.dds.config);
   if (!config) {
@@ -280,6 +281,11 @@ void register_node(CLI::App& app, int& exit_code) {
   cmd->add_option("--threads", a->real.threads, "LibTorch intra-op threads per lane")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--realtime", a->realtime, "Try SCHED_FIFO, CPU affinity and mlockall");
+  cmd->add_option("--watchdog-x", a->real.watchdog_x,
+                  "Fail a unit still running after this many times its profiled p99 with the "
+                  "reason 'timeout' (0: no watchdog)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_option("--out", a->out, "Write summary.json, jobs.csv, units.csv here at the end");
   cmd->callback([a, &exit_code] { exit_code = run_node(*a); });
 }

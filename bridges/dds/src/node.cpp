@@ -635,6 +635,7 @@ Expected<std::unique_ptr<Node>> Node::make(const Scenario& scenario, const Profi
   RuntimeOptions ro;
   ro.realtime = impl->options.realtime;
   ro.external_frames = true;
+  ro.watchdog_x = impl->options.watchdog_x;
   impl->runtime =
       std::make_unique<Runtime>(impl->scenario, profile, std::move(policy), backend, ro);
   impl->runtime->add_observer(impl.get());

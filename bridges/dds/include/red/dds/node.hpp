@@ -61,6 +61,8 @@ struct NodeOptions {
   Remaps remaps;
   std::optional<Duration> duration;  ///< stop releasing after this long; none: until stop()
   bool realtime = false;             ///< SCHED_FIFO, affinity, mlockall (as `red run`)
+  /// The runtime's watchdog: a unit's limit in × its profiled p99 (0: off; RuntimeOptions).
+  double watchdog_x = RuntimeOptions{}.watchdog_x;
   Duration diagnostics_period = std::chrono::seconds{1};
   /// A sensor with no frame for this many expected periods is reported silent.
   double silent_periods = 3.0;
