@@ -70,13 +70,15 @@ def node(tag):
     num = r"([0-9.]+)"
     intake = re.search(rf"frame taken -> pushed \(check, convert\) p50 {num} us, p99 {num} us \((\d+)", log)
     release = re.search(rf"frame received -> released p50 {num} us, p99 {num} us \((\d+)", log)
+    transport = re.search(rf"frame stamp -> taken \(camera to node over DDS\) p50 {num} us, p99 {num} us", log)
+    publish = re.search(rf"job end -> output written p50 {num} us, p99 {num} us", log)
     lst = json.load(open(f"{out}/{tag}.json"))
     rss = int(open(f"{out}/{tag}.rss_kb").read().strip() or 0) / 1024
-    return intake, release, lst, rss
+    return intake, release, lst, rss, transport, publish
 def run(tag):
     p = json.load(open(f"{out}/{tag}/summary.json"))["policies"][0]
     return p
-ni, nr, nl, nrss = node("node-synthetic")
+ni, nr, nl, nrss, nt, npub = node("node-synthetic")
 rp = run("run-synthetic")
 print(f"1. frame intake (taken from DDS -> pushed: check, resize 640x480 -> model input): "
       f"p50 {ni.group(1)} us, p99 {ni.group(2)} us over {ni.group(3)} frames")
@@ -87,11 +89,13 @@ r = nl["response_ms"]
 print(f"2. red run (synthetic): {rp['jobs']} jobs, response p50 {lat['p50']:.2f} ms, p99 {lat['p99']:.2f} ms, mean {lat['mean']:.2f} ms")
 print(f"   red node (synthetic, stamp -> last output received): {nl['frames']} frames, {nl['complete']} complete, "
       f"p50 {r['p50']:.2f} ms, p99 {r['p99']:.2f} ms, mean {r['mean']:.2f} ms")
+print(f"   of which in the node: camera -> taken over DDS p50 {float(nt.group(1)) / 1e3:.2f} ms, p99 {float(nt.group(2)) / 1e3:.2f} ms;"
+      f" job end -> output written p50 {float(npub.group(1)) / 1e3:.2f} ms, p99 {float(npub.group(2)) / 1e3:.2f} ms")
 print(f"   node adds: p50 {r['p50'] - lat['p50']:+.2f} ms, p99 {r['p99'] - lat['p99']:+.2f} ms, mean {r['mean'] - lat['mean']:+.2f} ms (target p99 <= 1 ms)")
 print(f"3. red node resident set, synthetic backend (runtime + DDS + node, no model): {nrss:.1f} MB "
       f"(red run synthetic peak {rp.get('peak_rss_mb')} MB; target: the node's own memory <= 20 MB)")
 if torch:
-    ti, tr, tl, trss = node("node-torch")
+    ti, tr, tl, trss, tt, tpub = node("node-torch")
     tp = run("run-torch")
     print(f"   torch: red node {trss:.1f} MB resident vs red run peak {tp.get('peak_rss_mb')} MB with the same model")
 PY

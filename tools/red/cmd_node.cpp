@@ -180,7 +180,14 @@ int run_node(const NodeArgs& a) {
       c.frames, c.released, rejected, reasons, c.masks, c.twists, c.detections, c.diagnostics,
       c.jobs_without_output);
   print_runtime_report(a.policy, report);
-  const std::vector<double> intake = (*node)->intake_us();
+  const dds::Node::Timings tm = (*node)->timings();
+  const std::vector<double>& intake = tm.intake_us;
+  std::cerr << fmt::format(
+      "red node: frame stamp -> taken (camera to node over DDS) p50 {:.2f} us, p99 {:.2f} us\n",
+      percentile(tm.transport_us, 0.5), percentile(tm.transport_us, 0.99));
+  std::cerr << fmt::format(
+      "red node: job end -> output written p50 {:.2f} us, p99 {:.2f} us ({} outputs)\n",
+      percentile(tm.publish_us, 0.5), percentile(tm.publish_us, 0.99), tm.publish_us.size());
   std::cerr << fmt::format(
       "red node: frame taken -> pushed (check, convert) p50 {:.2f} us, p99 {:.2f} us ({} "
       "frames)\n",

@@ -77,6 +77,7 @@ struct Output {
   int head = -1;
   int sensor = -1;
   std::uint64_t frame = 0;
+  TimePoint ended{0};  // when its job ended
 };
 
 std::string fmt_double(double v) {
@@ -111,8 +112,8 @@ struct Node::Impl final : Observer {
   mutable std::mutex frames_mu;  // sensors, counters
   std::vector<SensorState> sensors;
   NodeCounters counters;
-  std::vector<double> intake_us;  // ring of the newest kIntakeWindow
-  std::uint64_t intakes = 0;
+  Node::Timings timings;  // rings of the newest kIntakeWindow each
+  std::uint64_t intakes = 0, publishes = 0;
 
   // Observer state: touched only from observer callbacks (serialized by the runtime).
   std::map<JobId, std::vector<Output>> finished_heads;
@@ -270,6 +271,13 @@ struct Node::Impl final : Observer {
               << "; " << n << " so far): its messages are not received\n";
   }
 
+  static void record(std::vector<double>& ring, std::uint64_t n, double v) {
+    if (ring.size() < kIntakeWindow)
+      ring.push_back(v);
+    else
+      ring[n % kIntakeWindow] = v;
+  }
+
   void accept(std::size_t sensor, const Image& img, TimePoint taken) {
     const auto& in = scenario.model.input;
     const int h = in.size() >= 3 ? static_cast<int>(in[1]) : 192;
@@ -302,10 +310,17 @@ struct Node::Impl final : Observer {
     const double us = to_us(clock.now() - taken);
     std::lock_guard lock(frames_mu);
     if (released) ++counters.released;
-    if (intake_us.size() < kIntakeWindow)
-      intake_us.push_back(us);
-    else
-      intake_us[intakes % kIntakeWindow] = us;
+    // Wall clocks: the sender's stamp against this machine's time of the take.
+    std::int32_t sec = 0;
+    std::uint32_t nsec = 0;
+    stamp_now(sec, nsec);
+    const double transport =
+        (static_cast<double>(sec - img.header_.stamp_.sec_) * 1e9 +
+         (static_cast<double>(nsec) - static_cast<double>(img.header_.stamp_.nanosec_))) /
+            1e3 -
+        us;
+    record(timings.intake_us, intakes, us);
+    record(timings.transport_us, intakes, transport);
     ++intakes;
   }
 
@@ -348,7 +363,8 @@ struct Node::Impl final : Observer {
       for (int n : u.produces) {
         const NodeSpec& spec = m.graph->spec->nodes[static_cast<std::size_t>(n)];
         if (spec.head < 0) continue;
-        finished_heads[m.job].push_back({m.operation, spec.name, spec.head, spec.sensor, m.frame});
+        finished_heads[m.job].push_back(
+            {m.operation, spec.name, spec.head, spec.sensor, m.frame, TimePoint{0}});
       }
     }
   }
@@ -388,8 +404,12 @@ struct Node::Impl final : Observer {
       return;
     }
     {
+      const TimePoint now = clock.now();
       std::lock_guard lock(pub_mu);
-      for (Output& o : outs) queue.push_back(std::move(o));
+      for (Output& o : outs) {
+        o.ended = now;
+        queue.push_back(std::move(o));
+      }
     }
     pub_cv.notify_one();
   }
@@ -595,6 +615,9 @@ struct Node::Impl final : Observer {
       if (item) {
         if (frame_of(*item, header, gray)) {
           publish(*item, gray, header);
+          const double us = to_us(clock.now() - item->ended);
+          std::lock_guard lock(frames_mu);
+          record(timings.publish_us, publishes++, us);
         } else {
           std::lock_guard lock(frames_mu);
           ++counters.jobs_without_output;  // its frame left the ring: never a wrong stamp
@@ -662,9 +685,9 @@ NodeCounters Node::counters() const {
   return impl_->counters;
 }
 
-std::vector<double> Node::intake_us() const {
+Node::Timings Node::timings() const {
   std::lock_guard lock(impl_->frames_mu);
-  return impl_->intake_us;
+  return impl_->timings;
 }
 
 const NodeTopics& Node::topics() const {

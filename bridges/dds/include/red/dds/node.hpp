@@ -96,10 +96,17 @@ class Node {
   void stop();
   /// A snapshot of the counters (thread-safe).
   [[nodiscard]] NodeCounters counters() const;
-  /// Frame intake times (μs, the newest 16384): a frame taken from its DDS reader until the
-  /// runtime has it (checked, converted to the model's input, pushed; thread-safe). The
-  /// runtime's RuntimeReport::frame_release_us goes on from there to the release.
-  [[nodiscard]] std::vector<double> intake_us() const;
+  /// Where a frame's time goes in the node (μs, the newest 16384 of each; thread-safe).
+  struct Timings {
+    /// Header stamp -> taken from the DDS reader (wall clocks: the sender's and this one).
+    std::vector<double> transport_us;
+    /// Taken from the DDS reader -> the runtime has it (checked, converted, pushed). The
+    /// runtime's RuntimeReport::frame_release_us goes on from there to the release.
+    std::vector<double> intake_us;
+    /// A job ended -> its last output written to DDS (queue, computing, serializing).
+    std::vector<double> publish_us;
+  };
+  [[nodiscard]] Timings timings() const;
   /// The topics in use.
   [[nodiscard]] const NodeTopics& topics() const;
 
