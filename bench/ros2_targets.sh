@@ -7,9 +7,10 @@
 #      `red run` of the scenario (its own camera, response = release -> last unit) against
 #      `red node` fed by `red camera` at the scenario's rate and size 640x480, response =
 #      header stamp -> last output received by red_ros2_listener.
-#   3. the node's own memory beside the model <= 20 MB: the resident set of `red node` on
-#      the synthetic backend (no model: runtime, DDS and node), and on LibTorch the node's
-#      resident set against `red run`'s peak with the same model (TORCH=1).
+#   3. the node's own memory beside the model <= 20 MB: the resident set of `red node`
+#      against `red run`'s peak with the same binary and scenario, on the synthetic backend
+#      (no model) and, with TORCH=1, on LibTorch with the same model. Use REALTIME=0 for
+#      memory (mlockall locks every mapped page).
 # Usage: bench/ros2_targets.sh [OUT_DIR]
 #   SCENARIO=scenarios/interference-none.yaml SECS=20 REALTIME=1 (SCHED_FIFO etc. for both
 #   red run and red node; 0: off) TORCH=0|1 DOMAIN=80 RED=... LISTENER=...
@@ -92,10 +93,14 @@ print(f"   red node (synthetic, stamp -> last output received): {nl['frames']} f
 print(f"   of which in the node: camera -> taken over DDS p50 {float(nt.group(1)) / 1e3:.2f} ms, p99 {float(nt.group(2)) / 1e3:.2f} ms;"
       f" job end -> output written p50 {float(npub.group(1)) / 1e3:.2f} ms, p99 {float(npub.group(2)) / 1e3:.2f} ms")
 print(f"   node adds: p50 {r['p50'] - lat['p50']:+.2f} ms, p99 {r['p99'] - lat['p99']:+.2f} ms, mean {r['mean'] - lat['mean']:+.2f} ms (target p99 <= 1 ms)")
-print(f"3. red node resident set, synthetic backend (runtime + DDS + node, no model): {nrss:.1f} MB "
-      f"(red run synthetic peak {rp.get('peak_rss_mb')} MB; target: the node's own memory <= 20 MB)")
+peak = rp.get("peak_rss_mb") or 0.0
+print(f"3. resident set, synthetic backend (no model): red node {nrss:.1f} MB, red run peak {peak} MB: "
+      f"the node adds {nrss - peak:+.1f} MB (same binary: a LibTorch build maps its libraries in both; "
+      f"target: the node's own memory <= 20 MB)")
 if torch:
     ti, tr, tl, trss, tt, tpub = node("node-torch")
     tp = run("run-torch")
-    print(f"   torch: red node {trss:.1f} MB resident vs red run peak {tp.get('peak_rss_mb')} MB with the same model")
+    tpeak = tp.get("peak_rss_mb") or 0.0
+    print(f"   torch: red node {trss:.1f} MB resident vs red run peak {tpeak} MB with the same model: "
+          f"the node adds {trss - tpeak:+.1f} MB")
 PY
