@@ -16,7 +16,10 @@ cmake --build "$BUILD" -j"$(nproc)" --target fuzz
 WORK=$(mktemp -d /tmp/red-fuzz.XXXXXX)
 echo "fuzz: ${SECONDS_EACH}s per target, scratch corpus and artifacts in $WORK"
 status=0
-for target in fuzz_scenario fuzz_override fuzz_profile fuzz_manifest; do
+TARGETS="fuzz_scenario fuzz_override fuzz_profile fuzz_manifest"
+# The DDS message decoder is there when the fuzz build has the DDS bridge (Cyclone DDS).
+[ -x "$BUILD/tests/fuzz/fuzz_dds" ] && TARGETS="$TARGETS fuzz_dds"
+for target in $TARGETS; do
   mkdir -p "$WORK/$target"
   if ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     "$BUILD/tests/fuzz/$target" -max_total_time="$SECONDS_EACH" -rss_limit_mb=2048 -timeout=10 \

@@ -305,6 +305,75 @@ TEST(DdsNode, ASilentCameraIsReportedTheNodeResumesAndSigtermStopsItCleanly) {
   EXPECT_FALSE(test::read_text(dir + "/jobs.csv").empty());
 }
 
+TEST(DdsNode, WritersOfAnotherTypeOrIncompatibleQosAreCountedAndNoFrameIsLost) {
+  const int domain = test_domain();
+  auto dom = Domain::open(domain, "");
+  ASSERT_TRUE(dom.has_value()) << dom.error().to_string();
+  const dds_entity_t pp = (*dom)->participant();
+  std::map<std::string, std::string> last_diag;  // "status/key" -> value
+  Listener diag{
+      make_reader(pp, &diagnostic_msgs_msg_dds__DiagnosticArray__desc, "/diagnostics", true),
+      [&](const void* p) {
+        const auto& m = *static_cast<const DiagnosticArray*>(p);
+        for (std::uint32_t i = 0; i < m.status_._length; ++i) {
+          const DiagnosticStatus& s = m.status_._buffer[i];
+          for (std::uint32_t k = 0; k < s.values_._length; ++k)
+            last_diag[std::string(s.name_) + "/" + s.values_._buffer[k].key_] =
+                s.values_._buffer[k].value_;
+        }
+      }};
+  ASSERT_GT(diag.reader, 0);
+  // A geometry_msgs/Twist writer on the camera's topic (the wrong type: DDS never matches
+  // it with the node's Image reader), and an Image writer whose exclusive ownership the
+  // node's reader (shared ownership) cannot accept.
+  const std::string camera_topic = dds_topic_name("/camera/image_raw");
+  const dds_entity_t twist_topic = dds_create_topic(pp, &geometry_msgs_msg_dds__Twist__desc,
+                                                    camera_topic.c_str(), nullptr, nullptr);
+  ASSERT_GT(twist_topic, 0);
+  const dds_entity_t twist = dds_create_writer(pp, twist_topic, nullptr, nullptr);
+  ASSERT_GT(twist, 0);
+  const dds_entity_t image_topic = dds_create_topic(pp, &sensor_msgs_msg_dds__Image__desc,
+                                                    camera_topic.c_str(), nullptr, nullptr);
+  dds_qos_t* q = make_qos(EndpointQos{true, 10, false});
+  dds_qset_ownership(q, DDS_OWNERSHIP_EXCLUSIVE);
+  const dds_entity_t exclusive = dds_create_writer(pp, image_topic, q, nullptr);
+  dds_delete_qos(q);
+  ASSERT_GT(exclusive, 0);
+
+  const std::string d = " --domain " + std::to_string(domain);
+  const std::string err = ::testing::TempDir() + "wrong_type_" + std::to_string(domain) + ".err";
+  Command node(kRed + " node '" + kScenario + "' --backend synthetic --duration 4" + d + " 2> '" +
+               err + "'");
+  Command camera(kRed + " camera --rate 20 --count 40 --size 32x24" + d + " 2>/dev/null");
+  const auto t0 = std::chrono::steady_clock::now();
+  bool wrote = false;
+  while (last_diag["red: node/frames"].empty() || last_diag["red: node/frames"] == "0") {
+    drain(diag);
+    if (!wrote && !last_diag.empty()) {
+      // Sent once the node is up; neither sample may reach it.
+      Twist t{};
+      t.linear_.x_ = 1.0;
+      EXPECT_GE(dds_write(twist, &t), 0);
+      wrote = true;
+    }
+    if (std::chrono::steady_clock::now() - t0 > std::chrono::seconds{30}) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds{20});
+  }
+  EXPECT_EQ(camera.join(), 0);
+  EXPECT_EQ(node.join(), 0) << test::read_text(err);
+  std::this_thread::sleep_for(std::chrono::milliseconds{300});
+  drain(diag);
+  ASSERT_FALSE(last_diag.empty()) << "no diagnostics; " << test::read_text(err);
+  EXPECT_EQ(last_diag["red: node/rejected_wrong_type"], "1") << test::read_text(err);
+  EXPECT_EQ(last_diag["red: node/rejected_incompatible_qos"], "1") << test::read_text(err);
+  // The frames of the good camera are all released, as if the bad writers were not there.
+  EXPECT_GT(std::stoul(last_diag["red: node/frames"]), 0U);
+  EXPECT_EQ(last_diag["red: node/frames"], last_diag["red: node/released"]);
+  const std::string text = test::read_text(err);
+  EXPECT_NE(text.find("wrong_type"), std::string::npos) << text;
+  EXPECT_NE(text.find("incompatible_qos"), std::string::npos) << text;
+}
+
 int run(const std::string& args) {
   return exit_code(std::system((kRed + " " + args + " >/dev/null 2>&1").c_str()));
 }
@@ -321,6 +390,7 @@ TEST(DdsNodeCli, BadInputExitsTwo) {
   EXPECT_EQ(run("node " + s + " --domain 500"), 2);
   EXPECT_EQ(run("node " + s + " --backend magic"), 2);
   EXPECT_EQ(run("node " + s + " --duration -1"), 2);
+  EXPECT_EQ(run("node " + s + " --watchdog-x -1"), 2);
   EXPECT_EQ(run("camera --size 10by10 --count 1"), 2);
   EXPECT_EQ(run("camera --encoding yuv422 --count 1"), 2);
   EXPECT_EQ(run("camera --rate 0 --count 1"), 2);

@@ -84,6 +84,7 @@ int run_node(const NodeArgs& a) {
   o.policy = a.policy;
   o.domain = a.dds.domain;
   o.realtime = a.realtime;
+  o.watchdog_x = a.real.watchdog_x;
   if (a.duration_s > 0) o.duration = Duration{static_cast<std::int64_t>(a.duration_s * 1e9)};
   auto config = read_config(a.dds.config);
   if (!config) {
@@ -163,6 +164,18 @@ int run_node(const NodeArgs& a) {
       c.frames, c.released, rejected, reasons, c.masks, c.twists, c.detections, c.diagnostics,
       c.jobs_without_output);
   print_runtime_report(a.policy, report);
+  const dds::Node::Timings tm = (*node)->timings();
+  const std::vector<double>& intake = tm.intake_us;
+  std::cerr << fmt::format(
+      "red node: frame stamp -> taken (camera to node over DDS) p50 {:.2f} us, p99 {:.2f} us\n",
+      percentile(tm.transport_us, 0.5), percentile(tm.transport_us, 0.99));
+  std::cerr << fmt::format(
+      "red node: job end -> output written p50 {:.2f} us, p99 {:.2f} us ({} outputs)\n",
+      percentile(tm.publish_us, 0.5), percentile(tm.publish_us, 0.99), tm.publish_us.size());
+  std::cerr << fmt::format(
+      "red node: frame taken -> pushed (check, convert) p50 {:.2f} us, p99 {:.2f} us ({} "
+      "frames)\n",
+      percentile(intake, 0.5), percentile(intake, 0.99), intake.size());
   std::cerr << fmt::format(
       "red node: frame received -> released p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
       percentile(report.frame_release_us, 0.5), percentile(report.frame_release_us, 0.99),
@@ -262,6 +275,11 @@ void register_node(CLI::App& app, int& exit_code) {
   cmd->add_option("--threads", a->real.threads, "LibTorch intra-op threads per lane")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--realtime", a->realtime, "Try SCHED_FIFO, CPU affinity and mlockall");
+  cmd->add_option("--watchdog-x", a->real.watchdog_x,
+                  "Fail a unit still running after this many times its profiled p99 with the "
+                  "reason 'timeout' (0: no watchdog)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_option("--out", a->out, "Write summary.json, jobs.csv, units.csv here at the end");
   cmd->callback([a, &exit_code] { exit_code = run_node(*a); });
 }

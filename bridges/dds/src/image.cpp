@@ -1,6 +1,7 @@
 #include "red/dds/image.hpp"
 
 #include <cstring>
+#include <vector>
 
 namespace red::dds {
 
@@ -14,6 +15,10 @@ const char* to_string(Reject r) noexcept {
       return "bad_step";
     case Reject::DataSize:
       return "data_size";
+    case Reject::WrongType:
+      return "wrong_type";
+    case Reject::IncompatibleQos:
+      return "incompatible_qos";
   }
   return "?";
 }
@@ -43,27 +48,47 @@ std::optional<Reject> check_image(const Image& img) noexcept {
   return std::nullopt;
 }
 
+namespace {
+
+// The source byte offset of each output column (nearest neighbour), computed once per
+// call rather than a 64-bit division per pixel (the node does this for every frame before
+// its release). The vector is the calling thread's own and is reused between calls.
+const std::vector<std::uint64_t>& column_offsets(const Image& img, int width, int ch) {
+  thread_local std::vector<std::uint64_t> xs;
+  xs.resize(static_cast<std::size_t>(width));
+  for (int x = 0; x < width; ++x)
+    xs[static_cast<std::size_t>(x)] = static_cast<std::uint64_t>(x) * img.width_ /
+                                      static_cast<std::uint64_t>(width) *
+                                      static_cast<std::uint64_t>(ch);
+  return xs;
+}
+
+const std::uint8_t* source_row(const Image& img, int y, int height) {
+  const std::uint64_t sy =
+      static_cast<std::uint64_t>(y) * img.height_ / static_cast<std::uint64_t>(height);
+  return img.data_._buffer + sy * img.step_;
+}
+
+}  // namespace
+
 void to_gray(const Image& img, int width, int height, GrayFrame& out) {
   out.width = width;
   out.height = height;
   out.pixels.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
   const int ch = channels(img.encoding_);
   const bool bgr = std::strcmp(img.encoding_, "bgr8") == 0;
+  const std::vector<std::uint64_t>& xs = column_offsets(img, width, ch);
+  std::uint8_t* o = out.pixels.data();
   for (int y = 0; y < height; ++y) {
-    const std::uint64_t sy =
-        static_cast<std::uint64_t>(y) * img.height_ / static_cast<std::uint64_t>(height);
-    const std::uint8_t* row = img.data_._buffer + sy * img.step_;
-    for (int x = 0; x < width; ++x) {
-      const std::uint64_t sx =
-          static_cast<std::uint64_t>(x) * img.width_ / static_cast<std::uint64_t>(width);
-      const std::uint8_t* p = row + sx * static_cast<std::uint64_t>(ch);
-      std::uint32_t v = p[0];
-      if (ch == 3) {
-        const std::uint32_t r = bgr ? p[2] : p[0], b = bgr ? p[0] : p[2];
-        v = (r * 77U + p[1] * 150U + b * 29U) >> 8U;  // ITU-R BT.601 luma
-      }
-      out.pixels[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                 static_cast<std::size_t>(x)] = static_cast<std::uint8_t>(v);
+    const std::uint8_t* row = source_row(img, y, height);
+    if (ch == 1) {
+      for (std::uint64_t sx : xs) *o++ = row[sx];
+      continue;
+    }
+    for (std::uint64_t sx : xs) {
+      const std::uint8_t* p = row + sx;
+      const std::uint32_t r = bgr ? p[2] : p[0], b = bgr ? p[0] : p[2];
+      *o++ = static_cast<std::uint8_t>((r * 77U + p[1] * 150U + b * 29U) >> 8U);  // BT.601 luma
     }
   }
 }
@@ -72,18 +97,20 @@ void to_rgb(const Image& img, int width, int height, std::vector<std::uint8_t>& 
   out.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3U);
   const int ch = channels(img.encoding_);
   const bool bgr = std::strcmp(img.encoding_, "bgr8") == 0;
+  const std::vector<std::uint64_t>& xs = column_offsets(img, width, ch);
   std::uint8_t* o = out.data();
   for (int y = 0; y < height; ++y) {
-    const std::uint64_t sy =
-        static_cast<std::uint64_t>(y) * img.height_ / static_cast<std::uint64_t>(height);
-    const std::uint8_t* row = img.data_._buffer + sy * img.step_;
-    for (int x = 0; x < width; ++x, o += 3) {
-      const std::uint64_t sx =
-          static_cast<std::uint64_t>(x) * img.width_ / static_cast<std::uint64_t>(width);
-      const std::uint8_t* p = row + sx * static_cast<std::uint64_t>(ch);
-      o[0] = ch == 1 ? p[0] : (bgr ? p[2] : p[0]);
-      o[1] = ch == 1 ? p[0] : p[1];
-      o[2] = ch == 1 ? p[0] : (bgr ? p[0] : p[2]);
+    const std::uint8_t* row = source_row(img, y, height);
+    for (std::uint64_t sx : xs) {
+      const std::uint8_t* p = row + sx;
+      if (ch == 1) {
+        o[0] = o[1] = o[2] = p[0];
+      } else {
+        o[0] = bgr ? p[2] : p[0];
+        o[1] = p[1];
+        o[2] = bgr ? p[0] : p[2];
+      }
+      o += 3;
     }
   }
 }

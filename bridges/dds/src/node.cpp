@@ -48,6 +48,7 @@ namespace {
 constexpr std::size_t kFrameRing = 32;        // frames kept per sensor for outputs
 constexpr std::size_t kLatencyWindow = 1024;  // latencies kept per operation
 constexpr std::size_t kDecisionWindow = 4096;
+constexpr std::size_t kIntakeWindow = 16384;  // frame intake times kept (newest)
 
 struct FrameSlot {
   std::uint64_t id = ~std::uint64_t{0};
@@ -76,6 +77,7 @@ struct Output {
   int head = -1;
   int sensor = -1;
   std::uint64_t frame = 0;
+  TimePoint ended{0};  // when its job ended
 };
 
 std::string fmt_double(double v) {
@@ -95,7 +97,12 @@ struct Node::Impl final : Observer {
   SteadyClock clock;
 
   std::unique_ptr<Domain> domain;
-  std::vector<dds_entity_t> readers;            // per sensor
+  std::vector<dds_entity_t> readers;  // per sensor
+  struct ReaderCtx {
+    Impl* impl = nullptr;
+    std::size_t sensor = 0;
+  };
+  std::vector<ReaderCtx> reader_ctx;            // per sensor, the argument of its reader's listener
   std::map<std::string, dds_entity_t> writers;  // by output topic
   dds_entity_t diag_writer = 0;
   dds_entity_t waitset = 0;
@@ -105,6 +112,8 @@ struct Node::Impl final : Observer {
   mutable std::mutex frames_mu;  // sensors, counters
   std::vector<SensorState> sensors;
   NodeCounters counters;
+  Node::Timings timings;  // rings of the newest kIntakeWindow each
+  std::uint64_t intakes = 0, publishes = 0;
 
   // Observer state: touched only from observer callbacks (serialized by the runtime).
   std::map<JobId, std::vector<Output>> finished_heads;
@@ -155,11 +164,18 @@ struct Node::Impl final : Observer {
     wake = dds_create_guardcondition(pp);
     dds_waitset_attach(waitset, wake, -1);
     Expected<bool> result = true;
+    // A writer DDS refuses to match (another type, an incompatible QoS) is reported to a
+    // listener, one call per writer (a waitset would see only the last of several).
+    reader_ctx.resize(topics.sensors.size());
     for (std::size_t i = 0; i < topics.sensors.size() && result; ++i) {
       const dds_entity_t topic =
           dds_create_topic(pp, &sensor_msgs_msg_dds__Image__desc,
                            dds_topic_name(topics.sensors[i]).c_str(), nullptr, nullptr);
-      const dds_entity_t r = topic < 0 ? topic : dds_create_reader(pp, topic, in_qos, nullptr);
+      reader_ctx[i] = {this, i};
+      dds_listener_t* l = dds_create_listener(nullptr);
+      dds_lset_requested_incompatible_qos_arg(l, &Impl::on_unmatched_writer, &reader_ctx[i], true);
+      const dds_entity_t r = topic < 0 ? topic : dds_create_reader(pp, topic, in_qos, l);
+      dds_delete_listener(l);
       if (r < 0) {
         result = fail("cannot subscribe to " + topics.sensors[i], r);
         break;
@@ -232,7 +248,37 @@ struct Node::Impl final : Observer {
                 << img.data_._length << " data bytes; " << n << " so far)\n";
   }
 
-  void accept(std::size_t sensor, const Image& img) {
+  // A writer on the sensor's topic that DDS did not match: a type name other than
+  // sensor_msgs::msg::dds_::Image_ (Cyclone reports it as the type-consistency policy) or a
+  // QoS the reader cannot accept. Its samples never arrive, so the writer counts once.
+  // Called by Cyclone DDS on its own thread, once per writer.
+  static void on_unmatched_writer(dds_entity_t, const dds_requested_incompatible_qos_status_t st,
+                                  void* arg) {
+    const ReaderCtx& ctx = *static_cast<const ReaderCtx*>(arg);
+    if (ctx.impl == nullptr || st.total_count_change == 0) return;
+    Impl& m = *ctx.impl;
+    const bool type = st.last_policy_id == DDS_TYPE_CONSISTENCY_ENFORCEMENT_QOS_POLICY_ID;
+    const Reject why = type ? Reject::WrongType : Reject::IncompatibleQos;
+    std::uint64_t n = 0;
+    {
+      std::lock_guard lock(m.frames_mu);
+      n = m.counters.rejected[static_cast<std::size_t>(why)] += st.total_count_change;
+    }
+    std::cerr << "red node: a writer on " << m.topics.sensors[ctx.sensor] << " was not matched ("
+              << (type ? "wrong_type: its type is not sensor_msgs/msg/Image"
+                       : "incompatible_qos: DDS QoS policy id " +
+                             std::to_string(static_cast<int>(st.last_policy_id)))
+              << "; " << n << " so far): its messages are not received\n";
+  }
+
+  static void record(std::vector<double>& ring, std::uint64_t n, double v) {
+    if (ring.size() < kIntakeWindow)
+      ring.push_back(v);
+    else
+      ring[n % kIntakeWindow] = v;
+  }
+
+  void accept(std::size_t sensor, const Image& img, TimePoint taken) {
     const auto& in = scenario.model.input;
     const int h = in.size() >= 3 ? static_cast<int>(in[1]) : 192;
     const int w = in.size() >= 3 ? static_cast<int>(in[2]) : 384;
@@ -260,10 +306,22 @@ struct Node::Impl final : Observer {
       to_gray(img, w, h, gray);
       px.data = gray.pixels.data();
     }
-    if (runtime->push_frame(static_cast<int>(sensor), id, &px)) {
-      std::lock_guard lock(frames_mu);
-      ++counters.released;
-    }
+    const bool released = runtime->push_frame(static_cast<int>(sensor), id, &px);
+    const double us = to_us(clock.now() - taken);
+    std::lock_guard lock(frames_mu);
+    if (released) ++counters.released;
+    // Wall clocks: the sender's stamp against this machine's time of the take.
+    std::int32_t sec = 0;
+    std::uint32_t nsec = 0;
+    stamp_now(sec, nsec);
+    const double transport =
+        (static_cast<double>(sec - img.header_.stamp_.sec_) * 1e9 +
+         (static_cast<double>(nsec) - static_cast<double>(img.header_.stamp_.nanosec_))) /
+            1e3 -
+        us;
+    record(timings.intake_us, intakes, us);
+    record(timings.transport_us, intakes, transport);
+    ++intakes;
   }
 
   void receive_main() {
@@ -280,13 +338,14 @@ struct Node::Impl final : Observer {
           const dds_return_t n = dds_take(readers[s], samples.data(), infos.data(), samples.size(),
                                           static_cast<uint32_t>(samples.size()));
           if (n <= 0) break;
+          const TimePoint taken = clock.now();
           for (dds_return_t i = 0; i < n; ++i) {
             if (!infos[static_cast<std::size_t>(i)].valid_data) continue;
             const Image& img = *static_cast<const Image*>(samples[static_cast<std::size_t>(i)]);
             if (auto why = check_image(img))
               reject(s, *why, img);
             else
-              accept(s, img);
+              accept(s, img, taken);
           }
           dds_return_loan(readers[s], samples.data(), n);
         }
@@ -304,7 +363,8 @@ struct Node::Impl final : Observer {
       for (int n : u.produces) {
         const NodeSpec& spec = m.graph->spec->nodes[static_cast<std::size_t>(n)];
         if (spec.head < 0) continue;
-        finished_heads[m.job].push_back({m.operation, spec.name, spec.head, spec.sensor, m.frame});
+        finished_heads[m.job].push_back(
+            {m.operation, spec.name, spec.head, spec.sensor, m.frame, TimePoint{0}});
       }
     }
   }
@@ -344,8 +404,12 @@ struct Node::Impl final : Observer {
       return;
     }
     {
+      const TimePoint now = clock.now();
       std::lock_guard lock(pub_mu);
-      for (Output& o : outs) queue.push_back(std::move(o));
+      for (Output& o : outs) {
+        o.ended = now;
+        queue.push_back(std::move(o));
+      }
     }
     pub_cv.notify_one();
   }
@@ -551,6 +615,9 @@ struct Node::Impl final : Observer {
       if (item) {
         if (frame_of(*item, header, gray)) {
           publish(*item, gray, header);
+          const double us = to_us(clock.now() - item->ended);
+          std::lock_guard lock(frames_mu);
+          record(timings.publish_us, publishes++, us);
         } else {
           std::lock_guard lock(frames_mu);
           ++counters.jobs_without_output;  // its frame left the ring: never a wrong stamp
@@ -591,6 +658,7 @@ Expected<std::unique_ptr<Node>> Node::make(const Scenario& scenario, const Profi
   RuntimeOptions ro;
   ro.realtime = impl->options.realtime;
   ro.external_frames = true;
+  ro.watchdog_x = impl->options.watchdog_x;
   impl->runtime =
       std::make_unique<Runtime>(impl->scenario, profile, std::move(policy), backend, ro);
   impl->runtime->add_observer(impl.get());
@@ -615,6 +683,11 @@ void Node::stop() {
 NodeCounters Node::counters() const {
   std::lock_guard lock(impl_->frames_mu);
   return impl_->counters;
+}
+
+Node::Timings Node::timings() const {
+  std::lock_guard lock(impl_->frames_mu);
+  return impl_->timings;
 }
 
 const NodeTopics& Node::topics() const {

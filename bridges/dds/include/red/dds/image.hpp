@@ -12,9 +12,19 @@
 
 namespace red::dds {
 
-/// Why a received image was rejected; counted and reported in the diagnostics.
-enum class Reject : std::uint8_t { UnknownEncoding, AbsurdSize, BadStep, DataSize };
-inline constexpr int kRejectKinds = 4;
+/// Why a received image was rejected; counted and reported in the diagnostics. The last two
+/// are about a writer on an input topic rather than a message: DDS never delivers a sample
+/// of another type (WrongType: the writer's type name differs) or from a writer whose QoS
+/// the reader cannot accept (IncompatibleQos), so each such writer is counted once.
+enum class Reject : std::uint8_t {
+  UnknownEncoding,
+  AbsurdSize,
+  BadStep,
+  DataSize,
+  WrongType,
+  IncompatibleQos
+};
+inline constexpr int kRejectKinds = 6;
 
 /// Short name of a reason, as it appears in logs and diagnostics ("unknown_encoding", ...).
 const char* to_string(Reject r) noexcept;

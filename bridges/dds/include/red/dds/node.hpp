@@ -61,6 +61,8 @@ struct NodeOptions {
   Remaps remaps;
   std::optional<Duration> duration;  ///< stop releasing after this long; none: until stop()
   bool realtime = false;             ///< SCHED_FIFO, affinity, mlockall (as `red run`)
+  /// The runtime's watchdog: a unit's limit in × its profiled p99 (0: off; RuntimeOptions).
+  double watchdog_x = RuntimeOptions{}.watchdog_x;
   Duration diagnostics_period = std::chrono::seconds{1};
   /// A sensor with no frame for this many expected periods is reported silent.
   double silent_periods = 3.0;
@@ -94,6 +96,17 @@ class Node {
   void stop();
   /// A snapshot of the counters (thread-safe).
   [[nodiscard]] NodeCounters counters() const;
+  /// Where a frame's time goes in the node (μs, the newest 16384 of each; thread-safe).
+  struct Timings {
+    /// Header stamp -> taken from the DDS reader (wall clocks: the sender's and this one).
+    std::vector<double> transport_us;
+    /// Taken from the DDS reader -> the runtime has it (checked, converted, pushed). The
+    /// runtime's RuntimeReport::frame_release_us goes on from there to the release.
+    std::vector<double> intake_us;
+    /// A job ended -> its last output written to DDS (queue, computing, serializing).
+    std::vector<double> publish_us;
+  };
+  [[nodiscard]] Timings timings() const;
   /// The topics in use.
   [[nodiscard]] const NodeTopics& topics() const;
 

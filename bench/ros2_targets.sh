@@ -1,0 +1,106 @@
+#!/usr/bin/env bash
+# The DDS node's targets (issue 8, DESIGN §14; docs/BENCHMARKS.md, "The node's targets"):
+#   1. frame received -> job released, p99 <= 50 us on loopback: `red node` prints the node's
+#      intake (frame taken from the DDS reader -> handed to the runtime: checked, resized)
+#      and the runtime's push -> release; both are reported.
+#   2. what the node adds end to end over `red run` with the same frames, p99 <= 1 ms:
+#      `red run` of the scenario (its own camera, response = release -> last unit) against
+#      `red node` fed by `red camera` at the scenario's rate and size 640x480, response =
+#      header stamp -> last output received by red_ros2_listener.
+#   3. the node's own memory beside the model <= 20 MB: the resident set of `red node`
+#      against `red run`'s peak with the same binary and scenario, on the synthetic backend
+#      (no model) and, with TORCH=1, on LibTorch with the same model. Use REALTIME=0 for
+#      memory (mlockall locks every mapped page).
+# Usage: bench/ros2_targets.sh [OUT_DIR]
+#   SCENARIO=scenarios/interference-none.yaml SECS=20 REALTIME=1 (SCHED_FIFO etc. for both
+#   red run and red node; 0: off) TORCH=0|1 DOMAIN=80 RED=... LISTENER=...
+set -euo pipefail
+cd "$(dirname "$0")/.."
+OUT=${1:-out/ros2-targets}
+RED=${RED:-build/tools/red/red}
+LISTENER=${LISTENER:-build/bench/red_ros2_listener}
+SCENARIO=${SCENARIO:-scenarios/interference-none.yaml}
+SECS=${SECS:-20}
+DOMAIN=${DOMAIN:-80}
+for exe in "$RED" "$LISTENER"; do
+  [ -x "$exe" ] || { echo "ros2 targets: $exe not found (build with scripts/build.sh)" >&2; exit 2; }
+done
+RUN_RT=(--no-realtime)
+NODE_RT=()
+if [ "${REALTIME:-1}" = 1 ]; then RUN_RT=(); NODE_RT=(--realtime); fi
+mkdir -p "$OUT"
+deadline=$(grep -oE 'deadline_ms: *[0-9.]+' "$SCENARIO" | grep -oE '[0-9.]+$')
+rate=$(grep -oE 'rate_hz: *[0-9.]+' "$SCENARIO" | head -1 | grep -oE '[0-9.]+$')
+echo "ros2 targets: $SCENARIO, ${SECS}s, real-time knobs ${REALTIME:-1}; $(nproc) cores," \
+  "load average $(cut -d' ' -f1-3 /proc/loadavg) at $(date -u +%H:%M) UTC"
+
+# red node + camera + listener; prints the listener's JSON, leaves the node's log and RSS.
+node_run() { # TAG BACKEND
+  local tag=$1 backend=$2 d=$DOMAIN
+  DOMAIN=$((DOMAIN + 1))
+  "$RED" node "$SCENARIO" --backend "$backend" --domain "$d" "${NODE_RT[@]}" 2>"$OUT/$tag.log" &
+  local pid=$!
+  for _ in $(seq 1200); do grep -q "out /diagnostics" "$OUT/$tag.log" && break; sleep 0.1; done
+  "$LISTENER" --domain "$d" --deadline-ms "$deadline" --warmup 1 --idle 2 --timeout $((SECS + 60)) \
+    --topic image:/red/perceive/L --topic image:/red/perceive/S \
+    --topic detections:/red/perceive/O --topic twist_stamped:/red/perceive/C/stamped \
+    >"$OUT/$tag.json" &
+  local listener=$!
+  sleep 0.5
+  "$RED" camera --rate "$rate" --duration "$SECS" --size 640x480 --domain "$d" 2>/dev/null
+  wait $listener
+  awk '/^VmRSS/ {print $2}' "/proc/$pid/status" >"$OUT/$tag.rss_kb"
+  kill -INT $pid
+  wait $pid
+}
+
+"$RED" run "$SCENARIO" --backend synthetic --set duration_s="$SECS" "${RUN_RT[@]}" \
+  --out "$OUT/run-synthetic" >/dev/null 2>"$OUT/run-synthetic.log"
+node_run node-synthetic synthetic
+if [ "${TORCH:-0}" = 1 ]; then
+  "$RED" run "$SCENARIO" --backend torch --set duration_s="$SECS" "${RUN_RT[@]}" \
+    --out "$OUT/run-torch" >/dev/null 2>"$OUT/run-torch.log"
+  node_run node-torch torch
+fi
+
+python3 - "$OUT" "${TORCH:-0}" <<'PY'
+import json, os, re, sys
+out, torch = sys.argv[1], sys.argv[2] == "1"
+def node(tag):
+    log = open(f"{out}/{tag}.log").read()
+    num = r"([0-9.]+)"
+    intake = re.search(rf"frame taken -> pushed \(check, convert\) p50 {num} us, p99 {num} us \((\d+)", log)
+    release = re.search(rf"frame received -> released p50 {num} us, p99 {num} us \((\d+)", log)
+    transport = re.search(rf"frame stamp -> taken \(camera to node over DDS\) p50 {num} us, p99 {num} us", log)
+    publish = re.search(rf"job end -> output written p50 {num} us, p99 {num} us", log)
+    lst = json.load(open(f"{out}/{tag}.json"))
+    rss = int(open(f"{out}/{tag}.rss_kb").read().strip() or 0) / 1024
+    return intake, release, lst, rss, transport, publish
+def run(tag):
+    p = json.load(open(f"{out}/{tag}/summary.json"))["policies"][0]
+    return p
+ni, nr, nl, nrss, nt, npub = node("node-synthetic")
+rp = run("run-synthetic")
+print(f"1. frame intake (taken from DDS -> pushed: check, resize 640x480 -> model input): "
+      f"p50 {ni.group(1)} us, p99 {ni.group(2)} us over {ni.group(3)} frames")
+print(f"   push -> job released (runtime): p50 {nr.group(1)} us, p99 {nr.group(2)} us over {nr.group(3)} frames"
+      f" (target: received -> released p99 <= 50 us)")
+lat = rp["latency_ms"]
+r = nl["response_ms"]
+print(f"2. red run (synthetic): {rp['jobs']} jobs, response p50 {lat['p50']:.2f} ms, p99 {lat['p99']:.2f} ms, mean {lat['mean']:.2f} ms")
+print(f"   red node (synthetic, stamp -> last output received): {nl['frames']} frames, {nl['complete']} complete, "
+      f"p50 {r['p50']:.2f} ms, p99 {r['p99']:.2f} ms, mean {r['mean']:.2f} ms")
+print(f"   of which in the node: camera -> taken over DDS p50 {float(nt.group(1)) / 1e3:.2f} ms, p99 {float(nt.group(2)) / 1e3:.2f} ms;"
+      f" job end -> output written p50 {float(npub.group(1)) / 1e3:.2f} ms, p99 {float(npub.group(2)) / 1e3:.2f} ms")
+print(f"   node adds: p50 {r['p50'] - lat['p50']:+.2f} ms, p99 {r['p99'] - lat['p99']:+.2f} ms, mean {r['mean'] - lat['mean']:+.2f} ms (target p99 <= 1 ms)")
+peak = rp.get("peak_rss_mb") or 0.0
+print(f"3. resident set, synthetic backend (no model): red node {nrss:.1f} MB, red run peak {peak} MB: "
+      f"the node adds {nrss - peak:+.1f} MB (same binary: a LibTorch build maps its libraries in both; "
+      f"target: the node's own memory <= 20 MB)")
+if torch:
+    ti, tr, tl, trss, tt, tpub = node("node-torch")
+    tp = run("run-torch")
+    tpeak = tp.get("peak_rss_mb") or 0.0
+    print(f"   torch: red node {trss:.1f} MB resident vs red run peak {tpeak} MB with the same model: "
+          f"the node adds {trss - tpeak:+.1f} MB")
+PY
