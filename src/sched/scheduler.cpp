@@ -746,8 +746,10 @@ bool Scheduler::Impl::pick(TimePoint now) {
           !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
       // §5 hopeless, on the drop estimate and with the round trip this dispatch pays. An
       // overload-aware policy (rank=overload) aborts only while overloaded: with the lanes
-      // to spare, a job that may still make it costs no other job anything.
-      if (opt.drop == DropMode::Hopeless && (opt.rank != RankMode::Overload || overloaded)) {
+      // to spare, a job that may still make it costs no other job anything; nor does a job
+      // alone in flight (the estimate may be pessimistic, and its deadline still ends it).
+      if (opt.drop == DropMode::Hopeless &&
+          (opt.rank != RankMode::Overload || (overloaded && by_deadline.size() > 1))) {
         for (const auto& [slot, unit] : k.members) {
           Job& j = job(slot);
           // Below capacity a job is kept while its best case (0.9 × the drop estimate, the

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "../support/load_grid.hpp"
+#include "red/scenario/builder.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sim/run.hpp"
 
@@ -271,6 +272,34 @@ operations:
     EXPECT_LT(miss[2], miss[0]) << policy;
     EXPECT_GT(miss[0] + miss[1], 0) << policy << ": not overloaded";
   }
+}
+
+// A profile taken under load says no job fits its deadline, yet the machine runs them in
+// time: red-robust must not reject a job at release when no other job is due with it (a
+// rejection would free the lane for nobody), and so must do as well as red.
+TEST(Overload, APessimisticProfileDoesNotMakeRedRobustRejectLoneJobs) {
+  ScenarioBuilder b("lone");
+  b.duration(std::chrono::seconds{3}).lanes(1).sensor("camera", 10.0);
+  b.operation("perceive")
+      .trigger("camera")
+      .deadline(std::chrono::milliseconds{40})
+      .inference("L", "lane", "camera")
+      .inference("C", "steer", "camera")
+      .edge("L", "C");
+  auto s = b.build();
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  const Profile real = default_profile();  // encoder 12 ms, lane 3 ms, steer 0.6 ms
+  Profile pessimistic = real;              // the planning profile: 4x every cost
+  for (auto& [name, unit] : pessimistic.units)
+    for (LatencyStats& l : unit.by_batch)
+      for (Duration* d : {&l.min, &l.mean, &l.p50, &l.p95, &l.p99, &l.max}) *d *= 4;
+  auto red = simulate_policy(*s, pessimistic, "red", 1, {}, false, std::nullopt, &real);
+  auto robust = simulate_policy(*s, pessimistic, "red-robust", 1, {}, false, std::nullopt, &real);
+  ASSERT_TRUE(red.has_value() && robust.has_value());
+  EXPECT_EQ(red->metrics.missed, 0);
+  EXPECT_EQ(robust->metrics.missed, 0);
+  EXPECT_EQ(robust->metrics.drop_reasons.count("rejected at release"), 0u);
+  EXPECT_EQ(robust->metrics.completed, red->metrics.completed);
 }
 
 }  // namespace
