@@ -119,6 +119,34 @@ def main():
         lines += ["", f"{within} of {len(keys)} (scenario, policy) pairs within the target, left "
                   "one out (medians over the runs)."]
         json.dump(loo_rows, open(os.path.join(out, "fidelity-loo.json"), "w"), indent=1)
+    # The real runs themselves: median [min-max] over the runs, per scenario and policy.
+    for s in scenarios:
+        name = os.path.splitext(os.path.basename(s))[0]
+        d = os.path.join(out, name)
+        runs = sorted(glob.glob(os.path.join(d, "run*", "summary.json")))
+        if not runs:
+            continue
+        per = {}
+        for path in runs:
+            for p in json.load(open(path))["policies"]:
+                per.setdefault(p["name"], []).append(p)
+        lines += ["", f"Real runs of {name} ({len(runs)} runs): median [min–max]", "",
+                  "| policy | miss % | mean ms | p99 ms | QoE | round trips / dispatches |",
+                  "|---|---|---|---|---|---|"]
+
+        def cell(v, f="{:.2f}"):
+            v = [x for x in v if x is not None]
+            if not v:
+                return "—"
+            return (f + " [" + f + "–" + f + "]").format(statistics.median(v), min(v), max(v))
+        for pol, ps in per.items():
+            lat = [p["latency_ms"] for p in ps]
+            lines.append("| {} | {} | {} | {} | {} | {} |".format(
+                pol, cell([100 * p["miss_rate"] for p in ps]),
+                cell([x["mean"] if x["mean"] > 0 else None for x in lat], "{:.1f}"),
+                cell([x["p99"] if x["p99"] > 0 else None for x in lat], "{:.1f}"),
+                cell([p["qoe"] for p in ps], "{:.3f}"),
+                ", ".join(f"{p['sync_round_trips']}/{p['dispatches']}" for p in ps)))
     text = "\n".join(lines) + "\n"
     open(os.path.join(out, "fidelity.md"), "w").write(text)
     json.dump(rows, open(os.path.join(out, "fidelity.json"), "w"), indent=1)

@@ -137,7 +137,8 @@ Expected<Profile> calibrate_profile(const Profile& isolated, const Scenario& s,
     const std::vector<UnitRow>& rows = runs[ri].units;
     const std::vector<int> busy = busy_others(rows);
     for (double h : runs[ri].handoff_us)
-      if (h >= 0.0 && h < 5000.0) (runs[ri].round_trips ? round_trips : handoffs).push_back(h * 1e3);
+      if (h >= 0.0 && h < 5000.0)
+        (runs[ri].round_trips ? round_trips : handoffs).push_back(h * 1e3);
     for (std::size_t i = 0; i < rows.size(); ++i) {
       const UnitRow& r = rows[i];
       if (r.status != UnitStatus::Completed || r.end <= r.start) continue;
