@@ -168,9 +168,18 @@ Profile worst_case_profile(const Profile& p) {
   Profile w = p;
   for (auto& [name, unit] : w.units)
     for (LatencyStats& l : unit.by_batch) l.min = l.mean = l.p50 = l.p95 = l.p99 = l.max;
-  // A calibrated profile's statistics are in-run ones (their max includes the slow spells
-  // measured); its residual tables and factors would let the simulator draw below the max.
-  w.calibration.reset();
+  // A calibrated profile: the simulator draws residual × time factor × lane factor
+  // (docs/FIDELITY.md); the worst case pins each part at its largest measured value.
+  if (w.calibration) {
+    Calibration& c = *w.calibration;
+    for (auto& [name, tables] : c.residual)
+      for (std::vector<Duration>& t : tables)
+        if (!t.empty()) t.assign(t.size(), t.back());
+    if (!c.factors.empty())
+      c.factors.assign(1, *std::max_element(c.factors.begin(), c.factors.end()));
+    const double lane = *std::max_element(c.lane_factors.begin(), c.lane_factors.end());
+    c.lane_factors.assign(c.lane_factors.size(), lane);
+  }
   return w;
 }
 

@@ -301,5 +301,26 @@ TEST(AnalyzeWorstCase, ProfileAndScenarioPinEveryCostAtItsMax) {
   EXPECT_EQ(c.mean, plain_stats(*s->initial[1]->nodes[0].cost).max);
 }
 
+// A calibrated profile's worst case pins every part of the simulator's cost model at its
+// largest measured value: residual at its max, the largest time and lane factors.
+TEST(AnalyzeWorstCase, CalibratedProfilesPinResidualsAndFactors) {
+  Profile p = default_profile();
+  Calibration c;
+  using std::chrono::milliseconds;
+  c.residual["encoder"] = {{milliseconds{10}, milliseconds{11}, milliseconds{14}}};
+  c.factors = {0.9, 1.0, 1.6, 1.1};
+  c.lane_factors = {1.0, 1.3};
+  p.calibration = c;
+  const Profile w = worst_case_profile(p);
+  ASSERT_TRUE(w.calibration.has_value());
+  const std::vector<Duration>* t = w.calibration->table("encoder", 1);
+  ASSERT_NE(t, nullptr);
+  for (Duration d : *t) EXPECT_EQ(d, milliseconds{14});
+  EXPECT_EQ(w.calibration->factors, std::vector<double>{1.6});
+  for (double f : w.calibration->lane_factors) EXPECT_DOUBLE_EQ(f, 1.3);
+  for (int i = 0; i < 50; ++i)
+    EXPECT_DOUBLE_EQ(w.calibration->factor_at(TimePoint{milliseconds{i * 113}}, 9), 1.6);
+}
+
 }  // namespace
 }  // namespace red
