@@ -67,6 +67,9 @@ RunResult run_runtime(const std::string& policy, SyntheticBackend::Options o) {
   SyntheticBackend backend(*s, p, 1, std::move(o));
   RuntimeOptions ro;
   ro.realtime = false;
+  // No watchdog: these tests count jobs, and under a sanitizer on a loaded machine a unit
+  // can overrun 10 x its p99 without being hung (the watchdog has its own fault tests).
+  ro.watchdog_x = 0.0;
   Runtime rt(*s, p, make_policy(policy), backend, ro);
   RunResult r;
   MetricsCollector metrics(*s, 1.0);
