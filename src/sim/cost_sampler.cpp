@@ -27,14 +27,30 @@ LatencyStats plain_stats(const PlainCost& c) {
 }
 
 CostSampler::CostSampler(const Scenario& s, const Profile& p, std::uint64_t seed, double slowdown)
-    : scenario_(s), seed_(seed), slowdown_(slowdown), profile_(p) {
+    : scenario_(s), seed_(seed), slowdown_(slowdown) {
   encoder_ = p.find("encoder");
   for (const std::string& h : s.model.heads) heads_.push_back(p.find("head/" + h));
   if (p.calibration) {
     // The calibration ran under its own background load: only the difference slows units.
     cal_ = &*p.calibration;
     cal_slowdown_ = slowdown / (1.0 + cal_->interference);
+    cal_encoder_ = tables("encoder");
+    for (const std::string& h : s.model.heads) {
+      cal_heads_.push_back(tables("head/" + h));
+      cal_coarse_.push_back(tables("coarse/" + h));
+    }
   }
+}
+
+const CostSampler::Tables* CostSampler::tables(const std::string& unit) const {
+  const auto it = cal_->residual.find(unit);
+  return it == cal_->residual.end() ? nullptr : &it->second;
+}
+
+const std::vector<Duration>* CostSampler::table_at(const Tables* t, int batch) {
+  if (t == nullptr || batch < 1 || batch > static_cast<int>(t->size())) return nullptr;
+  const std::vector<Duration>& v = (*t)[static_cast<std::size_t>(batch - 1)];
+  return v.empty() ? nullptr : &v;
 }
 
 double CostSampler::encoder_u(int sensor, std::uint64_t frame) const {
@@ -50,9 +66,8 @@ double CostSampler::head_u(int op, std::uint64_t seq, int node) const {
   return unit_uniform(k);
 }
 
-Duration CostSampler::draw(const UnitProfile& u, const std::string& name, int batch,
-                           double u01) const {
-  if (const std::vector<Duration>* t = cal_->table(name, batch)) return table_quantile(*t, u01);
+Duration CostSampler::draw(const UnitProfile& u, const Tables* t, int batch, double u01) {
+  if (const std::vector<Duration>* v = table_at(t, batch)) return table_quantile(*v, u01);
   return u.at(batch).quantile(u01);
 }
 
@@ -65,7 +80,7 @@ Duration CostSampler::scaled(Duration d) const {
 Duration CostSampler::encoder(int sensor, std::uint64_t frame, int batch) const {
   RED_ASSERT(encoder_ != nullptr);
   const double u = encoder_u(sensor, frame);
-  if (cal_ != nullptr) return draw(*encoder_, "encoder", batch, u);
+  if (cal_ != nullptr) return draw(*encoder_, cal_encoder_, batch, u);
   return scaled(encoder_->at(batch).quantile(u));
 }
 
@@ -73,8 +88,7 @@ Duration CostSampler::head(int h, int op, std::uint64_t seq, int node, int batch
   const UnitProfile* p = heads_[static_cast<std::size_t>(h)];
   RED_ASSERT(p != nullptr);
   const double u = head_u(op, seq, node);
-  if (cal_ != nullptr)
-    return draw(*p, "head/" + scenario_.model.heads[static_cast<std::size_t>(h)], batch, u);
+  if (cal_ != nullptr) return draw(*p, cal_heads_[static_cast<std::size_t>(h)], batch, u);
   return scaled(p->at(batch).quantile(u));
 }
 
@@ -97,13 +111,12 @@ Duration CostSampler::sample(const Dispatch& d, TimePoint start, int busy_others
   const RefinedGraph& g = *m.graph;
   const RefinedUnit& ru = g.units[static_cast<std::size_t>(m.unit)];
   if (d.kind == UnitKind::Coarse) {
-    const std::string name = "coarse/" + scenario_.model.heads[static_cast<std::size_t>(ru.head)];
-    if (const UnitProfile* u = profile_.find(name); u != nullptr && cal_->table(name, 1))
-      base = draw(*u, name, 1, encoder_u(ru.sensor, m.frame));
+    if (const auto* t = table_at(cal_coarse_[static_cast<std::size_t>(ru.head)], 1))
+      base = table_quantile(*t, encoder_u(ru.sensor, m.frame));
   } else if (d.kind == UnitKind::Mono && !g.sensors.empty()) {
-    const std::string name = "mono/" + g.spec->name;
-    if (const UnitProfile* u = profile_.find(name); u != nullptr && cal_->table(name, 1))
-      base = draw(*u, name, 1, encoder_u(g.sensors.front(), m.frame));
+    // One lookup per job: mono units are named by their operation.
+    if (const auto* t = table_at(tables("mono/" + g.spec->name), 1))
+      base = table_quantile(*t, encoder_u(g.sensors.front(), m.frame));
   }
   if (base < Duration{0}) base = uncalibrated(d);
   const std::size_t k =

@@ -336,6 +336,20 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
 
 int run_profile(const ProfileArgs& a);
 
+/// Writes the profile JSON to `path` (nothing when empty); the exit code.
+int write_profile(const Profile& p, const std::string& path) {
+  if (path.empty()) return kOk;
+  std::ofstream out(path, std::ios::binary);
+  out << profile_to_json(p);
+  out.close();
+  if (!out) {
+    print_error(Error{path, 0, "cannot write the profile"});
+    return kRunFailure;
+  }
+  fmt::print("wrote {}\n", path);
+  return kOk;
+}
+
 /// `red profile --from F.json --calibrate S.yaml`: calibrates a profile measured before.
 int run_calibrate_only(const ProfileArgs& a) {
   if (a.calibrate.empty()) {
@@ -356,17 +370,7 @@ int run_calibrate_only(const ProfileArgs& a) {
   }
   fmt::print("calibrated in {:.1f} s\n",
              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  if (!a.out.empty()) {
-    std::ofstream out(a.out, std::ios::binary);
-    out << profile_to_json(*c);
-    out.close();
-    if (!out) {
-      print_error(Error{a.out, 0, "cannot write the profile"});
-      return kRunFailure;
-    }
-    fmt::print("wrote {}\n", a.out);
-  }
-  return kOk;
+  return write_profile(*c, a.out);
 }
 
 int run_profile(const ProfileArgs& a) {
@@ -421,17 +425,7 @@ int run_profile(const ProfileArgs& a) {
     c->profile_wall_s = p->profile_wall_s + calib_s;
     p = std::move(c);
   }
-  if (!a.out.empty()) {
-    std::ofstream out(a.out, std::ios::binary);
-    out << profile_to_json(*p);
-    out.close();
-    if (!out) {
-      print_error(Error{a.out, 0, "cannot write the profile"});
-      return kRunFailure;
-    }
-    fmt::print("wrote {}\n", a.out);
-  }
-  return kOk;
+  return write_profile(*p, a.out);
 }
 
 }  // namespace

@@ -35,20 +35,28 @@ class CostSampler {
  private:
   [[nodiscard]] Duration scaled(Duration d) const;
   [[nodiscard]] Duration uncalibrated(const Dispatch& d) const;
-  /// A draw at u of (unit, batch): the calibration's residual table when it has one.
-  [[nodiscard]] Duration draw(const UnitProfile& u, const std::string& name, int batch,
-                              double u01) const;
+  /// Residual tables of one unit by batch size (Calibration::residual's values).
+  using Tables = std::vector<std::vector<Duration>>;
+  /// The calibration's residual tables of a unit, or nullptr.
+  [[nodiscard]] const Tables* tables(const std::string& unit) const;
+  /// The table of batch b in `t`, or nullptr.
+  [[nodiscard]] static const std::vector<Duration>* table_at(const Tables* t, int batch);
+  /// A draw at u of (unit, batch): its residual table when it has one, else its statistics.
+  [[nodiscard]] static Duration draw(const UnitProfile& u, const Tables* t, int batch, double u01);
   [[nodiscard]] double encoder_u(int sensor, std::uint64_t frame) const;
   [[nodiscard]] double head_u(int op, std::uint64_t seq, int node) const;
 
   const Scenario& scenario_;
   std::uint64_t seed_;
   double slowdown_;
-  const Profile& profile_;
   const Calibration* cal_ = nullptr;  ///< the profile's calibration, if any
   double cal_slowdown_ = 1.0;  ///< background load beyond the calibration's (calibrated only)
   const UnitProfile* encoder_ = nullptr;
   std::vector<const UnitProfile*> heads_;
+  // Residual tables looked up once (calibrated profiles): encoder, head/<h>, coarse/<h>.
+  const Tables* cal_encoder_ = nullptr;
+  std::vector<const Tables*> cal_heads_;
+  std::vector<const Tables*> cal_coarse_;
 };
 
 /// The distribution assumed for a plain cost {mean, p99}: p50 = mean,
