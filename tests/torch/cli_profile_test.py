@@ -85,7 +85,7 @@ def main():
                 "      L: {head: lane, sensor: camera}\n      C: {head: steer, sensor: camera}\n"
                 "    edges: [[L, C]]\n")
     calibrated = os.path.join(scratch, "calibrated.json")
-    rc, out, err = run(red, "--from", out_json, "--calibrate", scenario, "--calibrate-s", "1",
+    rc, out, err = run(red, "--from", out_json, "--calibrate", scenario, "--calibrate-s", "2",
                        "--calibrate-policies", "edf,red,mono", "--quiet", "--out", calibrated)
     check(rc == 0, "--from F --calibrate S runs (exit 0)", out, err)
     check("in-run ms" in out and "time factor" in out and "lane factor" in out,
@@ -107,7 +107,15 @@ def main():
                          capture_output=True, text=True, timeout=120)
     check(sim.returncode == 0 and "calibrated" in sim.stdout, "simulate with a calibrated profile",
           sim.stdout, sim.stderr)
+    bad_run = os.path.join(scratch, "badrun")
+    os.makedirs(bad_run, exist_ok=True)
+    with open(os.path.join(bad_run, "units.csv"), "w") as f:
+        f.write("policy,lane\nred,0\n")
     bad = [
+        (["--from", out_json, "--calibrate", scenario, "--calibrate-from", bad_run],
+         "units.csv:1: not a units.csv"),
+        (["--from", out_json, "--calibrate", scenario, "--calibrate-from",
+          os.path.join(scratch, "norun")], "norun/units.csv"),
         (["--from", out_json], "--from needs --calibrate"),
         (["--from", out_json, "--calibrate", os.path.join(scratch, "none.yaml")], "none.yaml"),
         (["--from", out_json, "--calibrate", scenario, "--calibrate-policies", "edf,nope"],
