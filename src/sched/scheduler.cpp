@@ -916,8 +916,17 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
       UnitRt& su = j.u[static_cast<std::size_t>(sx)];
       if (--su.pending == 0 && su.state == UState::Blocked) m.make_ready(mb.slot, sx);
     }
-    if (j.unfinished == 0)
-      m.end_job(mb.slot, now <= j.deadline ? JobOutcome::Met : JobOutcome::Missed, now);
+    if (j.unfinished == 0) {
+      // §5 strict: a job whose deadline passed while its last unit ran is aborted and the
+      // unit's output discarded, even where the completion reached the scheduler before
+      // the deadline's own event (the runtime's timer; the simulator orders them by time).
+      if (now > j.deadline && m.opt.drop != DropMode::None) {
+        j.reason = "deadline passed";
+        m.end_job(mb.slot, JobOutcome::Dropped, now);
+      } else {
+        m.end_job(mb.slot, now <= j.deadline ? JobOutcome::Met : JobOutcome::Missed, now);
+      }
+    }
   }
 }
 

@@ -273,6 +273,33 @@ TEST(Drops, StrictAbortsAtTheDeadlineAndDiscardsTheRunningUnit) {
   }
 }
 
+// A runtime's deadline timer can fire after the last unit's completion reached the
+// scheduler: under strict drops that job is still aborted (its output discarded), as the
+// simulator, which orders events by time, has it.
+TEST(Drops, StrictDropsAJobWhoseLastUnitEndedPastTheDeadlineBeforeItsTimer) {
+  // mono: one unit ending at r + 130; edf: A, B, C ending at r + 45, r + 90, r + 135.
+  const std::pair<const char*, Duration> cases[] = {{"mono", 130ms}, {"edf", 45ms}};
+  for (const auto& [policy, each] : cases) {
+    SCOPED_TRACE(policy);
+    const TimePoint r = 100ms;
+    Harness h(kWorked, policy);
+    h.frame(0, 1, r);
+    ASSERT_FALSE(h.step(r).empty());
+    TimePoint t = r;
+    // Complete every unit as it is dispatched, the last one past the deadline (r + 120),
+    // without a step at the deadline itself.
+    for (int guard = 0; guard < 8 && h.rec().ended.empty(); ++guard) {
+      t += each;
+      h.complete(0, t);
+      if (h.rec().ended.empty()) h.step(t);
+    }
+    ASSERT_EQ(h.rec().ended.size(), 1u);
+    EXPECT_GT(h.rec().ended[0].finish, r + 120ms);
+    EXPECT_EQ(h.rec().ended[0].outcome, JobOutcome::Dropped);
+    EXPECT_EQ(h.rec().ended[0].reason, "deadline passed");
+  }
+}
+
 TEST(Drops, NoneLetsLateJobsFinishAsMissed) {
   const TimePoint r = 100ms;
   Harness h(kWorked, "red-ida", options_of("red-ida", DropMode::None));
