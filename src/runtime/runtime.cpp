@@ -346,8 +346,34 @@ struct Runtime::Impl {
     return own;
   }
 
+  // Lane i's share of the cores: [i*k, (i+1)*k), k = cores / lanes, at least one.
+  cpu_set_t lane_cores(std::size_t i) const {
+    const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+    const long lanes = std::max(1L, static_cast<long>(scenario.device.lanes));
+    const long share = std::max(1L, cores / lanes);
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    const long first = (static_cast<long>(i) * share) % cores;
+    for (long c = first; c < std::min(cores, first + share); ++c)
+      CPU_SET(static_cast<int>(c), &set);
+    return set;
+  }
+
   void handler_main(int lane) {
     Handler& h = *handlers[static_cast<std::size_t>(lane)];
+    // The real-time class and the lane's cores go on before the backend's first call:
+    // worker threads a backend starts then (LibTorch's intra-op team, created by the
+    // warm-up) inherit them from this thread. Set after the warm-up instead, only the
+    // handler had them and its workers ran as ordinary threads behind every SCHED_FIFO
+    // spinner: the first policy of a process ran its units ~25 % slower than the next.
+    // apply_realtime() sets them again and reports (memory is locked only after the warm-up).
+    if (options.realtime) {
+      sched_param sp{};
+      sp.sched_priority = options.rt_priority;
+      (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+      const cpu_set_t set = lane_cores(static_cast<std::size_t>(lane));
+      (void)pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+    }
     backend.init_lane(lane);
     backend.warm_up(lane);
     warmed->count_down();
@@ -527,11 +553,7 @@ struct Runtime::Impl {
     const long share = std::max(1L, cores / std::max(1L, lanes));
     int pinned = 0;
     for (std::size_t i = 0; i < handlers.size(); ++i) {
-      cpu_set_t set;
-      CPU_ZERO(&set);
-      const long first = (static_cast<long>(i) * share) % cores;
-      for (long c = first; c < std::min(cores, first + share); ++c)
-        CPU_SET(static_cast<int>(c), &set);
+      const cpu_set_t set = lane_cores(i);
       if (pthread_setaffinity_np(handlers[i]->thread.native_handle(), sizeof(set), &set) == 0)
         ++pinned;
     }
