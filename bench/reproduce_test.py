@@ -141,6 +141,9 @@ class PageTest(unittest.TestCase):
             for k in (1, 2):
                 self.write_run(scen, k, [policy(p, 0.1 * i, 10.0 + i, 1 - 0.1 * i, [0.1, 0.2, 0.1])
                                          for i, p in enumerate(rp.POLICIES)])
+        # A prediction of run 1 (fidelity's leave-one-out layout).
+        loo = os.path.join(self.out, "runs", "minibench-tight", "loo1-seed1")
+        shutil.copytree(os.path.join(self.out, "runs", "minibench-tight", "run1"), loo)
         scen_dir = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenarios")
         rp.build_page(self.out, "quick", "test", [], scen_dir)
         # No profile in this fixture: Table 1 is unmeasured, and the checker says so.
