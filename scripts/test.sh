@@ -34,3 +34,6 @@ scripts/check-install.sh
 
 echo "== fuzz each libFuzzer target for 15 s (clang; address, undefined, leaks)"
 scripts/fuzz.sh 15
+
+echo "== reproduction page, smoke run (bench/reproduce.sh --quick: every section, numbers parse)"
+RED=build/tools/red/red bench/reproduce.sh --quick --out build/reproduce-quick
