@@ -825,7 +825,7 @@ bool Runtime::push_frame(int sensor, std::uint64_t frame, const FrameView* pixel
     m.backend.on_external_frame(sensor, frame, *pixels);
   else
     m.backend.on_frame(sensor, frame);
-  m.post({InEvent::Frame, sensor, frame, m.clock.now(), UnitStatus::Completed, {}});
+  m.arrive(sensor, frame);
   return true;
 }
 
