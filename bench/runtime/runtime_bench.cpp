@@ -137,7 +137,10 @@ int main(int argc, char** argv) {
       const std::size_t measurement = (r.decision_us.capacity() + r.handoff_us.capacity() +
                                        r.lock_wait_us.capacity() + r.frame_release_us.capacity()) *
                                       sizeof(double);
-      held = heap_in_use() - before - measurement;
+      // Memory freed during the run (e.g. by a feeder thread's frames) can leave less in
+      // use than before plus the buffers: then nothing is held beyond them.
+      const std::size_t now_in_use = heap_in_use();
+      held = now_in_use > before + measurement ? now_in_use - before - measurement : 0;
     }
     std::printf(
         "%-16s %6lld %9.2f %9.2f %9.1f %9.1f %8llu %8llu %9.2f %10.2f %9.1f %8.1f %8.1f %8llu\n",
