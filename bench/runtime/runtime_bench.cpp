@@ -5,17 +5,27 @@
 ///  - unit completion -> next unit started on that lane (p50, p99), per-edge vs on-demand;
 ///  - synchronizer round trips and decisions taken locally by handlers;
 ///  - scheduling decision time inside the runtime;
-///  - heap held by the scheduler and synchronizers (glibc mallinfo2, before vs after).
+///  - heap held by the scheduler and synchronizers (glibc mallinfo2, before vs after);
+///  - with RED_EXTERNAL_FRAMES=1, frames pushed by one feeder thread per sensor
+///    (Runtime::push_frame, as the DDS node does) instead of the runtime's camera: frame
+///    pushed -> job released (p50, p99) and how many were released by the pushing thread
+///    (feeders at SCHED_FIFO with RED_REALTIME=1, unless RED_FEEDER_OTHER=1).
 ///
-///     build/bench/red_runtime_bench [scenario.yaml] [seconds]
+///     [RED_REALTIME=1] [RED_EXTERNAL_FRAMES=1] build/bench/red_runtime_bench [scenario.yaml]
+///         [seconds]
 
 #include <malloc.h>
+#include <pthread.h>
+#include <sched.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "red/metrics/metrics.hpp"
@@ -76,9 +86,10 @@ int main(int argc, char** argv) {
                               {"edf, per-edge", "edf", red::SyncMode::PerEdge}};
   std::printf("scenario %s, %.1f s of real time per variant, synthetic backend (spinning)\n",
               s->name.c_str(), red::to_s(s->duration));
-  std::printf("%-16s %6s %9s %9s %9s %9s %8s %8s %9s %10s %9s\n", "variant", "jobs", "miss%",
-              "mean ms", "hand p50", "hand p99", "rtrips", "local", "dec p50", "dec p99",
-              "heap KB");
+  const bool external = std::getenv("RED_EXTERNAL_FRAMES") != nullptr;
+  std::printf("%-16s %6s %9s %9s %9s %9s %8s %8s %9s %10s %9s %8s %8s %8s\n", "variant", "jobs",
+              "miss%", "mean ms", "hand p50", "hand p99", "rtrips", "local", "dec p50", "dec p99",
+              "heap KB", "rel p50", "rel p99", "direct");
   for (const Variant& v : variants) {
     auto o = red::preset_options(v.policy);
     o->sync = v.sync;
@@ -87,6 +98,7 @@ int main(int argc, char** argv) {
     red::SyntheticBackend backend(*s, *p, s->seed, so);
     red::RuntimeOptions ro;
     ro.realtime = std::getenv("RED_REALTIME") != nullptr;
+    ro.external_frames = external;
     if (const char* sp = std::getenv("RED_SPIN_US"))
       ro.spin = std::chrono::microseconds{std::atoi(sp)};
     Outcomes outcomes;
@@ -96,16 +108,43 @@ int main(int argc, char** argv) {
     {
       red::Runtime rt(*s, *p, red::make_policy(v.policy, o), backend, ro);
       rt.add_observer(&outcomes);
+      // External frames: one feeder per sensor at its rate, until the scenario's end.
+      std::atomic<bool> feeding{external};
+      std::vector<std::thread> feeders;
+      for (std::size_t i = 0; external && i < s->sensors.size(); ++i)
+        feeders.emplace_back([&rt, &feeding, &s, i, &ro] {
+          // With RED_REALTIME=1 the feeders run at the runtime's SCHED_FIFO priority (a
+          // real-time camera driver) unless RED_FEEDER_OTHER=1 (an ordinary thread).
+          if (ro.realtime && std::getenv("RED_FEEDER_OTHER") == nullptr) {
+            sched_param sp{};
+            sp.sched_priority = ro.rt_priority;
+            pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+          }
+          const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+              red::period_of(s->sensors[i].rate_hz));
+          auto next = std::chrono::steady_clock::now();
+          for (std::uint64_t f = 0; feeding.load(); ++f) {
+            next += period;
+            std::this_thread::sleep_until(next);
+            rt.push_frame(static_cast<int>(i), f);
+          }
+        });
       r = rt.run();
+      feeding.store(false);
+      for (std::thread& t : feeders) t.join();
       // What the scheduler and synchronizers hold at the end of the run (jobs, tasks,
       // lanes, queues, graphs), less the run's own measurement vectors.
-      const std::size_t measurement =
-          (r.decision_us.capacity() + r.handoff_us.capacity()) * sizeof(double);
-      held = heap_in_use() - before - measurement;
+      const std::size_t measurement = (r.decision_us.capacity() + r.handoff_us.capacity() +
+                                       r.lock_wait_us.capacity() + r.frame_release_us.capacity()) *
+                                      sizeof(double);
+      // Memory freed during the run (e.g. by a feeder thread's frames) can leave less in
+      // use than before plus the buffers: then nothing is held beyond them.
+      const std::size_t now_in_use = heap_in_use();
+      held = now_in_use > before + measurement ? now_in_use - before - measurement : 0;
     }
     std::printf(
-        "%-16s %6lld %9.2f %9.2f %9.1f %9.1f %8llu %8llu %9.2f %10.2f %9.1f\n", v.label,
-        outcomes.jobs,
+        "%-16s %6lld %9.2f %9.2f %9.1f %9.1f %8llu %8llu %9.2f %10.2f %9.1f %8.1f %8.1f %8llu\n",
+        v.label, outcomes.jobs,
         outcomes.jobs > 0
             ? 100.0 * static_cast<double>(outcomes.missed) / static_cast<double>(outcomes.jobs)
             : 0.0,
@@ -114,12 +153,16 @@ int main(int argc, char** argv) {
         red::percentile(r.handoff_us, 0.5), red::percentile(r.handoff_us, 0.99),
         static_cast<unsigned long long>(r.stats.round_trips),
         static_cast<unsigned long long>(r.local_decisions), red::percentile(r.decision_us, 0.5),
-        red::percentile(r.decision_us, 0.99), static_cast<double>(held) / 1024.0);
+        red::percentile(r.decision_us, 0.99), static_cast<double>(held) / 1024.0,
+        red::percentile(r.frame_release_us, 0.5), red::percentile(r.frame_release_us, 0.99),
+        static_cast<unsigned long long>(r.direct_releases));
   }
   std::printf(
       "hand = unit completion -> next unit started on that lane (us); rtrips = synchronizer\n"
       "round trips; local = decisions taken by handlers at unit boundaries (on-demand);\n"
       "dec = scheduling decision time inside the runtime (us); heap = bytes the runtime\n"
-      "holds at the end of the run beyond its measurement buffers (mallinfo2).\n");
+      "holds at the end of the run beyond its measurement buffers (mallinfo2); rel = frame\n"
+      "pushed -> job released (us, RED_EXTERNAL_FRAMES=1 only); direct = frames released by\n"
+      "the pushing thread itself.\n");
   return 0;
 }

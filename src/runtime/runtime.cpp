@@ -15,6 +15,7 @@
 #include <latch>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <thread>
 
 #include "red/core/assert.hpp"
@@ -69,6 +70,29 @@ void spin_then_park(std::mutex& m, std::condition_variable& cv, const Clock& clo
   }
 }
 
+// Takes `m`. The scheduler's critical sections are short, and a thread that blocks on a held
+// std::mutex sleeps in the kernel and pays a wake-up when it is freed (tens of microseconds
+// on a loaded machine, longer than the section itself): so it spins for up to `spin` first,
+// yielding, so that a holder on the same core at the same SCHED_FIFO priority runs. Returns
+// whether another thread held `m` when it was asked for.
+bool lock_spinning(std::mutex& m, const Clock& clock, Duration spin) {
+  if (m.try_lock()) return false;
+  const TimePoint spin_end = clock.now() + spin;
+  while (clock.now() < spin_end) {
+    std::this_thread::yield();
+    if (m.try_lock()) return true;
+  }
+  m.lock();
+  return true;
+}
+
+// Whether the calling thread runs under a real-time policy: ordinary threads cannot
+// preempt it while it holds the scheduler's lock.
+bool realtime_thread() noexcept {
+  const int policy = sched_getscheduler(0);
+  return policy == SCHED_FIFO || policy == SCHED_RR;
+}
+
 // Watchdog states of a handler's current unit (Handler::watch).
 constexpr std::uint8_t kWatchIdle = 0;      // no unit running
 constexpr std::uint8_t kWatchRunning = 1;   // running, limit in Handler::limit_ns
@@ -101,8 +125,16 @@ struct Runtime::Impl {
   Scheduler sched;
   SyncMode sync;
 
-  std::mutex sched_mu;  // the scheduler is driven by one thread at a time
-  TimePoint last_now{0};
+  // The scheduler is driven by one thread at a time: the global synchronizer, a handler
+  // taking a local decision (on-demand), or a thread releasing the frame it brought.
+  std::mutex sched_mu;
+  TimePoint last_now{0};  // under sched_mu
+  bool releasing = true;  // under sched_mu: releases have not ended
+  // One round's events, taken from the inbox, and the lanes whose units completed in them
+  // (under sched_mu; their capacity is reused).
+  std::vector<InEvent> round_events;
+  std::vector<int> round_completed;
+  std::atomic<bool> realtime_on{false};  // SCHED_FIFO applied to the synchronizer and handlers
 
   // Global synchronizer's inbox (frames, completions), spin-then-park.
   std::mutex inbox_mu;
@@ -134,7 +166,8 @@ struct Runtime::Impl {
   std::atomic<bool> stop_requested{false};
   std::atomic<bool> stop_now_requested{false};  // stop_now(): no draining
   // When the global synchronizer will wake next (kNever while it recomputes): a handler
-  // starting a unit whose watchdog limit comes earlier pokes it.
+  // starting a unit whose watchdog limit comes earlier pokes it, and so does a thread whose
+  // round (a local decision, a direct release) moved the scheduler's next timer earlier.
   std::atomic<std::int64_t> global_wake_at{kNever.count()};
   // Profiled p99 of the encoder and of each head (for watchdog limits).
   const UnitProfile* encoder_profile = nullptr;
@@ -163,6 +196,9 @@ struct Runtime::Impl {
     report.decision_us.reserve(options.max_timing_samples);
     recent_decision_us.reserve(kRecentDecisions);
     report.handoff_us.reserve(options.max_timing_samples);
+    report.lock_wait_us.reserve(options.max_timing_samples);
+    round_events.reserve(64);
+    round_completed.reserve(static_cast<std::size_t>(s.device.lanes));
     encoder_profile = p.find("encoder");
     for (const std::string& h : s.model.heads) head_profiles.push_back(p.find("head/" + h));
   }
@@ -293,6 +329,93 @@ struct Runtime::Impl {
     inbox_cv.notify_one();
   }
 
+  // Moves the inbox into `round_events` (caller holds sched_mu); returns inbox_seq at the move.
+  // Only the global synchronizer clears `poke`: it is its own wake-up.
+  std::uint64_t take_inbox(bool global) {
+    std::lock_guard il(inbox_mu);
+    round_events.swap(inbox);
+    if (global) poke.store(false, std::memory_order_relaxed);
+    return inbox_seq.load(std::memory_order_acquire);
+  }
+
+  // One round of the global synchronizer's logic on `round_events` (caller holds sched_mu):
+  // workload events, then completions and frames in arrival order, timers, and a decision
+  // for every idle lane. Returns the number of frames released.
+  std::uint64_t round(TimePoint now) {
+    sched.apply_events(now);
+    round_completed.clear();
+    TimePoint completed_at = kNever;
+    std::uint64_t frames = 0;
+    for (InEvent& e : round_events) {
+      if (e.kind == InEvent::Complete) {
+        sched.on_complete(e.index, now, e.status, e.reason);
+        round_completed.push_back(e.index);  // within the reserved capacity (one per lane)
+        completed_at = std::min(completed_at, e.t);
+      } else if (releasing) {
+        sched.on_frame(e.index, e.frame, now);
+        ++frames;
+        if (options.external_frames) {
+          std::lock_guard rl(report_mu);
+          report.frame_release_us.push_back(to_us(clock.now() - e.t));
+        }
+      }
+    }
+    round_events.clear();
+    if (watchdog_on()) check_watchdog(now);
+    sched.advance(now);
+    // Per-edge: a handler that completed waits here for its next unit (a round trip).
+    const Dispatch* none = decide(now, -1, round_completed, completed_at);
+    RED_ASSERT(none == nullptr);
+    return frames;
+  }
+
+  // Whether the global synchronizer, parked until global_wake_at, must wake after a round
+  // taken by another thread: the scheduler's next timer moved earlier, or releases are over
+  // (it ends the run when the last job ends). Caller holds sched_mu.
+  bool must_wake_global() {
+    if (!releasing) return true;
+    const TimePoint t = sched.next_wakeup();
+    if (t >= TimePoint{global_wake_at.load()}) return false;
+    global_wake_at.store(t.count());  // one poke is enough until it recomputes
+    return true;
+  }
+
+  // A frame arrived (the camera thread, or push_frame on the caller's thread): its release.
+  // When the scheduler's lock is free, the arriving thread runs the round itself (what waits
+  // in the inbox, then this frame) instead of waking the global synchronizer and waiting
+  // for the kernel to run it, and wakes it only when its next timer moved earlier. A thread
+  // that ordinary threads could preempt while it holds the lock (not real-time while the
+  // runtime's threads are) posts the frame to the global synchronizer instead.
+  void arrive(int sensor, std::uint64_t frame) {
+    InEvent e{InEvent::Frame, sensor, frame, clock.now(), UnitStatus::Completed, {}};
+    const bool may_run = !realtime_on.load(std::memory_order_acquire) || realtime_thread();
+    if (may_run && sched_mu.try_lock()) {
+      std::unique_lock lock(sched_mu, std::adopt_lock);
+      const TimePoint now = advance_now(clock.now());
+      // The end of releases is the global synchronizer's: past it, post as before.
+      if (releasing && now < scenario.duration && !stop_requested.load() &&
+          !stop_now_requested.load()) {
+        {
+          // After what waits in the inbox (frames of a sensor are released in order). Not
+          // counted in inbox_seq: this round takes it, the global synchronizer need not wake.
+          std::lock_guard il(inbox_mu);
+          inbox.push_back(std::move(e));
+        }
+        take_inbox(false);
+        const std::uint64_t frames = round(now);
+        const bool wake = must_wake_global();
+        lock.unlock();
+        {
+          std::lock_guard rl(report_mu);
+          report.direct_releases += frames;
+        }
+        if (wake) wake_global();
+        return;
+      }
+    }
+    post(std::move(e));
+  }
+
   void wake_global() {
     {
       std::lock_guard lock(inbox_mu);
@@ -317,7 +440,7 @@ struct Runtime::Impl {
 
   // One scheduling decision round. Caller holds sched_mu. Returns the dispatch for
   // `own_lane` (taken by the calling handler itself) if any.
-  const Dispatch* decide(TimePoint now, int own_lane, const std::vector<int>& completed_lanes,
+  const Dispatch* decide(TimePoint now, int own_lane, std::span<const int> completed_lanes,
                          TimePoint completed_at) {
     const TimePoint t0 = clock.now();
     const auto ds = sched.dispatch(now);
@@ -380,10 +503,14 @@ struct Runtime::Impl {
     std::uint64_t seen = 0;
     const Dispatch* next = nullptr;
     TimePoint prev_end = kNever;
+    bool answer_due = false;  // a completion was reported to the global synchronizer
     for (;;) {
       if (next == nullptr) {
         h.state.store(HandlerState::Idle, std::memory_order_release);
-        spin_then_park(h.mu, h.cv, clock, options.spin, kNever, [&] {
+        const Duration spin =
+            answer_due ? std::max(options.spin, options.answer_spin) : options.spin;
+        answer_due = false;
+        spin_then_park(h.mu, h.cv, clock, spin, kNever, [&] {
           return h.assigned.load(std::memory_order_acquire) != seen ||
                  stopping.load(std::memory_order_acquire);
         });
@@ -446,17 +573,23 @@ struct Runtime::Impl {
       if (sync == SyncMode::OnDemand && status == UnitStatus::Completed && !stopping.load()) {
         // On-demand: the local synchronizer takes the decision at this unit boundary
         // and goes on without a round trip to the global synchronizer.
-        std::lock_guard lock(sched_mu);
+        const bool waited = lock_spinning(sched_mu, clock, options.spin);
+        std::unique_lock lock(sched_mu, std::adopt_lock);
+        const TimePoint locked = waited ? clock.now() : end;
         const TimePoint now = advance_now(end);
         sched.on_complete(lane, now, status);
         sched.advance(now);
-        next = decide(now, lane, {lane}, end);
+        next = decide(now, lane, std::span<const int>(&lane, 1), end);
         prev_end = next != nullptr ? end : kNever;
+        // It does not need to answer: wake it only when its timers moved earlier.
+        const bool wake = must_wake_global();
+        lock.unlock();
         {
           std::lock_guard rl(report_mu);
           ++report.local_decisions;
+          if (waited) record(report.lock_wait_us, report.lock_waits, to_us(locked - end));
         }
-        wake_global();  // its timers may have moved; it does not need to answer
+        if (wake) wake_global();
         continue;
       }
       if (status != UnitStatus::Completed) {
@@ -468,6 +601,7 @@ struct Runtime::Impl {
       // and wait for it.
       post({InEvent::Complete, lane, 0, end, status, std::move(reason)});
       prev_end = kNever;
+      answer_due = true;
     }
   }
 
@@ -486,7 +620,7 @@ struct Runtime::Impl {
                                                                           next[s])));
       if (!cameras_on.load(std::memory_order_acquire)) return;
       backend.on_frame(static_cast<int>(s), frame[s]);
-      post({InEvent::Frame, static_cast<int>(s), frame[s], clock.now(), UnitStatus::Completed, {}});
+      arrive(static_cast<int>(s), frame[s]);
       ++frame[s];
       double rate = 0;
       {
@@ -540,6 +674,7 @@ struct Runtime::Impl {
       else
         err = errno;
     }
+    realtime_on.store(applied == static_cast<int>(handlers.size()) + 1, std::memory_order_release);
     report.realtime.push_back(applied == static_cast<int>(handlers.size()) + 1
                                   ? "SCHED_FIFO priority " + std::to_string(options.rt_priority) +
                                         ": applied"
@@ -586,19 +721,27 @@ struct Runtime::Impl {
       accepting.store(true, std::memory_order_release);
     } else {
       camera = std::thread([this] { camera_main(); });
+      if (realtime_on.load(std::memory_order_acquire)) {
+        // The camera releases frames itself when the scheduler's lock is free (arrive()):
+        // at the handlers' priority, so ordinary threads cannot preempt it holding the lock.
+        sched_param sp{};
+        sp.sched_priority = options.rt_priority;
+        const int err = pthread_setschedparam(camera.native_handle(), SCHED_FIFO, &sp);
+        report.realtime.push_back(err == 0 ? "camera thread: SCHED_FIFO"
+                                           : "camera thread: SCHED_FIFO not applied (" +
+                                                 std::string(std::strerror(err)) + ")");
+      }
     }
     std::thread sampler;
     if (options.sample_period > Duration{0}) sampler = std::thread([this] { sampler_main(); });
 
-    std::vector<InEvent> batch;
-    std::vector<int> completed;
-    bool releasing = true;
     std::uint64_t seen = 0;
     TimePoint hard_stop = scenario.duration + options.drain_limit;
     for (;;) {
       TimePoint wake;
       {
-        std::lock_guard lock(sched_mu);
+        lock_spinning(sched_mu, clock, options.spin);  // a per-edge answer may wait on it
+        std::lock_guard lock(sched_mu, std::adopt_lock);
         TimePoint now = advance_now(clock.now());
         const bool stop_now = stop_now_requested.load();
         if (releasing && (now >= scenario.duration || stop_requested.load() || stop_now)) {
@@ -610,38 +753,12 @@ struct Runtime::Impl {
           hard_stop = std::min(hard_stop, now + options.drain_limit);
         }
         if (stop_now) hard_stop = std::min(hard_stop, now);
-        {
-          // What is in the inbox now is handled in this round; anything posted after the
-          // swap bumps inbox_seq past `seen` and ends the wait below.
-          std::lock_guard il(inbox_mu);
-          batch.swap(inbox);
-          seen = inbox_seq.load(std::memory_order_acquire);
-          poke.store(false, std::memory_order_relaxed);
-        }
-        if (!releasing && sched.jobs_in_flight() == 0 && batch.empty()) break;
+        // What is in the inbox now is handled in this round; anything posted after it bumps
+        // inbox_seq past `seen` and ends the wait below.
+        seen = take_inbox(true);
+        if (!releasing && sched.jobs_in_flight() == 0 && round_events.empty()) break;
         if (now >= hard_stop) break;
-        sched.apply_events(now);
-        completed.clear();
-        TimePoint completed_at = kNever;
-        for (InEvent& e : batch) {
-          if (e.kind == InEvent::Complete) {
-            sched.on_complete(e.index, now, e.status, e.reason);
-            completed.push_back(e.index);
-            completed_at = std::min(completed_at, e.t);
-          } else if (releasing) {
-            sched.on_frame(e.index, e.frame, now);
-            if (options.external_frames) {
-              std::lock_guard rl(report_mu);
-              report.frame_release_us.push_back(to_us(clock.now() - e.t));
-            }
-          }
-        }
-        batch.clear();
-        if (watchdog_on()) check_watchdog(now);
-        sched.advance(now);
-        // Per-edge: a handler that completed waits here for its next unit (a round trip).
-        const Dispatch* none = decide(now, -1, completed, completed_at);
-        RED_ASSERT(none == nullptr);
+        round(now);
         // Releases are over and nothing is in flight: done. (Checked again here, after the
         // round: frames that arrived with the end of the scenario release nothing, and no
         // one would wake the loop before the drain limit.)
@@ -649,11 +766,9 @@ struct Runtime::Impl {
         wake = sched.next_wakeup();
         if (releasing) wake = std::min(wake, scenario.duration);
         wake = std::min(wake, hard_stop);
-        if (watchdog_on()) {
-          global_wake_at.store(kNever.count());  // handlers starting a unit now poke
-          wake = std::min(wake, next_watchdog());
-          global_wake_at.store(wake.count());
-        }
+        global_wake_at.store(kNever.count());  // handlers starting a unit now poke
+        if (watchdog_on()) wake = std::min(wake, next_watchdog());
+        global_wake_at.store(wake.count());
         ++report.wakeups;
       }
       spin_then_park(inbox_mu, inbox_cv, clock, options.spin, wake, [&] {
@@ -686,15 +801,15 @@ struct Runtime::Impl {
     {
       std::lock_guard lock(sched_mu);
       // Units that returned after the loop ended (or while the loop broke off at the hard
-      // stop, still in `batch`) still completed: report them, so that only a unit cut by
+      // stop, still in `round_events`) still completed: report them, so that only a unit cut by
       // the end of the run is reported unfinished.
       {
         std::lock_guard il(inbox_mu);
-        for (std::vector<InEvent>* events : {&batch, &inbox})
+        for (std::vector<InEvent>* events : {&round_events, &inbox})
           for (InEvent& e : *events)
             if (e.kind == InEvent::Complete && sched.running(e.index) != nullptr)
               sched.on_complete(e.index, advance_now(e.t), e.status, e.reason);
-        batch.clear();
+        round_events.clear();
         inbox.clear();
       }
       const TimePoint end = advance_now(clock.now());
@@ -732,7 +847,7 @@ bool Runtime::push_frame(int sensor, std::uint64_t frame, const FrameView* pixel
     m.backend.on_external_frame(sensor, frame, *pixels);
   else
     m.backend.on_frame(sensor, frame);
-  m.post({InEvent::Frame, sensor, frame, m.clock.now(), UnitStatus::Completed, {}});
+  m.arrive(sensor, frame);
   return true;
 }
 

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <atomic>
 #include <chrono>
 #include <map>
 #include <set>
@@ -251,6 +253,91 @@ TEST(Runtime, StopNowEndsTheRunWithJobsInFlightUnfinished) {
   std::size_t unfinished = 0;
   for (const auto& [id, outcome] : acc.ended) unfinished += outcome == JobOutcome::Unfinished;
   EXPECT_GE(unfinished, 1U);
+}
+
+// Frames pushed from two threads at once: a frame is released by the pushing thread when
+// the scheduler's lock is free (a direct release), else by the global synchronizer. Either
+// way every accepted frame releases its operation exactly once, and the decisions, taken by
+// whichever thread holds the lock, stay in EDF order: on the one lane, a unit starts only
+// when no released job still waiting has an earlier deadline.
+TEST(Runtime, DirectReleasesAreAccountedOnceAndDecisionsStayInEdfOrder) {
+  auto s = parse_scenario(R"(
+name: direct
+duration_s: 60
+device: {lanes: 1}
+sensors:
+  a: {rate_hz: 200}
+  b: {rate_hz: 200}
+operations:
+  - name: pa
+    trigger: a
+    deadline_ms: 40
+    nodes: {A: {cost_ms: 3}}
+  - name: pb
+    trigger: b
+    deadline_ms: 15
+    nodes: {B: {cost_ms: 2}}
+)",
+                          "direct.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  const Profile p = default_profile();
+  // One job is one unit, ready at its release, whose deadline is the job's.
+  struct EdfOrder final : Observer {
+    std::map<JobId, TimePoint> waiting;  // released, not started, not ended
+    std::set<JobId> started;
+    std::map<int, int> released_per_op;
+    int starts = 0, out_of_order = 0;
+    void on_job_release(const JobRecord& j) override {
+      waiting.emplace(j.id, j.deadline);
+      ++released_per_op[j.operation];
+    }
+    void on_job_end(const JobRecord& j) override { waiting.erase(j.id); }
+    void on_unit_start(const Dispatch& d) override {
+      ++starts;
+      for (const Member& m : d.members) waiting.erase(m.job);
+      for (const auto& [id, deadline] : waiting)
+        if (deadline < d.deadline) ++out_of_order;
+    }
+  };
+  for (const char* policy : {"edf", "red"}) {  // per-edge, on-demand
+    SyntheticBackend::Options o;
+    o.time_scale = 1.0;
+    SyntheticBackend backend(*s, p, 1, o);
+    RuntimeOptions ro;
+    ro.realtime = false;
+    ro.watchdog_x = 0.0;
+    ro.external_frames = true;
+    Runtime rt(*s, p, make_policy(policy), backend, ro);
+    Accounting acc;
+    EdfOrder order;
+    rt.add_observer(&acc);
+    rt.add_observer(&order);
+    constexpr int kFrames = 40;
+    std::atomic<int> feeding{2};
+    std::array<int, 2> accepted{0, 0};
+    auto feed = [&](int sensor) {
+      // About 4 ms apart on each sensor: more work than the lane can do, so jobs queue.
+      for (std::uint64_t f = 0; accepted[static_cast<std::size_t>(sensor)] < kFrames && f < 100000;
+           ++f) {
+        if (rt.push_frame(sensor, f)) ++accepted[static_cast<std::size_t>(sensor)];
+        std::this_thread::sleep_for(std::chrono::microseconds{4000 + 700 * sensor});
+      }
+      if (--feeding == 0) rt.stop();
+    };
+    std::thread fa(feed, 0), fb(feed, 1);
+    const RuntimeReport report = rt.run();
+    fa.join();
+    fb.join();
+    EXPECT_EQ(order.released_per_op[0], kFrames) << policy << ": one release per frame";
+    EXPECT_EQ(order.released_per_op[1], kFrames) << policy;
+    EXPECT_EQ(report.frame_release_us.size(), static_cast<std::size_t>(2 * kFrames)) << policy;
+    EXPECT_GT(report.direct_releases, 0U) << policy << ": the lock is mostly free";
+    EXPECT_LE(report.direct_releases, static_cast<std::uint64_t>(2 * kFrames)) << policy;
+    EXPECT_EQ(acc.duplicate_ends, 0) << policy;
+    EXPECT_EQ(acc.ended.size(), acc.released.size()) << policy;
+    EXPECT_GT(order.starts, 0) << policy;
+    EXPECT_EQ(order.out_of_order, 0) << policy;
+  }
 }
 
 TEST(Runtime, HandlerStatesHaveNames) {

@@ -122,12 +122,16 @@ std::string samples_csv(const std::vector<std::string>& policies,
 
 void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
   std::cerr << fmt::format(
-      "red: policy {}: decisions {} (p50 {:.2f} us, p99 {:.2f} us), completion->next start p99 "
-      "{:.2f} us "
+      "red: policy {}: decisions {} (p50 {:.2f} us, p99 {:.2f} us), completion->next start p50 "
+      "{:.2f} us, p99 {:.2f} us "
       "({} handoffs), sync round trips {}, local decisions {}, failures {} (timeouts {})\n",
       policy, r.decisions, percentile(r.decision_us, 0.5), percentile(r.decision_us, 0.99),
-      percentile(r.handoff_us, 0.99), r.handoffs, r.stats.round_trips, r.local_decisions,
-      r.failures, r.timeouts);
+      percentile(r.handoff_us, 0.5), percentile(r.handoff_us, 0.99), r.handoffs,
+      r.stats.round_trips, r.local_decisions, r.failures, r.timeouts);
+  std::cerr << fmt::format(
+      "red:   scheduler lock: {} local decision(s) waited for it (p99 {:.2f} us); {} frame(s) "
+      "released by the thread that brought them; global synchronizer woke {} time(s)\n",
+      r.lock_waits, percentile(r.lock_wait_us, 0.99), r.direct_releases, r.wakeups);
   std::int64_t peak = 0;
   for (const RuntimeSample& x : r.samples) peak = std::max(peak, x.rss_bytes);
   auto mb = [](std::int64_t b) { return static_cast<double>(b) / 1e6; };

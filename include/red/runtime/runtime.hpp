@@ -9,9 +9,14 @@
 /// Per-edge synchronization: every completed unit makes one round trip to the global
 /// synchronizer before its handler gets more work. On-demand: a handler whose unit
 /// completed normally takes the scheduler's decision itself at the unit boundary (the only
-/// preemption point) and goes on without waking the global synchronizer; failures,
-/// releases and timers still go through it. Waiting is spin-then-park. It drives the same
-/// Scheduler and Policy as the simulator; only the clock and the executor differ.
+/// preemption point) and goes on without waking the global synchronizer; failures and
+/// timers still go through it, and it is woken only when a local decision moved its next
+/// timer earlier. A frame is released by the thread that brought it (the camera thread,
+/// push_frame's caller) when the scheduler's lock is free and that thread cannot be
+/// preempted by ordinary threads while holding it; otherwise the global synchronizer
+/// releases it. Waiting is spin-then-park; taking the scheduler's lock spins before it
+/// blocks. It drives the same Scheduler and Policy as the simulator; only the clock and the
+/// executor differ.
 
 #include <cstdint>
 #include <map>
@@ -44,7 +49,12 @@ const char* to_string(HandlerState s) noexcept;
 struct RuntimeOptions {
   bool realtime = true;  ///< try SCHED_FIFO, CPU affinity and mlockall (reported either way)
   int rt_priority = 10;  ///< SCHED_FIFO priority for the synchronizer and handlers
-  Duration spin = std::chrono::microseconds{50};   ///< spin before parking
+  /// Spin before parking, and before blocking on the scheduler's lock.
+  Duration spin = std::chrono::microseconds{50};
+  /// A handler that reported a completion to the global synchronizer (per-edge) spins this
+  /// long for the answer before parking: the answer is due within a round trip, and a
+  /// parked handler pays a second wake-up.
+  Duration answer_spin = std::chrono::microseconds{200};
   Duration drain_limit = std::chrono::seconds{5};  ///< after the scenario ends
   bool interference = true;                        ///< run the scenario's background load
   /// Frames come from push_frame() (e.g. a DDS node) instead of the synthetic cameras;
@@ -78,11 +88,18 @@ struct RuntimeReport {
   std::vector<double> decision_us;    ///< time of scheduling decisions (dispatch()), sampled
   std::vector<double> handoff_us;  ///< unit completion -> next unit started on that lane, sampled
   std::vector<double> frame_release_us;  ///< external frame pushed -> handed to the scheduler
-  std::uint64_t decisions = 0;           ///< decisions timed (decision_us holds a uniform sample)
-  std::uint64_t handoffs = 0;            ///< hand-offs timed (handoff_us holds a uniform sample)
-  std::uint64_t wakeups = 0;             ///< times the global synchronizer woke
-  std::uint64_t local_decisions = 0;     ///< decisions taken by handlers (on-demand)
-  std::uint64_t failures = 0;            ///< units that ended Failed, OutOfMemory or timed out
+  /// Frames released by the thread that brought them (camera, push_frame) because the
+  /// scheduler's lock was free, without waking the global synchronizer.
+  std::uint64_t direct_releases = 0;
+  /// Local decisions (on-demand) whose handler found the scheduler's lock held by another
+  /// thread; lock_wait_us holds a uniform sample of how long each waited for it.
+  std::uint64_t lock_waits = 0;
+  std::vector<double> lock_wait_us;   ///< see lock_waits
+  std::uint64_t decisions = 0;        ///< decisions timed (decision_us holds a uniform sample)
+  std::uint64_t handoffs = 0;         ///< hand-offs timed (handoff_us holds a uniform sample)
+  std::uint64_t wakeups = 0;          ///< times the global synchronizer woke
+  std::uint64_t local_decisions = 0;  ///< decisions taken by handlers (on-demand)
+  std::uint64_t failures = 0;         ///< units that ended Failed, OutOfMemory or timed out
   std::map<std::string, std::uint64_t> failure_reasons;  ///< failed units by reason
   std::uint64_t timeouts = 0;                            ///< units failed by the watchdog
   std::uint64_t late_returns = 0;          ///< timed-out backend calls that returned later
@@ -106,8 +123,9 @@ class Runtime {
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;
 
-  /// Observers are called with the scheduler's lock held, from the synchronizer or a
-  /// handler thread (never two at once); not owned.
+  /// Observers are called with the scheduler's lock held, from the synchronizer, a handler
+  /// thread or the thread that brought a frame (push_frame's caller, the camera thread),
+  /// never two at once; not owned.
   void add_observer(Observer* o);
   /// Runs the scenario in real time (duration, then draining); blocks until done.
   RuntimeReport run();
@@ -115,7 +133,9 @@ class Runtime {
   /// External-frame mode: frame `frame` of `sensor` arrived now, a release (§14); its
   /// pixels, when given, go to the backend (Backend::on_external_frame). Frame ids of one
   /// sensor must increase. Thread-safe; ignored before run() starts and after releases
-  /// ended. Returns false when ignored.
+  /// ended. Returns false when ignored. When the scheduler's lock is free the release (and
+  /// the decision it triggers, observers included) runs on the calling thread, unless the
+  /// runtime's threads are real-time and the caller is not (see the file comment).
   bool push_frame(int sensor, std::uint64_t frame, const FrameView* pixels = nullptr);
   /// Whether push_frame() would be accepted now (run() started, releases not ended).
   [[nodiscard]] bool accepting_frames() const noexcept;
