@@ -3,6 +3,7 @@
 // moment; past the window the rows are read back from the files unchanged.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -30,9 +31,9 @@ Scenario load(const std::string& name) {
 }
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() /
-                     ("red-stream-" + name + "-" +
-                      std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+  // The process id: test processes running side by side (ctest -j) never share one.
+  const fs::path d =
+      fs::temp_directory_path() / ("red-stream-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(d);
   return d;
 }
