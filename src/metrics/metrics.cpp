@@ -50,7 +50,59 @@ void MetricsCollector::on_job_end(const JobRecord& j) {
   r.reason = std::string(j.reason);
   if (j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed)
     r.qoe = qoe_score(j.finish - j.release, j.deadline - j.release, lambda_);
-  jobs_.push_back(std::move(r));
+  count(r);
+  if (sink_ != nullptr) sink_->on_job_row(r);
+  if (keep_rows_) jobs_.push_back(std::move(r));
+}
+
+void MetricsCollector::count(const JobRow& j) {
+  PolicyMetrics& m = counts_;
+  ++m.jobs;
+  if (j.outcome == JobOutcome::Dropped || j.outcome == JobOutcome::Skipped ||
+      j.outcome == JobOutcome::Failed)
+    ++m.drop_reasons[j.reason.empty() ? std::string(to_string(j.outcome)) : j.reason];
+  switch (j.outcome) {
+    case JobOutcome::Met:
+      ++m.completed;
+      ++m.met;
+      break;
+    case JobOutcome::Missed:
+      ++m.completed;
+      ++m.missed;
+      break;
+    case JobOutcome::Dropped:
+      ++m.dropped;
+      break;
+    case JobOutcome::Skipped:
+      ++m.dropped;
+      ++m.skipped;
+      break;
+    case JobOutcome::Failed:
+      ++m.dropped;
+      ++m.failed;
+      ++m.failure_reasons[j.reason];
+      break;
+    case JobOutcome::Unfinished:
+      ++m.unfinished;
+      break;
+  }
+  if (j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed) {
+    latency_.add(to_ms(j.finish - j.release));
+    frame_age_.add(to_ms(j.frame_age));
+    qoe_sum_ += j.qoe;
+  }
+}
+
+void MetricsCollector::set_keep_rows(bool keep) {
+  keep_rows_ = keep;
+  const std::size_t cap = keep ? BoundedDistribution::kUnbounded : BoundedDistribution::kDefaultCap;
+  latency_ = BoundedDistribution(cap);
+  frame_age_ = BoundedDistribution(cap);
+}
+
+std::size_t MetricsCollector::kept() const noexcept {
+  return jobs_.size() + units_.size() + latency_.kept() + frame_age_.kept() + spent_.size() +
+         counts_.drop_reasons.size() + counts_.failure_reasons.size() + batches_.size();
 }
 
 void MetricsCollector::on_merge_wait(int /*sensor*/, TimePoint now, TimePoint /*until*/) {
@@ -111,7 +163,7 @@ void MetricsCollector::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus 
       }
     }
   }
-  if (!keep_units_) return;
+  if (!keep_units_ || (!keep_rows_ && sink_ == nullptr)) return;
   UnitRow r;
   r.dispatch = d.id;
   r.lane = d.lane;
@@ -134,7 +186,8 @@ void MetricsCollector::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus 
       r.jobs += m.graph->spec->nodes[static_cast<std::size_t>(m.node)].name;
     }
   }
-  units_.push_back(std::move(r));
+  if (sink_ != nullptr) sink_->on_unit_row(r);
+  if (keep_rows_) units_.push_back(std::move(r));
 }
 
 namespace {
@@ -146,48 +199,10 @@ double round6(double x) {
 }  // namespace
 
 PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end) const {
-  PolicyMetrics m;
+  PolicyMetrics m = counts_;
   m.name = name;
-  std::vector<double> lat;
-  std::vector<double> age;
-  double qoe_sum = 0;
+  const double qoe_sum = qoe_sum_;
   const Duration wasted = wasted_;
-  for (const JobRow& j : jobs_) {
-    ++m.jobs;
-    if (j.outcome == JobOutcome::Dropped || j.outcome == JobOutcome::Skipped ||
-        j.outcome == JobOutcome::Failed)
-      ++m.drop_reasons[j.reason.empty() ? std::string(to_string(j.outcome)) : j.reason];
-    switch (j.outcome) {
-      case JobOutcome::Met:
-        ++m.completed;
-        ++m.met;
-        break;
-      case JobOutcome::Missed:
-        ++m.completed;
-        ++m.missed;
-        break;
-      case JobOutcome::Dropped:
-        ++m.dropped;
-        break;
-      case JobOutcome::Skipped:
-        ++m.dropped;
-        ++m.skipped;
-        break;
-      case JobOutcome::Failed:
-        ++m.dropped;
-        ++m.failed;
-        ++m.failure_reasons[j.reason];
-        break;
-      case JobOutcome::Unfinished:
-        ++m.unfinished;
-        break;
-    }
-    if (j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed) {
-      lat.push_back(to_ms(j.finish - j.release));
-      age.push_back(to_ms(j.frame_age));
-      qoe_sum += j.qoe;
-    }
-  }
   const auto decided = static_cast<double>(m.completed + m.dropped);
   if (m.jobs > 0) m.on_time = round6(static_cast<double>(m.met) / static_cast<double>(m.jobs));
   // A job misses if it finishes late or is dropped (§10).
@@ -197,20 +212,20 @@ PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end
     m.drop_rate = round6(static_cast<double>(m.dropped) / decided);
     m.qoe = round6(qoe_sum / decided);
   }
-  if (!lat.empty()) {
-    double sum = 0;
-    for (double x : lat) sum += x;
-    m.latency.mean = round6(sum / static_cast<double>(lat.size()));
-    std::sort(lat.begin(), lat.end());
-    m.latency.p50 = round6(percentile_sorted(lat, 0.50));
-    m.latency.p90 = round6(percentile_sorted(lat, 0.90));
-    m.latency.p99 = round6(percentile_sorted(lat, 0.99));
-    m.latency.max = round6(lat.back());
-    double asum = 0;
-    for (double x : age) asum += x;
-    m.frame_age_mean_ms = round6(asum / static_cast<double>(age.size()));
-    std::sort(age.begin(), age.end());
-    m.frame_age_p99_ms = round6(percentile_sorted(age, 0.99));
+  if (latency_.count() > 0) {
+    const auto n = static_cast<double>(latency_.count());
+    m.latency.mean = round6(latency_.sum() / n);
+    const std::vector<double> lat = latency_.percentiles({0.50, 0.90, 0.99});
+    m.latency.p50 = round6(lat[0]);
+    m.latency.p90 = round6(lat[1]);
+    m.latency.p99 = round6(lat[2]);
+    m.latency.max = round6(latency_.max());
+    m.frame_age_mean_ms = round6(frame_age_.sum() / n);
+    m.frame_age_p99_ms = round6(frame_age_.percentile(0.99));
+    if (!latency_.exact() || !frame_age_.exact()) {
+      m.percentile_error = latency_.relative_error();
+      m.percentile_exact_up_to = static_cast<std::int64_t>(latency_.cap());
+    }
   }
   m.encoder_runs = encoder_runs_;
   m.encoder_runs_saved = encoder_saved_;

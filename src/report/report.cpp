@@ -104,6 +104,12 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
     p["throughput_hz"] = t;
     p["frame_age_ms"] = {{"mean", m.frame_age_mean_ms}, {"p99", m.frame_age_p99_ms}};
     p["measured_s"] = m.measured_s;
+    // Only when the run completed more jobs than are kept exactly, so that the summaries
+    // of shorter runs stay as they were (docs/REPORTS.md).
+    if (m.percentile_error)
+      p["percentiles"] = {{"exact", false},
+                          {"exact_up_to", m.percentile_exact_up_to},
+                          {"relative_error", *m.percentile_error}};
     if (m.decision_p50_us)
       p["decision_us"] = {{"p50", *m.decision_p50_us}, {"p99", opt(m.decision_p99_us)}};
     if (!m.failure_reasons.empty()) {
@@ -121,36 +127,48 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
   return j.dump(2) + "\n";
 }
 
+std::string jobs_csv_header() {
+  return "policy,operation,job,release_ms,finish_ms,deadline_ms,outcome,response_ms,qoe,"
+         "frame_age_ms,reason\n";
+}
+
+void append_job_row(std::string& out, const Scenario& s, const std::string& policy,
+                    const JobRow& j) {
+  const bool done = j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed;
+  out += fmt::format("{},{},{},{:.6f},{},{:.6f},{},{},{},{},{}\n", csv(policy),
+                     csv(s.operation_name(j.operation)), j.seq, to_ms(j.release),
+                     done ? fmt::format("{:.6f}", to_ms(j.finish)) : "", to_ms(j.deadline),
+                     to_string(j.outcome),
+                     done ? fmt::format("{:.6f}", to_ms(j.finish - j.release)) : "",
+                     done ? fmt::format("{:.6f}", j.qoe) : "0",
+                     done ? fmt::format("{:.6f}", to_ms(j.frame_age)) : "", csv(j.reason));
+}
+
 std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& runs) {
-  std::string out =
-      "policy,operation,job,release_ms,finish_ms,deadline_ms,outcome,response_ms,qoe,frame_age_ms,"
-      "reason\n";
+  std::string out = jobs_csv_header();
   for (const auto& run : runs)
-    for (const JobRow& j : *run.rows) {
-      const bool done = j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed;
-      out += fmt::format("{},{},{},{:.6f},{},{:.6f},{},{},{},{},{}\n", csv(run.policy),
-                         csv(s.operation_name(j.operation)), j.seq, to_ms(j.release),
-                         done ? fmt::format("{:.6f}", to_ms(j.finish)) : "", to_ms(j.deadline),
-                         to_string(j.outcome),
-                         done ? fmt::format("{:.6f}", to_ms(j.finish - j.release)) : "",
-                         done ? fmt::format("{:.6f}", j.qoe) : "0",
-                         done ? fmt::format("{:.6f}", to_ms(j.frame_age)) : "", csv(j.reason));
-    }
+    for (const JobRow& j : *run.rows) append_job_row(out, s, run.policy, j);
   return out;
 }
 
+std::string units_csv_header() {
+  return "policy,dispatch,lane,decided_ms,start_ms,end_ms,kind,head,batch,members,round_trip,"
+         "status,jobs\n";
+}
+
+void append_unit_row(std::string& out, const Scenario& s, const std::string& policy,
+                     const UnitRow& u) {
+  out +=
+      fmt::format("{},{},{},{:.6f},{:.6f},{:.6f},{},{},{},{},{},{},{}\n", csv(policy), u.dispatch,
+                  u.lane, to_ms(u.decided), to_ms(u.start), to_ms(u.end), to_string(u.kind),
+                  u.head >= 0 ? s.model.heads[static_cast<std::size_t>(u.head)] : "", u.batch,
+                  u.members, u.round_trip ? 1 : 0, to_string(u.status), csv(u.jobs));
+}
+
 std::string units_csv(const Scenario& s, const std::vector<PolicyRows<UnitRow>>& runs) {
-  std::string out =
-      "policy,dispatch,lane,decided_ms,start_ms,end_ms,kind,head,batch,members,round_trip,status,"
-      "jobs\n";
+  std::string out = units_csv_header();
   for (const auto& run : runs)
-    for (const UnitRow& u : *run.rows) {
-      out += fmt::format(
-          "{},{},{},{:.6f},{:.6f},{:.6f},{},{},{},{},{},{},{}\n", csv(run.policy), u.dispatch,
-          u.lane, to_ms(u.decided), to_ms(u.start), to_ms(u.end), to_string(u.kind),
-          u.head >= 0 ? s.model.heads[static_cast<std::size_t>(u.head)] : "", u.batch, u.members,
-          u.round_trip ? 1 : 0, to_string(u.status), csv(u.jobs));
-    }
+    for (const UnitRow& u : *run.rows) append_unit_row(out, s, run.policy, u);
   return out;
 }
 

@@ -18,6 +18,7 @@
 #include "red/dds/camera.hpp"
 #include "red/dds/node.hpp"
 #include "red/metrics/metrics.hpp"
+#include "red/report/stream.hpp"
 #include "red/sched/policy.hpp"
 #include "signals.hpp"
 
@@ -119,6 +120,20 @@ int run_node(const NodeArgs& a) {
     return kRunFailure;
   }
   MetricsCollector metrics(*s, s->scheduler.qoe_lambda, a.out.has_value());
+  // A node runs for the life of a robot: its rows go to jobs.csv and units.csv as jobs end
+  // (with --out), never into memory; the summary keeps bounded state (docs/REPORTS.md).
+  metrics.set_keep_rows(false);
+  std::unique_ptr<CsvRowStream> stream;
+  if (a.out) {
+    auto st = CsvRowStream::open(*a.out, *s, true);
+    if (!st) {
+      print_error(st.error());
+      return kRunFailure;
+    }
+    stream = std::move(st.value());
+    stream->begin_policy(a.policy);
+    metrics.set_sink(stream.get());
+  }
   (*node)->add_observer(&metrics);
   const dds::NodeTopics& t = (*node)->topics();
   std::cerr << fmt::format("red node: {} on DDS domain {} ({}), policy {}, backend {}\n", s->name,
@@ -186,12 +201,21 @@ int run_node(const NodeArgs& a) {
     run.metrics = metrics.summarize(a.policy, report.end);
     run.metrics.decision_p50_us = percentile(report.decision_us, 0.5);
     run.metrics.decision_p99_us = percentile(report.decision_us, 0.99);
-    run.jobs = metrics.take_jobs();
-    run.units = metrics.take_units();
     run.result.end = report.end;
     run.result.stats = report.stats;
+    const std::optional<Error> flushed = stream->flush();
+    auto rows = flushed ? Expected<std::vector<StreamedRows>>(*flushed) : stream->rows();
+    if (!rows) {
+      print_error(rows.error());
+      return kRunFailure;
+    }
+    if (!rows->empty()) {
+      run.jobs = std::move(rows->front().jobs);
+      run.units = std::move(rows->front().units);
+    }
     OutputOptions oo;
     oo.gnuplot = "none";
+    oo.rows_written = true;
     OutputReport wrote;
     if (auto e = write_outputs(*a.out, *s, *p, std::string((*backend)->name()), s->seed, {run}, oo,
                                &wrote)) {

@@ -18,6 +18,7 @@
 #include "red/analysis/analyze.hpp"
 #include "red/metrics/phases.hpp"
 #include "red/report/report.hpp"
+#include "red/report/stream.hpp"
 #include "red/report/timeline.hpp"
 #include "signals.hpp"
 
@@ -178,6 +179,10 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   real.seed = seed;
   real.sync = parse_sync(a.sync);
   real.keep_units = a.out.has_value();  // units.csv and the plots are written only with --out
+  // A real run streams its rows to jobs.csv and units.csv as jobs end, so that its memory
+  // does not grow with its length (docs/REPORTS.md, "Streamed rows"); without --out only
+  // the summary's bounded state is kept (the rows too for --phases).
+  real.keep_rows = !a.out && a.phases;
   std::unique_ptr<Backend> backend;
   if (!sim && real.watchdog_x > 0 && p->source == "builtin-default")
     std::cerr << "red: warning: watchdog limits come from the built-in profile, not one "
@@ -190,6 +195,16 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       return kBadInput;
     }
     backend = std::move(b.value());
+  }
+  std::unique_ptr<CsvRowStream> stream;
+  if (!sim && a.out) {
+    auto st = CsvRowStream::open(*a.out, *s, true);
+    if (!st) {
+      print_error(st.error());
+      return kRunFailure;
+    }
+    stream = std::move(st.value());
+    real.rows = stream.get();
   }
   std::vector<PolicyRun> runs;
   std::vector<RuntimeReport> reports;  // real runs: what the runtime measured, per policy
@@ -208,6 +223,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     progress.begin_run(names.size() == 1 ? n : fmt::format("{} [{}/{}]", n, i + 1, names.size()),
                        s->duration);
     RuntimeReport report;
+    if (stream) stream->begin_policy(n);
     auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value(), real.sync,
                                    costs ? &*costs : nullptr)
                  : run_real(*s, *p, n, *backend, real, extra, &report);
@@ -216,6 +232,11 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       print_error(r.error());
       return sim ? kBadInput : kRunFailure;
     }
+    if (stream)
+      if (auto e = stream->flush()) {
+        print_error(*e);
+        return kRunFailure;
+      }
     if (sim)
       std::cerr << fmt::format(
           "red: simulated {} on {} in {:.3f} s ({:.2f} M unit events/s)\n", n, s->name, r->wall_s,
@@ -241,6 +262,18 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
                              runs.size(), names.size(),
                              runs.empty() || !a.out ? "" : "; writing what they measured");
     if (runs.empty()) return stop_exit_code();
+  }
+  if (stream) {
+    // The report's rows: the window kept in memory, or read back from the streamed files.
+    auto rows = stream->rows();
+    if (!rows) {
+      print_error(rows.error());
+      return kRunFailure;
+    }
+    for (std::size_t i = 0; i < runs.size() && i < rows->size(); ++i) {
+      runs[i].jobs = std::move((*rows)[i].jobs);
+      runs[i].units = std::move((*rows)[i].units);
+    }
   }
   std::vector<PolicyMetrics> metrics;
   for (const PolicyRun& r : runs) metrics.push_back(r.metrics);
@@ -291,6 +324,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       o.verdicts = verdict_html_table(verdicts);
     }
     o.timeline = timeline;
+    o.rows_written = stream != nullptr;
     OutputReport written;
     if (auto e = write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written)) {
       print_error(*e);

@@ -101,8 +101,10 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
   std::vector<std::vector<PhaseMetrics>> phases;
   for (const PolicyRun& run : runs) phases.push_back(phase_metrics(s, run.jobs, run.result.end));
   if (auto e = write_file(dir, "summary.json", summary_json(h, metrics, phases))) return e;
-  if (auto e = write_file(dir, "jobs.csv", jobs_csv(s, jobs))) return e;
-  if (auto e = write_file(dir, "units.csv", units_csv(s, units))) return e;
+  if (!options.rows_written) {
+    if (auto e = write_file(dir, "jobs.csv", jobs_csv(s, jobs))) return e;
+    if (auto e = write_file(dir, "units.csv", units_csv(s, units))) return e;
+  }
   r.files = {"summary.json", "jobs.csv", "units.csv"};
 
   // trace.json: one process per policy, so Perfetto shows the policies on one time axis.

@@ -57,6 +57,9 @@ struct OutputOptions {
   std::optional<std::pair<Duration, Duration>> timeline;
   /// The verdict table shown first in index.html (red compare; red/analysis), if any.
   std::optional<HtmlTable> verdicts;
+  /// jobs.csv and units.csv are in `dir` already (streamed during the run,
+  /// report/stream.hpp): not written again; the runs' rows still feed the plots.
+  bool rows_written = false;
 };
 
 /// What write_outputs wrote, relative to its directory.

@@ -79,6 +79,8 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   ro.watchdog_x = o.watchdog_x;
   Runtime rt(s, p, std::move(pol), backend, ro);
   MetricsCollector metrics(s, s.scheduler.qoe_lambda, o.keep_units);
+  metrics.set_keep_rows(o.keep_rows);
+  metrics.set_sink(o.rows);
   rt.add_observer(&metrics);
   for (Observer* e : extra) rt.add_observer(e);
   MeasuringNotice notice(policy);

@@ -25,7 +25,11 @@ struct RealRunOptions {
   std::uint64_t seed = 1;
   std::optional<SyncMode> sync;                     ///< overrides the policy's synchronization mode
   double watchdog_x = RuntimeOptions{}.watchdog_x;  ///< unit limit in × its p99 (0: off)
-  bool keep_units = true;  ///< keep one row per unit execution (units.csv, plots)
+  bool keep_units = true;  ///< make one row per unit execution (units.csv, plots)
+  /// Keep the job and unit rows in memory (PolicyRun::jobs, units); false: only the
+  /// summary's bounded state (and whatever `rows` keeps).
+  bool keep_rows = true;
+  RowSink* rows = nullptr;  ///< gets every row as it is made (a streamed jobs.csv, units.csv)
 };
 
 /// A backend by name for the scenario; Error when unknown or when it cannot load.

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "red/metrics/distribution.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sched/observer.hpp"
 #include "red/sched/scheduler.hpp"
@@ -81,6 +82,10 @@ struct PolicyMetrics {
   std::map<std::string, std::int64_t> failure_reasons;
   /// Runtime only: the process's peak resident set while the run was sampled (MB).
   std::optional<double> peak_rss_mb;
+  /// Set when the latency and frame-age percentiles are estimates (more completed jobs than
+  /// BoundedDistribution keeps exactly): the relative error of each percentile.
+  std::optional<double> percentile_error;
+  std::int64_t percentile_exact_up_to = 0;  ///< values kept exactly (with percentile_error)
 };
 
 /// Nearest-rank percentile (p in [0, 1]) of values already sorted ascending; 0 when empty.
@@ -93,10 +98,36 @@ double percentile(std::vector<double> values, double p);
 /// D in seconds.
 double qoe_score(Duration response, Duration deadline, double lambda);
 
-/// Collects job and unit records. Attach before the run; summarize after it.
+/// Where a collector hands each job and unit row as it is made (a streamed jobs.csv and
+/// units.csv, report/stream.hpp). Called on the thread that reports the run's events.
+class RowSink {
+ public:
+  virtual ~RowSink() = default;
+  /// A job that ended after the warm-up.
+  virtual void on_job_row(const JobRow& row) = 0;
+  /// A unit execution that started after the warm-up.
+  virtual void on_unit_row(const UnitRow& row) = 0;
+};
+
+/// Collects job and unit records. Attach before the run; summarize after it. The summary
+/// needs only counters and two bounded distributions; the rows themselves are kept (for
+/// jobs(), units()) unless set_keep_rows(false), and handed to a RowSink if one is set, so
+/// a run of any length can keep bounded state.
 class MetricsCollector final : public Observer {
  public:
+  /// `keep_units`: make unit rows (units.csv) at all.
   MetricsCollector(const Scenario& s, double qoe_lambda, bool keep_units = true);
+
+  /// Hands every row to `sink` as it is made (null: none). Set before the run.
+  void set_sink(RowSink* sink) noexcept { sink_ = sink; }
+  /// Keeps the rows in memory (default) or not. With them (the simulator) every response
+  /// time is kept too, so percentiles are exact at any length; without them jobs() and
+  /// units() are empty and the summary is the same up to BoundedDistribution::kDefaultCap
+  /// completed jobs, estimated past it. Call before the run.
+  void set_keep_rows(bool keep);
+  /// Records held (rows, distribution values and buckets, jobs in flight, reasons): what
+  /// its memory grows with. Bounded over a run's length without kept rows.
+  [[nodiscard]] std::size_t kept() const noexcept;
 
   void on_job_end(const JobRecord& j) override;
   void on_unit_start(const Dispatch& d) override;
@@ -113,9 +144,12 @@ class MetricsCollector final : public Observer {
   [[nodiscard]] std::vector<UnitRow> take_units() noexcept { return std::move(units_); }
 
  private:
+  void count(const JobRow& j);  // adds an ended job to the summary's counters
   const Scenario& scenario_;
   double lambda_;
   bool keep_units_;
+  bool keep_rows_ = true;
+  RowSink* sink_ = nullptr;
   std::vector<JobRow> jobs_;
   std::vector<UnitRow> units_;
   std::vector<Duration> busy_;  // per lane, after warm-up
@@ -135,6 +169,11 @@ class MetricsCollector final : public Observer {
   };
   std::unordered_map<JobId, Spent> spent_;
   Duration wasted_{0};  // lane time of the jobs dropped, skipped or failed after the warm-up
+  // The summary's figures of the jobs ended after the warm-up, in the order they ended.
+  PolicyMetrics counts_;
+  double qoe_sum_ = 0;
+  BoundedDistribution latency_{BoundedDistribution::kUnbounded};    // response times (ms)
+  BoundedDistribution frame_age_{BoundedDistribution::kUnbounded};  // their frame ages (ms)
 };
 
 /// Fills ratio_* of every entry against the entry named `baseline` (if present).

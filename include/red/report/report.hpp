@@ -39,6 +39,20 @@ struct PolicyRows {
 /// response_ms, qoe, frame_age_ms, reason (docs/REPORTS.md).
 std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& runs);
 
+/// jobs.csv's header line, with its line break.
+std::string jobs_csv_header();
+
+/// Appends one jobs.csv row (with its line break) of `policy`'s run to `out`.
+void append_job_row(std::string& out, const Scenario& s, const std::string& policy,
+                    const JobRow& j);
+
+/// units.csv's header line, with its line break.
+std::string units_csv_header();
+
+/// Appends one units.csv row (with its line break) of `policy`'s run to `out`.
+void append_unit_row(std::string& out, const Scenario& s, const std::string& policy,
+                     const UnitRow& u);
+
 /// units.csv text: one row per unit execution (docs/REPORTS.md).
 std::string units_csv(const Scenario& s, const std::vector<PolicyRows<UnitRow>>& runs);
 

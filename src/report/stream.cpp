@@ -1,0 +1,280 @@
+#include "red/report/stream.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+
+#include <fmt/format.h>
+
+#include "red/report/report.hpp"
+
+namespace red {
+
+namespace {
+
+// Opens `path` for writing from scratch; -1 and errno on failure.
+int open_truncated(const std::string& path) {
+  return ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+}
+
+// Writes all of `text`; false (errno set) on failure.
+bool write_all(int fd, const std::string& text) {
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+}  // namespace
+
+Expected<std::unique_ptr<CsvRowStream>> CsvRowStream::open(const std::string& dir,
+                                                           const Scenario& s, bool units,
+                                                           std::size_t window) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return Error{dir, 0, "cannot create directory: " + ec.message()};
+  std::unique_ptr<CsvRowStream> out(new CsvRowStream(s, window));
+  out->with_units_ = units;
+  auto start = [&dir](File& f, const std::string& name,
+                      const std::string& header) -> std::optional<Error> {
+    f.path = (std::filesystem::path(dir) / name).string();
+    f.fd = open_truncated(f.path);
+    if (f.fd < 0)
+      return Error{f.path, 0, std::string("cannot open for writing: ") + strerror(errno)};
+    if (!write_all(f.fd, header))
+      return Error{f.path, 0, std::string("write failed: ") + strerror(errno)};
+    f.buffer.reserve(kBufferBytes + 1024);
+    return std::nullopt;
+  };
+  if (auto e = start(out->jobs_, "jobs.csv", jobs_csv_header())) return *e;
+  if (units)
+    if (auto e = start(out->units_, "units.csv", units_csv_header())) return *e;
+  return out;
+}
+
+CsvRowStream::~CsvRowStream() {
+  (void)flush();
+  for (File* f : {&jobs_, &units_})
+    if (f->fd >= 0) ::close(f->fd);
+}
+
+void CsvRowStream::begin_policy(std::string policy) {
+  policy_ = std::move(policy);
+  policies_.push_back(policy_);
+  if (!overflowed_) kept_.push_back({policy_, {}, {}});
+}
+
+void CsvRowStream::write_out(File& f) {
+  if (f.fd < 0 || f.buffer.empty()) return;
+  if (!write_all(f.fd, f.buffer) && !error_)
+    error_ = Error{f.path, 0, std::string("write failed: ") + strerror(errno)};
+  f.buffer.clear();
+}
+
+void CsvRowStream::keep(bool job, const JobRow* j, const UnitRow* u) {
+  if (overflowed_ || kept_.empty()) return;
+  if (kept_rows_ >= window_) {
+    // Past the window the report reads the rows back from the files instead (rows()).
+    overflowed_ = true;
+    kept_ = {};
+    kept_rows_ = 0;
+    return;
+  }
+  ++kept_rows_;
+  if (job)
+    kept_.back().jobs.push_back(*j);
+  else
+    kept_.back().units.push_back(*u);
+}
+
+void CsvRowStream::on_job_row(const JobRow& row) {
+  ++job_rows_;
+  append_job_row(jobs_.buffer, scenario_, policy_, row);
+  if (jobs_.buffer.size() >= kBufferBytes) write_out(jobs_);
+  keep(true, &row, nullptr);
+}
+
+void CsvRowStream::on_unit_row(const UnitRow& row) {
+  if (!with_units_) return;
+  ++unit_rows_;
+  append_unit_row(units_.buffer, scenario_, policy_, row);
+  if (units_.buffer.size() >= kBufferBytes) write_out(units_);
+  keep(false, nullptr, &row);
+}
+
+std::optional<Error> CsvRowStream::flush() {
+  write_out(jobs_);
+  write_out(units_);
+  return error_;
+}
+
+std::size_t CsvRowStream::kept() const noexcept {
+  return kept_rows_;
+}
+
+Expected<std::vector<StreamedRows>> CsvRowStream::rows() const {
+  if (!overflowed_) return kept_;
+  auto jobs = read_job_rows(jobs_.path, scenario_);
+  if (!jobs) return jobs.error();
+  std::vector<std::pair<std::string, std::vector<UnitRow>>> units;
+  if (with_units_) {
+    auto u = read_unit_rows(units_.path, scenario_);
+    if (!u) return u.error();
+    units = std::move(u.value());
+  }
+  // One entry per policy run, in order, whether or not it left rows.
+  std::vector<StreamedRows> out;
+  std::size_t ji = 0, ui = 0;
+  for (const std::string& p : policies_) {
+    StreamedRows r{p, {}, {}};
+    if (ji < jobs->size() && (*jobs)[ji].first == p) r.jobs = std::move((*jobs)[ji++].second);
+    if (ui < units.size() && units[ui].first == p) r.units = std::move(units[ui++].second);
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+namespace {
+
+// One RFC 4180 line as fields; nullopt when a quote is left open.
+std::optional<std::vector<std::string>> fields(const std::string& line) {
+  std::vector<std::string> f(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        f.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        f.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      f.emplace_back();
+    } else if (c != '\r') {
+      f.back() += c;
+    }
+  }
+  if (quoted) return std::nullopt;
+  return f;
+}
+
+// Reads `path` line by line: checks the header, then calls `row(fields, line_number)` for
+// each row; a row's Error stops the reading.
+template <typename Row>
+Expected<std::vector<std::pair<std::string, std::vector<Row>>>> read_rows(
+    const std::string& path, const std::string& header, std::size_t columns,
+    const std::function<std::optional<Error>(const std::vector<std::string>&, int, Row&)>& parse) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Error{path, 0, "cannot open for reading"};
+  std::string line;
+  if (!std::getline(in, line) || line + "\n" != header)
+    return Error{path, 1, "not the expected header"};
+  std::vector<std::pair<std::string, std::vector<Row>>> out;
+  for (int n = 2; std::getline(in, line); ++n) {
+    if (line.empty()) continue;
+    const auto f = fields(line);
+    if (!f) return Error{path, n, "a quoted field is not closed"};
+    if (f->size() != columns)
+      return Error{path, n, fmt::format("{} fields, {} expected", f->size(), columns)};
+    Row r;
+    try {
+      if (auto e = parse(*f, n, r)) return *e;
+    } catch (const std::exception&) {
+      return Error{path, n, "a number is malformed"};
+    }
+    if (out.empty() || out.back().first != (*f)[0]) out.push_back({(*f)[0], {}});
+    out.back().second.push_back(std::move(r));
+  }
+  return out;
+}
+
+TimePoint at_ms(const std::string& v) {
+  return TimePoint{from_ms(std::stod(v))};
+}
+
+}  // namespace
+
+Expected<std::vector<std::pair<std::string, std::vector<JobRow>>>> read_job_rows(
+    const std::string& path, const Scenario& s) {
+  return read_rows<JobRow>(
+      path, jobs_csv_header(), 11,
+      [&](const std::vector<std::string>& f, int n, JobRow& r) -> std::optional<Error> {
+        r.operation = -1;
+        for (int i = 0; i < s.operation_count(); ++i)
+          if (s.operation_name(i) == f[1]) r.operation = i;
+        if (r.operation < 0) return Error{path, n, "unknown operation '" + f[1] + "'"};
+        r.seq = std::stoull(f[2]);
+        r.release = at_ms(f[3]);
+        if (!f[4].empty()) r.finish = at_ms(f[4]);
+        r.deadline = at_ms(f[5]);
+        bool known = false;
+        for (JobOutcome o : {JobOutcome::Met, JobOutcome::Missed, JobOutcome::Dropped,
+                             JobOutcome::Skipped, JobOutcome::Failed, JobOutcome::Unfinished})
+          if (f[6] == to_string(o)) {
+            r.outcome = o;
+            known = true;
+          }
+        if (!known) return Error{path, n, "unknown outcome '" + f[6] + "'"};
+        r.qoe = std::stod(f[8]);
+        if (!f[9].empty()) r.frame_age = from_ms(std::stod(f[9]));
+        r.reason = f[10];
+        return std::nullopt;
+      });
+}
+
+Expected<std::vector<std::pair<std::string, std::vector<UnitRow>>>> read_unit_rows(
+    const std::string& path, const Scenario& s) {
+  return read_rows<UnitRow>(
+      path, units_csv_header(), 13,
+      [&](const std::vector<std::string>& f, int n, UnitRow& r) -> std::optional<Error> {
+        r.dispatch = std::stoull(f[1]);
+        r.lane = std::stoi(f[2]);
+        r.decided = at_ms(f[3]);
+        r.start = at_ms(f[4]);
+        r.end = at_ms(f[5]);
+        bool known = false;
+        for (UnitKind k :
+             {UnitKind::Encoder, UnitKind::Head, UnitKind::Coarse, UnitKind::Mono, UnitKind::Plain})
+          if (f[6] == to_string(k)) {
+            r.kind = k;
+            known = true;
+          }
+        if (!known) return Error{path, n, "unknown unit kind '" + f[6] + "'"};
+        r.head = -1;
+        for (std::size_t h = 0; h < s.model.heads.size(); ++h)
+          if (s.model.heads[h] == f[7]) r.head = static_cast<int>(h);
+        if (!f[7].empty() && r.head < 0) return Error{path, n, "unknown head '" + f[7] + "'"};
+        r.batch = std::stoi(f[8]);
+        r.members = std::stoi(f[9]);
+        r.round_trip = f[10] == "1";
+        known = false;
+        for (UnitStatus st : {UnitStatus::Completed, UnitStatus::Failed, UnitStatus::OutOfMemory,
+                              UnitStatus::Cancelled, UnitStatus::Unfinished})
+          if (f[11] == to_string(st)) {
+            r.status = st;
+            known = true;
+          }
+        if (!known) return Error{path, n, "unknown status '" + f[11] + "'"};
+        r.jobs = f[12];
+        return std::nullopt;
+      });
+}
+
+}  // namespace red
