@@ -15,9 +15,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -62,6 +64,7 @@ struct Topic {
 // The header of a sample of `desc` (every type here has one).
 const Header& header_of(const dds_topic_descriptor_t* desc, const void* sample) {
   if (desc == &sensor_msgs_msg_dds__Image__desc) return static_cast<const Image*>(sample)->header_;
+  if (desc == &std_msgs_msg_dds__Header__desc) return *static_cast<const Header*>(sample);
   if (desc == &geometry_msgs_msg_dds__TwistStamped__desc)
     return static_cast<const TwistStamped*>(sample)->header_;
   return static_cast<const Detection2DArray*>(sample)->header_;
@@ -74,6 +77,8 @@ int main(int argc, char** argv) {
   int domain = 0;
   double deadline_ms = 0, warmup_s = 1.0, idle_s = 2.0, timeout_s = 600.0;
   std::string camera = "/camera/image_raw";
+  std::string camera_stamps;
+  std::string config_file;
   std::vector<std::string> specs;
   app.add_option("--domain", domain, "DDS domain id")->check(CLI::Range(0, 232));
   app.add_option("--deadline-ms", deadline_ms, "A frame's deadline (ms after its stamp)")
@@ -82,8 +87,13 @@ int main(int argc, char** argv) {
   app.add_option("--warmup", warmup_s, "Leave out frames of the first seconds")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--camera", camera, "The camera topic (frames sent)");
+  app.add_option("--camera-stamps", camera_stamps,
+                 "Count the frames sent from this topic of their headers (red camera "
+                 "--stamps-topic) instead of subscribing to the frames themselves");
   app.add_option("--topic", specs, "KIND:/topic, KIND = image | twist_stamped | detections")
       ->required();
+  app.add_option("--config", config_file, "Cyclone DDS XML configuration file (default: loopback)")
+      ->check(CLI::ExistingFile);
   app.add_option("--idle", idle_s, "Stop once the camera has been silent this long")
       ->check(CLI::PositiveNumber);
   app.add_option("--timeout", timeout_s, "Stop after this long in any case")
@@ -110,7 +120,14 @@ int main(int argc, char** argv) {
     }
     topics.push_back(t);
   }
-  auto dom = red::dds::Domain::open(domain, "");
+  std::string config;
+  if (!config_file.empty()) {
+    std::ifstream f(config_file);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    config = ss.str();
+  }
+  auto dom = red::dds::Domain::open(domain, config);
   if (!dom) {
     std::cerr << "red_ros2_listener: " << dom.error().to_string() << '\n';
     return 1;
@@ -127,8 +144,11 @@ int main(int argc, char** argv) {
     return r;
   };
   const red::dds::QosSettings qos;
-  Topic cam{camera, &sensor_msgs_msg_dds__Image__desc,
-            reader(&sensor_msgs_msg_dds__Image__desc, camera, qos.input), 0};
+  Topic cam = camera_stamps.empty()
+                  ? Topic{camera, &sensor_msgs_msg_dds__Image__desc,
+                          reader(&sensor_msgs_msg_dds__Image__desc, camera, qos.input), 0}
+                  : Topic{camera_stamps, &std_msgs_msg_dds__Header__desc,
+                          reader(&std_msgs_msg_dds__Header__desc, camera_stamps, qos.output), 0};
   for (Topic& t : topics) t.reader = reader(t.desc, t.name, qos.output);
   const dds_entity_t ws = dds_create_waitset(pp);
   for (Topic* t : [&] {

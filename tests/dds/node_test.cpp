@@ -395,6 +395,7 @@ TEST(DdsNodeCli, BadInputExitsTwo) {
   EXPECT_EQ(run("camera --encoding yuv422 --count 1"), 2);
   EXPECT_EQ(run("camera --rate 0 --count 1"), 2);
   EXPECT_EQ(run("camera --topic no_slash --count 1"), 2);
+  EXPECT_EQ(run("camera --stamps-topic no_slash --count 1"), 2);
 }
 
 TEST(DdsNodeCli, RemapsAndQosFilesAreUsed) {

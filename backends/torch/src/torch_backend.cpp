@@ -10,6 +10,7 @@
 #include <chrono>
 #include <deque>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
@@ -68,6 +69,16 @@ class Window {
   std::deque<std::pair<int, std::uint64_t>> order_;
 };
 
+// A frame's model input: a tensor made at once (a synthetic frame, or pixels given with the
+// call), or a received frame whose pixels and tensor are made when the encoder first asks
+// for them (§14: a DDS frame is released first, converted later; LazyFrame). Thread-safe:
+// the first lane to ask converts, others wait for it.
+struct FrameInput {
+  std::shared_ptr<const LazyFrame> lazy;
+  std::once_flag once;
+  at::Tensor tensor;
+};
+
 class TorchBackend final : public Backend {
  public:
   TorchBackend(const Scenario& s, std::unique_ptr<Model> model, std::vector<int> head_map)
@@ -120,26 +131,26 @@ class TorchBackend final : public Backend {
     // A synthetic camera frame: deterministic pixels for (sensor, frame), in memory.
     const std::uint64_t seed =
         hash_combine(hash_combine(scenario_.seed, static_cast<std::uint64_t>(sensor)), frame);
-    frames_.put(sensor, frame, model_->make_input(1, seed));
+    auto input = std::make_shared<FrameInput>();
+    input->tensor = model_->make_input(1, seed);
+    frames_.put(sensor, frame, std::move(input));
   }
 
   void on_external_frame(int sensor, std::uint64_t frame, const FrameView& px) override {
     const auto& in = scenario_.model.input;  // C, H, W
-    if (px.data == nullptr || in.size() != 3 || px.height != in[1] || px.width != in[2] ||
-        (px.channels != 1 && px.channels != 3)) {
+    if ((px.data == nullptr && !px.lazy) || in.size() != 3 || px.height != in[1] ||
+        px.width != in[2] || (px.channels != 1 && px.channels != 3)) {
       on_frame(sensor, frame);  // not at the model's size: a synthetic frame instead
       return;
     }
-    c10::InferenceMode guard;
-    // A received frame (e.g. over DDS): its pixels, HWC uint8 -> 1 x C x H x W in [0, 1].
-    at::Tensor t =
-        at::from_blob(const_cast<std::uint8_t*>(px.data), {px.height, px.width, px.channels},
-                      at::TensorOptions().dtype(at::kByte))
-            .permute({2, 0, 1})
-            .to(at::kFloat)
-            .div_(255.0);
-    if (px.channels != in[0]) t = t.mean(0, true).expand({in[0], in[1], in[2]});
-    frames_.put(sensor, frame, t.unsqueeze(0).contiguous().to(model_->device()));
+    auto input = std::make_shared<FrameInput>();
+    if (px.lazy) {
+      input->lazy = px.lazy;  // converted by the encoder that first reads it (frame())
+    } else {
+      c10::InferenceMode guard;
+      input->tensor = to_tensor(px);
+    }
+    frames_.put(sensor, frame, std::move(input));
   }
 
   void run(int /*lane*/, const Dispatch& d) override {
@@ -160,13 +171,33 @@ class TorchBackend final : public Backend {
   }
 
  private:
+  // A received frame's pixels, HWC uint8 -> 1 x C x H x W in [0, 1] on the model's device.
+  at::Tensor to_tensor(const FrameView& px) const {
+    const auto& in = scenario_.model.input;  // C, H, W
+    at::Tensor t =
+        at::from_blob(const_cast<std::uint8_t*>(px.data), {px.height, px.width, px.channels},
+                      at::TensorOptions().dtype(at::kByte))
+            .permute({2, 0, 1})
+            .to(at::kFloat)
+            .div_(255.0);
+    if (px.channels != in[0]) t = t.mean(0, true).expand({in[0], in[1], in[2]});
+    return t.unsqueeze(0).contiguous().to(model_->device());
+  }
+
   at::Tensor frame(int sensor, std::uint64_t id) const {
-    at::Tensor t;
-    if (!frames_.get(sensor, id, t))
+    std::shared_ptr<FrameInput> input;
+    if (!frames_.get(sensor, id, input))
       throw std::runtime_error("frame " + std::to_string(id) + " of sensor " +
                                scenario_.sensors[static_cast<std::size_t>(sensor)].name +
                                " is no longer in memory");
-    return t;
+    // A received frame is converted here, once, by the first unit that reads it; the
+    // received pixels go as soon as the tensor exists.
+    std::call_once(input->once, [&] {
+      if (!input->lazy) return;
+      input->tensor = to_tensor(input->lazy->pixels());
+      input->lazy.reset();
+    });
+    return input->tensor;
   }
 
   Features features(int sensor, std::uint64_t id) const {
@@ -268,7 +299,7 @@ class TorchBackend final : public Backend {
   std::unique_ptr<Model> model_;
   std::vector<int> head_map_;  // scenario head index -> model head index
   std::string name_;
-  Window<at::Tensor> frames_;
+  Window<std::shared_ptr<FrameInput>> frames_;
   Window<Features> features_;
   thread_local static at::Tensor last_;  // keeps the latest output alive until the next
   thread_local static std::optional<c10::Stream> lane_stream_;  // this lane's GPU stream

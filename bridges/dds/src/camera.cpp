@@ -46,6 +46,9 @@ Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool
     return Error{"", 0, "--encoding must be rgb8, bgr8 or mono8, not '" + o.encoding + "'"};
   if (!valid_ros_topic(o.topic))
     return Error{"", 0, "--topic '" + o.topic + "' is not an absolute ROS 2 topic name"};
+  if (!o.stamps_topic.empty() && !valid_ros_topic(o.stamps_topic))
+    return Error{"", 0,
+                 "--stamps-topic '" + o.stamps_topic + "' is not an absolute ROS 2 topic name"};
   std::vector<std::string> files;
   if (!o.from_dir.empty()) {
     auto f = image_files(o.from_dir);
@@ -62,6 +65,17 @@ Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool
   const dds_entity_t writer = topic < 0 ? topic : dds_create_writer(pp, topic, qos, nullptr);
   dds_delete_qos(qos);
   if (writer < 0) return Error{"", 0, "cannot publish " + o.topic + ": " + dds_strretcode(writer)};
+  dds_entity_t stamps = 0;
+  if (!o.stamps_topic.empty()) {
+    const dds_entity_t st =
+        dds_create_topic(pp, &std_msgs_msg_dds__Header__desc,
+                         dds_topic_name(o.stamps_topic).c_str(), nullptr, nullptr);
+    dds_qos_t* sq = make_qos(QosSettings{}.output);
+    stamps = st < 0 ? st : dds_create_writer(pp, st, sq, nullptr);
+    dds_delete_qos(sq);
+    if (stamps < 0)
+      return Error{"", 0, "cannot publish " + o.stamps_topic + ": " + dds_strretcode(stamps)};
+  }
 
   CameraReport report;
   const auto t0 = std::chrono::steady_clock::now();
@@ -121,6 +135,7 @@ Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool
     borrow(img.data_, data);
     if (const dds_return_t rc = dds_write(writer, &img); rc < 0)
       return Error{"", 0, "publishing on " + o.topic + " failed: " + dds_strretcode(rc)};
+    if (stamps > 0) dds_write(stamps, &img.header_);
     ++report.published;
   }
   return report;

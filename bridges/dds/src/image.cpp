@@ -1,6 +1,8 @@
 #include "red/dds/image.hpp"
 
+#include <algorithm>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 namespace red::dds {
@@ -71,14 +73,13 @@ const std::uint8_t* source_row(const Image& img, int y, int height) {
 
 }  // namespace
 
-void to_gray(const Image& img, int width, int height, GrayFrame& out) {
-  out.width = width;
-  out.height = height;
-  out.pixels.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+namespace {
+
+// Luminance of a checked image, resized to width × height, into out[width · height].
+void gray_into(const Image& img, int width, int height, std::uint8_t* o) {
   const int ch = channels(img.encoding_);
   const bool bgr = std::strcmp(img.encoding_, "bgr8") == 0;
   const std::vector<std::uint64_t>& xs = column_offsets(img, width, ch);
-  std::uint8_t* o = out.pixels.data();
   for (int y = 0; y < height; ++y) {
     const std::uint8_t* row = source_row(img, y, height);
     if (ch == 1) {
@@ -93,12 +94,11 @@ void to_gray(const Image& img, int width, int height, GrayFrame& out) {
   }
 }
 
-void to_rgb(const Image& img, int width, int height, std::vector<std::uint8_t>& out) {
-  out.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3U);
+// Interleaved RGB of a checked image, resized to width × height, into out[width · height · 3].
+void rgb_into(const Image& img, int width, int height, std::uint8_t* o) {
   const int ch = channels(img.encoding_);
   const bool bgr = std::strcmp(img.encoding_, "bgr8") == 0;
   const std::vector<std::uint64_t>& xs = column_offsets(img, width, ch);
-  std::uint8_t* o = out.data();
   for (int y = 0; y < height; ++y) {
     const std::uint8_t* row = source_row(img, y, height);
     for (std::uint64_t sx : xs) {
@@ -113,6 +113,73 @@ void to_rgb(const Image& img, int width, int height, std::vector<std::uint8_t>& 
       o += 3;
     }
   }
+}
+
+}  // namespace
+
+void to_gray(const Image& img, int width, int height, GrayFrame& out) {
+  out.width = width;
+  out.height = height;
+  out.pixels.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+  gray_into(img, width, height, out.pixels.data());
+}
+
+void to_rgb(const Image& img, int width, int height, std::vector<std::uint8_t>& out) {
+  out.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3U);
+  rgb_into(img, width, height, out.data());
+}
+
+std::shared_ptr<const ReceivedImage> ReceivedImage::take(Image& img) {
+  std::shared_ptr<ReceivedImage> r(new ReceivedImage);
+  r->header_ = HeaderValue::from(img.header_);
+  r->encoding_ = img.encoding_ != nullptr ? img.encoding_ : "";
+  r->width_ = img.width_;
+  r->height_ = img.height_;
+  r->step_ = img.step_;
+  r->size_ = img.data_._length;
+  if (img.data_._release && img.data_._buffer != nullptr) {
+    // The sample's own buffer (Cyclone allocated it with dds_alloc): ours from now on.
+    r->data_ = img.data_._buffer;
+    r->moved_ = true;
+    img.data_._buffer = nullptr;
+    img.data_._length = img.data_._maximum = 0;
+    img.data_._release = false;
+  } else {
+    r->data_ = static_cast<std::uint8_t*>(dds_alloc(std::max<std::uint32_t>(1, r->size_)));
+    if (r->size_ > 0) std::memcpy(r->data_, img.data_._buffer, r->size_);
+  }
+  return r;
+}
+
+ReceivedImage::~ReceivedImage() {
+  dds_free(data_);
+}
+
+Image ReceivedImage::view() const noexcept {
+  Image v{};
+  header_.fill(v.header_);
+  v.encoding_ = const_cast<char*>(encoding_.c_str());  // never written through
+  v.width_ = width_;
+  v.height_ = height_;
+  v.step_ = step_;
+  v.data_._buffer = data_;
+  v.data_._length = v.data_._maximum = size_;
+  v.data_._release = false;
+  return v;
+}
+
+ConvertedImage::ConvertedImage(std::shared_ptr<const ReceivedImage> source, int width, int height,
+                               int channels)
+    : LazyFrame(width, height, channels), source_(std::move(source)) {}
+
+void ConvertedImage::convert(std::uint8_t* out) const {
+  const Image img = source_->view();
+  if (channels() == 1)
+    gray_into(img, width(), height(), out);
+  else
+    rgb_into(img, width(), height(), out);
+  // Converted: this frame no longer needs the received pixels (the last holder frees them).
+  source_.reset();
 }
 
 }  // namespace red::dds

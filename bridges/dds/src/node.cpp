@@ -8,6 +8,9 @@
 #include <mutex>
 #include <thread>
 
+#include <pthread.h>
+#include <sched.h>
+
 #include "red/core/clock.hpp"
 #include "red/metrics/metrics.hpp"
 #include "red/sched/policy.hpp"
@@ -53,7 +56,9 @@ constexpr std::size_t kIntakeWindow = 16384;  // frame intake times kept (newest
 struct FrameSlot {
   std::uint64_t id = ~std::uint64_t{0};
   HeaderValue header;
-  GrayFrame gray;
+  // The frame's luminance at the model's input size that the outputs are computed from,
+  // converted after the release (or by the publisher, whichever asks first; LazyFrame).
+  std::shared_ptr<const ConvertedImage> gray;
 };
 
 struct SensorState {
@@ -129,7 +134,10 @@ struct Node::Impl final : Observer {
   std::deque<Output> queue;
   bool publishing = true;
   std::atomic<bool> receiving{true};
-  std::vector<std::uint8_t> rgb;  // the receive thread's model-input buffer
+  // Per released frame, in release order: taken from the reader -> push_frame() returned
+  // (paired with RuntimeReport::frame_release_us for received -> released).
+  std::vector<double> released_intake_us;
+  std::vector<std::uint8_t> mask;  // the publisher's output buffer, reused
 
   Impl(const Scenario& s, const Profile& p, Backend& b, NodeOptions o)
       : scenario(s), profile(p), backend(b), options(std::move(o)) {
@@ -278,10 +286,21 @@ struct Node::Impl final : Observer {
       ring[n % kIntakeWindow] = v;
   }
 
-  void accept(std::size_t sensor, const Image& img, TimePoint taken) {
+  // A checked frame is a release (§14): the pixels are moved out of the sample, not
+  // converted; the backend gets them as a LazyFrame that converts them to the model's input
+  // when a unit first needs them (the encoder's start), so a frame whose job is dropped
+  // before it runs is never converted. Only after the release is the frame's luminance (what
+  // the outputs are computed from) converted, here, off the release path.
+  void accept(std::size_t sensor, Image& img, TimePoint taken) {
     const auto& in = scenario.model.input;
     const int h = in.size() >= 3 ? static_cast<int>(in[1]) : 192;
     const int w = in.size() >= 3 ? static_cast<int>(in[2]) : 384;
+    const int channels = !in.empty() && in[0] == 1 ? 1 : 3;
+    std::shared_ptr<const ReceivedImage> received = ReceivedImage::take(img);
+    auto gray = std::make_shared<const ConvertedImage>(received, w, h, 1);
+    std::shared_ptr<const LazyFrame> input =
+        channels == 1 ? gray : std::make_shared<const ConvertedImage>(received, w, h, 3);
+    received.reset();  // the two conversions hold it until both are done
     std::uint64_t id = 0;
     {
       std::lock_guard lock(frames_mu);
@@ -290,38 +309,37 @@ struct Node::Impl final : Observer {
       FrameSlot& slot = st.ring[id % kFrameRing];
       slot.id = id;
       slot.header = HeaderValue::from(img.header_);
-      to_gray(img, w, h, slot.gray);
+      slot.gray = gray;
       st.last = clock.now();
       ++st.frames;
       ++counters.frames;
     }
-    // The backend gets the frame's pixels at the model's input size (one channel or RGB).
-    FrameView px{w, h, 1, nullptr};
-    GrayFrame gray;
-    if (in.empty() || in[0] != 1) {
-      to_rgb(img, w, h, rgb);
-      px.channels = 3;
-      px.data = rgb.data();
-    } else {
-      to_gray(img, w, h, gray);
-      px.data = gray.pixels.data();
-    }
+    const FrameView px{w, h, channels, nullptr, std::move(input)};
     const bool released = runtime->push_frame(static_cast<int>(sensor), id, &px);
     const double us = to_us(clock.now() - taken);
-    std::lock_guard lock(frames_mu);
-    if (released) ++counters.released;
     // Wall clocks: the sender's stamp against this machine's time of the take.
     std::int32_t sec = 0;
     std::uint32_t nsec = 0;
     stamp_now(sec, nsec);
-    const double transport =
-        (static_cast<double>(sec - img.header_.stamp_.sec_) * 1e9 +
-         (static_cast<double>(nsec) - static_cast<double>(img.header_.stamp_.nanosec_))) /
-            1e3 -
-        us;
-    record(timings.intake_us, intakes, us);
-    record(timings.transport_us, intakes, transport);
-    ++intakes;
+    {
+      std::lock_guard lock(frames_mu);
+      if (released) {
+        ++counters.released;
+        if (released_intake_us.size() < kIntakeWindow) released_intake_us.push_back(us);
+      } else if (FrameSlot& slot = sensors[sensor].ring[id % kFrameRing]; slot.id == id) {
+        slot.gray.reset();  // no job reads it: let the received pixels go now
+      }
+      const double transport =
+          (static_cast<double>(sec - img.header_.stamp_.sec_) * 1e9 +
+           (static_cast<double>(nsec) - static_cast<double>(img.header_.stamp_.nanosec_))) /
+              1e3 -
+          us;
+      record(timings.intake_us, intakes, us);
+      record(timings.transport_us, intakes, transport);
+      ++intakes;
+    }
+    // After the release: the outputs' luminance, so that the publisher finds it ready.
+    if (released) (void)gray->pixels();
   }
 
   void receive_main() {
@@ -341,7 +359,7 @@ struct Node::Impl final : Observer {
           const TimePoint taken = clock.now();
           for (dds_return_t i = 0; i < n; ++i) {
             if (!infos[static_cast<std::size_t>(i)].valid_data) continue;
-            const Image& img = *static_cast<const Image*>(samples[static_cast<std::size_t>(i)]);
+            Image& img = *static_cast<Image*>(samples[static_cast<std::size_t>(i)]);
             if (auto why = check_image(img))
               reject(s, *why, img);
             else
@@ -416,11 +434,11 @@ struct Node::Impl final : Observer {
 
   // ---- publishing ----
 
-  // The frame a head read, if still kept; copies its header and pixels into `out`.
-  bool frame_of(const Output& o, HeaderValue& header, GrayFrame& gray) {
+  // The frame a head read, if still kept: its header and (shared, not copied) luminance.
+  bool frame_of(const Output& o, HeaderValue& header, std::shared_ptr<const ConvertedImage>& gray) {
     std::lock_guard lock(frames_mu);
     const FrameSlot& slot = sensors[static_cast<std::size_t>(o.sensor)].ring[o.frame % kFrameRing];
-    if (slot.id != o.frame) return false;
+    if (slot.id != o.frame || !slot.gray) return false;
     header = slot.header;
     gray = slot.gray;
     return true;
@@ -429,22 +447,24 @@ struct Node::Impl final : Observer {
   // The published values are computed from the frame by fixed rules (the built-in model's
   // weights are random, §9): lane a bright-pixel mask, seg four luminance classes, steer the
   // left/right balance, det the box around the brightest pixels.
-  void publish(const Output& o, GrayFrame& g, const HeaderValue& hv) {
+  void publish(const Output& o, const FrameView& g, const HeaderValue& hv) {
     const std::string& head = scenario.model.heads[static_cast<std::size_t>(o.head)];
     const auto topic = topics.nodes.find(std::make_pair(o.operation, o.node));
     if (topic == topics.nodes.end()) return;
     const auto wit = writers.find(topic->second);
     if (wit == writers.end()) return;
-    double mean = 0;
-    for (std::uint8_t p : g.pixels) mean += p;
-    mean /= std::max<double>(1.0, static_cast<double>(g.pixels.size()));
+    const std::size_t n_px = static_cast<std::size_t>(g.width) * static_cast<std::size_t>(g.height);
+    std::uint64_t sum = 0;
+    for (std::size_t i = 0; i < n_px; ++i) sum += g.data[i];
+    const double mean = static_cast<double>(sum) / std::max<double>(1.0, static_cast<double>(n_px));
     switch (output_kind(head)) {
       case OutputKind::Mask: {
-        std::vector<std::uint8_t> mask(g.pixels.size());
+        // Computed into the publisher's own buffer; dds_write serializes it (its one copy).
+        mask.resize(n_px);
         const bool classes = head == "seg";
-        for (std::size_t i = 0; i < mask.size(); ++i)
-          mask[i] = classes ? static_cast<std::uint8_t>(g.pixels[i] / 64)
-                            : (g.pixels[i] > mean ? 255 : 0);
+        for (std::size_t i = 0; i < n_px; ++i)
+          mask[i] =
+              classes ? static_cast<std::uint8_t>(g.data[i] / 64) : (g.data[i] > mean ? 255 : 0);
         Image m{};
         hv.fill(m.header_);
         m.height_ = static_cast<std::uint32_t>(g.height);
@@ -461,7 +481,7 @@ struct Node::Impl final : Observer {
         double left = 0, right = 0;
         for (int y = 0; y < g.height; ++y)
           for (int x = 0; x < g.width; ++x)
-            (x < g.width / 2 ? left : right) += g.pixels[static_cast<std::size_t>(y * g.width + x)];
+            (x < g.width / 2 ? left : right) += g.data[static_cast<std::size_t>(y * g.width + x)];
         const double half = std::max(1.0, static_cast<double>(g.width * g.height) / 2.0);
         Twist t{};
         t.linear_.x_ = mean / 255.0;
@@ -482,7 +502,7 @@ struct Node::Impl final : Observer {
         const double bright = mean + (255.0 - mean) / 2.0;
         for (int y = 0; y < g.height; ++y)
           for (int x = 0; x < g.width; ++x)
-            if (g.pixels[static_cast<std::size_t>(y * g.width + x)] > bright) {
+            if (g.data[static_cast<std::size_t>(y * g.width + x)] > bright) {
               x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y),
               y1 = std::max(y1, y), ++n;
             }
@@ -597,7 +617,7 @@ struct Node::Impl final : Observer {
   void publish_main() {
     TimePoint next_diag = clock.now() + options.diagnostics_period;
     HeaderValue header;
-    GrayFrame gray;
+    std::shared_ptr<const ConvertedImage> gray;
     for (;;) {
       std::optional<Output> item;
       bool done = false;
@@ -614,7 +634,8 @@ struct Node::Impl final : Observer {
       }
       if (item) {
         if (frame_of(*item, header, gray)) {
-          publish(*item, gray, header);
+          publish(*item, gray->pixels(), header);
+          gray.reset();
           const double us = to_us(clock.now() - item->ended);
           std::lock_guard lock(frames_mu);
           record(timings.publish_us, publishes++, us);
@@ -631,9 +652,23 @@ struct Node::Impl final : Observer {
     }
   }
 
+  // With --realtime the node's own threads run under SCHED_FIFO as the runtime's do (a
+  // frame is a release: the receiver at the synchronizer's priority; the publisher one
+  // below, so that it never delays a decision): otherwise any process on the machine can
+  // keep a frame or an output waiting for milliseconds. Best effort: the runtime reports
+  // whether SCHED_FIFO is permitted.
+  void make_realtime(std::thread& t, int priority) const {
+    if (!options.realtime) return;
+    sched_param sp{};
+    sp.sched_priority = std::max(1, priority);
+    (void)pthread_setschedparam(t.native_handle(), SCHED_FIFO, &sp);
+  }
+
   RuntimeReport run() {
     std::thread receiver([this] { receive_main(); });
     std::thread publisher([this] { publish_main(); });
+    make_realtime(receiver, RuntimeOptions{}.rt_priority);
+    make_realtime(publisher, RuntimeOptions{}.rt_priority - 1);
     RuntimeReport report = runtime->run();
     receiving.store(false, std::memory_order_release);
     dds_set_guardcondition(wake, true);
@@ -687,7 +722,9 @@ NodeCounters Node::counters() const {
 
 Node::Timings Node::timings() const {
   std::lock_guard lock(impl_->frames_mu);
-  return impl_->timings;
+  Timings t = impl_->timings;
+  t.released_intake_us = impl_->released_intake_us;
+  return t;
 }
 
 const NodeTopics& Node::topics() const {

@@ -8,10 +8,14 @@
 ///       void run(int lane, const red::Dispatch& d) override { /* run d.kind on d.members */ }
 ///     };
 
+#include <atomic>
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "red/sched/observer.hpp"
 
@@ -23,14 +27,77 @@ class OutOfMemoryError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+class LazyFrame;
+
 /// Pixels of an external frame (e.g. received over DDS), already at the model's input height
-/// and width: 8-bit, row-major, `channels` interleaved (RGB order, or gray). Borrowed for the
-/// duration of the call only.
+/// and width: 8-bit, row-major, `channels` interleaved (RGB order, or gray). `data` is
+/// borrowed for the duration of the call only. A frame released before its pixels are
+/// converted (§14: a DDS node) comes with `data` null and `lazy` set: a backend may keep
+/// `lazy` and ask for the pixels when it needs them (LazyFrame::pixels()).
 struct FrameView {
   int width = 0;
   int height = 0;
   int channels = 0;
   const std::uint8_t* data = nullptr;
+  std::shared_ptr<const LazyFrame> lazy;  ///< the frame, converted on first use; may be null
+};
+
+/// An external frame whose pixels are converted when first asked for (§14: a received frame
+/// is released first and converted when the encoder starts). Thread-safe: the first caller
+/// of pixels() runs convert(), concurrent callers wait for that one call, and every caller
+/// then reads the whole converted frame (std::call_once orders the conversion's writes
+/// before every return); a frame no one asks for is never converted.
+///
+///     struct Gray : red::LazyFrame {
+///       Gray() : LazyFrame(384, 192, 1) {}
+///       void convert(std::uint8_t* out) const override { /* 384 * 192 bytes */ }
+///     };
+///     red::FrameView px = frame->pixels();  // converts on the first call only
+class LazyFrame {
+ public:
+  /// A frame of width × height pixels of `channels` bytes once converted.
+  LazyFrame(int width, int height, int channels) noexcept
+      : width_(width), height_(height), channels_(channels) {}
+  virtual ~LazyFrame() = default;
+  LazyFrame(const LazyFrame&) = delete;
+  LazyFrame& operator=(const LazyFrame&) = delete;
+
+  /// The converted pixels (valid while this frame lives); converts them on the first call.
+  /// Throws what convert() throws (nothing is then converted, and a later call tries again).
+  [[nodiscard]] FrameView pixels() const {
+    std::call_once(once_, [this] {
+      std::vector<std::uint8_t> out(static_cast<std::size_t>(width_) *
+                                    static_cast<std::size_t>(height_) *
+                                    static_cast<std::size_t>(channels_));
+      convert(out.data());
+      data_ = std::move(out);
+      converted_.store(true, std::memory_order_release);
+    });
+    return {width_, height_, channels_, data_.data(), nullptr};
+  }
+  /// Whether pixels() has converted the frame (thread-safe; for reports and tests).
+  [[nodiscard]] bool converted() const noexcept {
+    return converted_.load(std::memory_order_acquire);
+  }
+  /// Width in pixels once converted.
+  [[nodiscard]] int width() const noexcept { return width_; }
+  /// Height in pixels once converted.
+  [[nodiscard]] int height() const noexcept { return height_; }
+  /// Bytes per pixel once converted (1 gray, 3 RGB).
+  [[nodiscard]] int channels() const noexcept { return channels_; }
+
+ protected:
+  /// Writes the frame's width × height × channels bytes (row-major, interleaved) to `out`.
+  /// Called at most once to the end, from the first thread that asks for the pixels.
+  virtual void convert(std::uint8_t* out) const = 0;
+
+ private:
+  int width_;
+  int height_;
+  int channels_;
+  mutable std::once_flag once_;
+  mutable std::vector<std::uint8_t> data_;
+  mutable std::atomic<bool> converted_{false};
 };
 
 /// Executes units. run() is called from the lane's own thread; different lanes call it
@@ -50,8 +117,9 @@ class Backend {
   /// A synthetic camera captured frame `frame` of `sensor`: produce its pixels in memory.
   virtual void on_frame(int /*sensor*/, std::uint64_t /*frame*/) {}
   /// An external frame arrived with its pixels: keep them as frame `frame` of `sensor`
-  /// (called from the thread that received it). The default ignores the pixels and
-  /// synthesizes the frame as on_frame() does.
+  /// (called from the thread that received it, before the frame's release: keep it cheap;
+  /// with `pixels.lazy`, keep the frame and convert it when a unit needs it). The default
+  /// ignores the pixels and synthesizes the frame as on_frame() does.
   virtual void on_external_frame(int sensor, std::uint64_t frame, const FrameView& /*pixels*/) {
     on_frame(sensor, frame);
   }

@@ -30,6 +30,10 @@ struct CameraOptions {
   int domain = 0;
   std::string config;  ///< Cyclone DDS XML or file:// URI; empty: loopback only
   EndpointQos qos = QosSettings{}.input;
+  /// When set, each frame's header also goes out on this topic (std_msgs/msg/Header,
+  /// reliable), so that a probe (bench/ros2/listener.cpp) counts the frames sent without
+  /// subscribing to their pixels, which would double what the camera sends per frame.
+  std::string stamps_topic;
   /// Wait up to this long for a subscriber before the first frame (best effort drops
   /// frames nobody receives yet).
   Duration wait_for_subscriber = std::chrono::seconds{5};

@@ -3,12 +3,14 @@
 /// Checking a received sensor_msgs/Image and bringing it to the model's input size (§14).
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "red/dds/messages.hpp"
+#include "red/runtime/backend.hpp"
 
 namespace red::dds {
 
@@ -49,5 +51,49 @@ void to_gray(const Image& img, int width, int height, GrayFrame& out);
 /// Converts a checked image to interleaved RGB (mono8 replicated), resized (nearest
 /// neighbour) to width × height: the model input a backend gets.
 void to_rgb(const Image& img, int width, int height, std::vector<std::uint8_t>& out);
+
+/// A checked image as received, kept whole: its pixel buffer moved out of the DDS sample
+/// (not copied), its header and layout copied. Immutable once made; shared by the
+/// conversions that still need it (ConvertedImage), freed when the last of them is done.
+class ReceivedImage {
+ public:
+  /// Takes `img`'s pixels: a buffer Cyclone allocated for the sample (`_release` set) is moved
+  /// and the sample's data sequence left empty (dds_return_loan then frees nothing of it);
+  /// a borrowed one is copied. `img` must pass check_image().
+  static std::shared_ptr<const ReceivedImage> take(Image& img);
+  ~ReceivedImage();
+  ReceivedImage(const ReceivedImage&) = delete;
+  ReceivedImage& operator=(const ReceivedImage&) = delete;
+
+  /// The header (stamp, frame_id) as received.
+  [[nodiscard]] const HeaderValue& header() const noexcept { return header_; }
+  /// A borrowed message over the kept pixels (for to_gray / to_rgb); valid while this lives.
+  [[nodiscard]] Image view() const noexcept;
+  /// Whether the pixel buffer was moved out of the sample rather than copied.
+  [[nodiscard]] bool moved() const noexcept { return moved_; }
+
+ private:
+  ReceivedImage() = default;
+  HeaderValue header_;
+  std::string encoding_;
+  std::uint32_t width_ = 0, height_ = 0, step_ = 0, size_ = 0;
+  std::uint8_t* data_ = nullptr;  // dds_alloc'ed: freed with dds_free
+  bool moved_ = false;
+};
+
+/// A received image converted, when first asked for, to the model's input size (§14:
+/// released first, converted later): RGB (channels 3) or luminance (channels 1), nearest
+/// neighbour. The received image is let go once converted. Thread-safe (LazyFrame).
+class ConvertedImage final : public LazyFrame {
+ public:
+  /// The conversion of `source` to width × height × channels (1 or 3).
+  ConvertedImage(std::shared_ptr<const ReceivedImage> source, int width, int height, int channels);
+
+ protected:
+  void convert(std::uint8_t* out) const override;
+
+ private:
+  mutable std::shared_ptr<const ReceivedImage> source_;  // reset by the one convert()
+};
 
 }  // namespace red::dds

@@ -100,9 +100,13 @@ class Node {
   struct Timings {
     /// Header stamp -> taken from the DDS reader (wall clocks: the sender's and this one).
     std::vector<double> transport_us;
-    /// Taken from the DDS reader -> the runtime has it (checked, converted, pushed). The
-    /// runtime's RuntimeReport::frame_release_us goes on from there to the release.
+    /// Taken from the DDS reader -> the runtime has it (checked, pixels moved out of the
+    /// sample, pushed; not converted: that happens after the release). The runtime's
+    /// RuntimeReport::frame_release_us goes on from there to the release.
     std::vector<double> intake_us;
+    /// As intake_us, for released frames only, the first 16384 in release order: element i
+    /// plus the report's frame_release_us[i] is frame i's received -> released.
+    std::vector<double> released_intake_us;
     /// A job ended -> its last output written to DDS (queue, computing, serializing).
     std::vector<double> publish_us;
   };

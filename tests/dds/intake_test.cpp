@@ -1,0 +1,322 @@
+// The node's frame intake (§14, issue 8's first target): a received frame is released
+// before its pixels are converted; the conversion runs once, on the first thread that needs
+// it, and no reader ever sees a half-converted frame; a frame no unit reads is never
+// converted; bad frames are still rejected before the release and counted.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <latch>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "red/dds/image.hpp"
+#include "red/dds/messages.hpp"
+#include "red/dds/node.hpp"
+#include "red/dds/ros.hpp"
+#include "red/profile/profile.hpp"
+#include "red/runtime/backend.hpp"
+#include "red/scenario/loader.hpp"
+#include "red/sim/run.hpp"
+#include "support.hpp"
+
+namespace red::dds {
+namespace {
+
+// A frame whose conversion counts its calls and pauses half-way, so that a reader that did
+// not wait for it would find half a frame; the first `failures` calls throw.
+class CountingFrame final : public LazyFrame {
+ public:
+  explicit CountingFrame(int failures = 0) : LazyFrame(64, 32, 3), failures_(failures) {}
+  mutable std::atomic<int> calls{0};
+
+  static std::uint8_t expected(std::size_t i) { return static_cast<std::uint8_t>(i * 7U + 1U); }
+
+ protected:
+  void convert(std::uint8_t* out) const override {
+    if (calls.fetch_add(1) < failures_) throw std::runtime_error("conversion failed");
+    const std::size_t n = 64U * 32U * 3U;
+    for (std::size_t i = 0; i < n; ++i) {
+      out[i] = expected(i);
+      if (i == n / 2) std::this_thread::sleep_for(std::chrono::milliseconds{5});
+    }
+  }
+
+ private:
+  int failures_;
+};
+
+TEST(DdsLazyFrame, ConcurrentReadersGetOneConversionAndAllOfIt) {
+  CountingFrame frame;
+  EXPECT_FALSE(frame.converted()) << "nothing is converted before someone asks";
+  EXPECT_EQ(frame.calls.load(), 0);
+  constexpr int kReaders = 8;
+  std::latch start(kReaders);
+  std::vector<int> wrong(kReaders, -1);
+  std::vector<std::thread> readers;
+  for (int r = 0; r < kReaders; ++r)
+    readers.emplace_back([&, r] {
+      start.arrive_and_wait();
+      const FrameView px = frame.pixels();
+      int bad = 0;
+      const std::size_t n = static_cast<std::size_t>(px.width * px.height * px.channels);
+      for (std::size_t i = 0; i < n; ++i)
+        if (px.data[i] != CountingFrame::expected(i)) ++bad;
+      wrong[static_cast<std::size_t>(r)] = bad;
+    });
+  for (std::thread& t : readers) t.join();
+  EXPECT_EQ(frame.calls.load(), 1) << "converted exactly once";
+  EXPECT_TRUE(frame.converted());
+  for (int r = 0; r < kReaders; ++r) EXPECT_EQ(wrong[static_cast<std::size_t>(r)], 0) << r;
+}
+
+TEST(DdsLazyFrame, AFailedConversionConvertsNothingAndTheNextCallTriesAgain) {
+  CountingFrame frame(1);
+  EXPECT_THROW((void)frame.pixels(), std::runtime_error);
+  EXPECT_FALSE(frame.converted());
+  const FrameView px = frame.pixels();
+  EXPECT_TRUE(frame.converted());
+  EXPECT_EQ(frame.calls.load(), 2);
+  EXPECT_EQ(px.data[5], CountingFrame::expected(5));
+}
+
+// A 640x480 rgb8 test image whose bytes depend on position.
+std::vector<std::uint8_t> pattern(std::uint32_t w, std::uint32_t h) {
+  std::vector<std::uint8_t> v(static_cast<std::size_t>(w) * h * 3U);
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<std::uint8_t>((i * 31U) >> 3U);
+  return v;
+}
+
+TEST(DdsIntake, ASamplesOwnBufferIsMovedNotCopiedAndLetGoOnceConverted) {
+  const std::uint32_t w = 640, h = 480;
+  const std::vector<std::uint8_t> bytes = pattern(w, h);
+  const std::string encoding = "rgb8", frame_id = "cam";
+  // As Cyclone leaves a received sample: the data sequence allocated with dds_alloc.
+  Image img{};
+  img.header_.stamp_.sec_ = 7;
+  img.header_.frame_id_ = borrow(frame_id);
+  img.encoding_ = borrow(encoding);
+  img.width_ = w;
+  img.height_ = h;
+  img.step_ = w * 3;
+  auto* buffer = static_cast<std::uint8_t*>(dds_alloc(bytes.size()));
+  std::copy(bytes.begin(), bytes.end(), buffer);
+  img.data_._buffer = buffer;
+  img.data_._length = img.data_._maximum = static_cast<std::uint32_t>(bytes.size());
+  img.data_._release = true;
+  ASSERT_FALSE(check_image(img).has_value());
+
+  std::shared_ptr<const ReceivedImage> received = ReceivedImage::take(img);
+  EXPECT_TRUE(received->moved());
+  EXPECT_EQ(img.data_._buffer, nullptr) << "the sample no longer owns (or frees) the pixels";
+  EXPECT_FALSE(img.data_._release);
+  EXPECT_EQ(received->view().data_._buffer, buffer) << "moved, not copied";
+  EXPECT_EQ(received->header().sec, 7);
+  EXPECT_EQ(received->header().frame_id, "cam");
+
+  const std::weak_ptr<const ReceivedImage> source = received;
+  auto rgb = std::make_shared<const ConvertedImage>(received, 384, 192, 3);
+  auto gray = std::make_shared<const ConvertedImage>(received, 384, 192, 1);
+  received.reset();
+  EXPECT_FALSE(rgb->converted());
+  EXPECT_FALSE(gray->converted());
+
+  // The same pixels as the eager conversions of the same image.
+  Image ref = img;
+  ref.data_._buffer = const_cast<std::uint8_t*>(bytes.data());
+  ref.data_._length = ref.data_._maximum = static_cast<std::uint32_t>(bytes.size());
+  ref.data_._release = false;
+  std::vector<std::uint8_t> want_rgb;
+  GrayFrame want_gray;
+  to_rgb(ref, 384, 192, want_rgb);
+  to_gray(ref, 384, 192, want_gray);
+  const FrameView px = rgb->pixels();
+  ASSERT_EQ(px.channels, 3);
+  EXPECT_TRUE(std::equal(want_rgb.begin(), want_rgb.end(), px.data));
+  EXPECT_FALSE(source.expired()) << "the gray conversion still needs the received pixels";
+  const FrameView g = gray->pixels();
+  ASSERT_EQ(g.channels, 1);
+  EXPECT_TRUE(std::equal(want_gray.pixels.begin(), want_gray.pixels.end(), g.data));
+  EXPECT_TRUE(source.expired()) << "both conversions done: the 921 KB frame is freed";
+}
+
+TEST(DdsIntake, ABorrowedBufferIsCopied) {
+  const std::vector<std::uint8_t> bytes = pattern(8, 4);
+  const std::string encoding = "rgb8";
+  Image img{};
+  img.encoding_ = borrow(encoding);
+  img.width_ = 8;
+  img.height_ = 4;
+  img.step_ = 24;
+  std::vector<std::uint8_t> data = bytes;
+  borrow(img.data_, data);
+  const auto received = ReceivedImage::take(img);
+  EXPECT_FALSE(received->moved());
+  EXPECT_EQ(img.data_._buffer, data.data()) << "a borrowed buffer stays with its owner";
+  const Image v = received->view();
+  EXPECT_NE(v.data_._buffer, data.data());
+  EXPECT_TRUE(std::equal(bytes.begin(), bytes.end(), v.data_._buffer));
+}
+
+// ---- in a running node (wall clock: label integration, as every DdsNode test) ----
+
+constexpr std::uint32_t kW = 96, kH = 48;  // tests/dds/data/node.yaml's model input: no resize
+
+// Frame k's pixels: every byte derived from k (byte 0 is k), so that a reader can tell a
+// whole frame from a mixture.
+std::uint8_t frame_byte(std::uint8_t k, std::size_t i) {
+  return i == 0 ? k : static_cast<std::uint8_t>(k * 13U + i % 251U);
+}
+
+// A backend that records how each frame arrived and checks, at every encoder, that the
+// frame it reads is whole.
+class RecordingBackend final : public Backend {
+ public:
+  std::mutex mu;
+  std::map<std::uint64_t, std::shared_ptr<const LazyFrame>> frames;
+  int arrived_converted = 0;  // frames whose pixels were converted before their release
+  int arrived_eager = 0;      // frames that came with pixels rather than a LazyFrame
+  int encoded = 0, torn = 0;
+
+  [[nodiscard]] std::string_view name() const noexcept override { return "recording"; }
+  void on_external_frame(int, std::uint64_t frame, const FrameView& px) override {
+    std::lock_guard lock(mu);
+    frames[frame] = px.lazy;
+    if (px.data != nullptr || !px.lazy) ++arrived_eager;
+    if (px.lazy && px.lazy->converted()) ++arrived_converted;
+  }
+  void run(int, const Dispatch& d) override {
+    if (d.kind != UnitKind::Encoder) return;
+    for (const Member& m : d.members) {
+      std::shared_ptr<const LazyFrame> f;
+      {
+        std::lock_guard lock(mu);
+        f = frames[m.frame];
+      }
+      if (!f) continue;
+      const FrameView px = f->pixels();
+      const std::size_t n = static_cast<std::size_t>(px.width * px.height * px.channels);
+      int bad = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        if (px.data[i] != frame_byte(px.data[0], i)) ++bad;
+      std::lock_guard lock(mu);
+      ++encoded;
+      if (bad > 0) ++torn;
+    }
+  }
+};
+
+void publish(dds_entity_t writer, const std::string& encoding, std::uint32_t w, std::uint32_t h,
+             std::uint32_t step, std::vector<std::uint8_t>& data) {
+  const std::string frame_id = "camera";
+  Image img{};
+  stamp_now(img.header_.stamp_.sec_, img.header_.stamp_.nanosec_);
+  img.header_.frame_id_ = borrow(frame_id);
+  img.encoding_ = borrow(encoding);
+  img.width_ = w;
+  img.height_ = h;
+  img.step_ = step;
+  borrow(img.data_, data);
+  ASSERT_GE(dds_write(writer, &img), 0);
+}
+
+TEST(DdsNodeIntake, FramesAreReleasedUnconvertedConvertedOnceWholeAndBadOnesNeverReleased) {
+  auto s = load_scenario(RED_SOURCE_DIR "/tests/dds/data/node.yaml");
+  ASSERT_TRUE(s.has_value());
+  auto profile = resolve_profile(*s, std::nullopt);  // as red node: the built-in one
+  ASSERT_TRUE(profile.has_value());
+  RecordingBackend backend;
+  NodeOptions o;
+  o.domain = test_domain();
+  o.realtime = false;
+  o.watchdog_x = 0;
+  o.diagnostics_period = std::chrono::milliseconds{200};
+  auto node = Node::make(*s, *profile, backend, o);
+  ASSERT_TRUE(node.has_value()) << node.error().to_string();
+
+  // The camera, in this process (the node's domain is reused).
+  auto dom = Domain::open(o.domain, "");
+  ASSERT_TRUE(dom.has_value());
+  const dds_entity_t topic =
+      dds_create_topic((*dom)->participant(), &sensor_msgs_msg_dds__Image__desc,
+                       dds_topic_name((*node)->topics().sensors.front()).c_str(), nullptr, nullptr);
+  dds_qos_t* qos = make_qos(QosSettings{}.input);
+  const dds_entity_t writer = dds_create_writer((*dom)->participant(), topic, qos, nullptr);
+  dds_delete_qos(qos);
+  ASSERT_GT(writer, 0);
+  for (int i = 0; i < 500; ++i) {
+    dds_publication_matched_status_t st;
+    if (dds_get_publication_matched_status(writer, &st) == DDS_RETCODE_OK && st.current_count > 0)
+      break;
+    std::this_thread::sleep_for(std::chrono::milliseconds{10});
+  }
+  RuntimeReport report;
+  std::thread runner([&] { report = (*node)->run(); });
+  const auto good = [&](int k) {
+    std::vector<std::uint8_t> data(kW * kH * 3U);
+    for (std::size_t i = 0; i < data.size(); ++i)
+      data[i] = frame_byte(static_cast<std::uint8_t>(k), i);
+    publish(writer, "rgb8", kW, kH, kW * 3U, data);
+    return data;
+  };
+  // Until the node takes frames (its runtime started), so that no bad frame published below
+  // waits in the reader's history (keep last 5) and is overwritten there uncounted.
+  int sent = 0;
+  for (int tries = 0; tries < 100 && (*node)->counters().frames == 0; ++tries) {
+    good(sent++);
+    std::this_thread::sleep_for(std::chrono::milliseconds{50});
+  }
+  if ((*node)->counters().frames == 0) {
+    (*node)->stop();
+    runner.join();
+    FAIL() << "the node took no frame";
+  }
+  const int kGood = sent + 24;
+  int bad_size = 0, bad_encoding = 0;
+  for (int k = sent; k < kGood; ++k) {
+    std::vector<std::uint8_t> data = good(k);
+    if (k % 4 == 1) {
+      std::vector<std::uint8_t> short_data(kW * kH);  // a third of height * step
+      publish(writer, "rgb8", kW, kH, kW * 3U, short_data);
+      ++bad_size;
+    }
+    if (k % 4 == 3) {
+      publish(writer, "yuv422", kW, kH, kW * 3U, data);
+      ++bad_encoding;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds{30});
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds{400});  // the last jobs end
+  (*node)->stop();
+  runner.join();
+
+  const NodeCounters c = (*node)->counters();
+  EXPECT_EQ(c.rejected[static_cast<std::size_t>(Reject::DataSize)],
+            static_cast<std::uint64_t>(bad_size));
+  EXPECT_EQ(c.rejected[static_cast<std::size_t>(Reject::UnknownEncoding)],
+            static_cast<std::uint64_t>(bad_encoding));
+  EXPECT_GT(c.frames, 0U);
+  EXPECT_LE(c.frames, static_cast<std::uint64_t>(kGood)) << "no bad frame was accepted";
+  EXPECT_EQ(c.released, c.frames);
+  std::lock_guard lock(backend.mu);
+  EXPECT_EQ(backend.frames.size(), c.released) << "the backend saw the released frames only";
+  EXPECT_EQ(backend.arrived_eager, 0) << "frames reach the backend as LazyFrames";
+  EXPECT_EQ(backend.arrived_converted, 0) << "released before being converted";
+  EXPECT_GT(backend.encoded, 0);
+  EXPECT_EQ(backend.torn, 0) << "an encoder read a frame that was not whole";
+  EXPECT_EQ(report.frame_release_us.size(), c.released);
+  const Node::Timings t = (*node)->timings();
+  EXPECT_EQ(t.released_intake_us.size(), c.released);
+}
+
+}  // namespace
+}  // namespace red::dds
