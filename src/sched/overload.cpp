@@ -58,28 +58,59 @@ Duration Scheduler::Impl::work_left(Job& j, TimePoint now, std::size_t k) {
   return w;
 }
 
-int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule) {
+Duration Scheduler::Impl::padded(Duration d, int margin) {
+  return margin == 0 ? d : d * (100 + margin) / 100;
+}
+
+int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, int margin,
+                                   std::size_t from, bool skip_doomed) {
   const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
-  if (lane_count > 1 && schedule) return first_overrun_lanes(now, k);
+  if (lane_count > 1 && schedule) return first_overrun_lanes(now, k, margin, from, skip_doomed);
+  // Admission on one lane counts the unit running there first, whatever its job's deadline
+  // (it is not preempted): that blocking made jobs with little slack hopeless at once.
+  const bool blocking = skip_doomed && lane_count == 1;
   Duration due{0};
+  if (blocking)
+    for (const Lane& l : lanes) {
+      if (!l.busy) continue;
+      for (const Member& mb : l.d.members) {
+        const Job& j = job(mb.slot);
+        if (!j.live || j.id != mb.job) continue;
+        const auto u = static_cast<std::size_t>(mb.unit);
+        due += residual(j, u, now, k) / std::max(1, j.u[u].share);
+      }
+    }
   for (std::size_t i = 0; i < by_deadline.size(); ++i) {
     Job& j = job(by_deadline[i]);
+    if (skip_doomed && doomed(j, now, k)) continue;
     const Duration w = work_left(j, now, k);
     due += w;
+    if (blocking)
+      for (int r : j.running_units) {
+        const auto u = static_cast<std::size_t>(r);
+        due -= residual(j, u, now, k) / std::max(1, j.u[u].share);
+      }
+    if (i < from) continue;
     if (lane_count == 1) {
-      if (now + due > j.deadline) return static_cast<int>(i);
+      if (now + padded(due, margin) > j.deadline) return static_cast<int>(i);
       continue;
     }
-    if (now + due / lane_count > j.deadline) return static_cast<int>(i);
+    if (now + padded(due, margin) / lane_count > j.deadline) return static_cast<int>(i);
     // The job's critical path is at most its own work: only a job whose work alone does not
     // fit needs the longer walk.
-    if (now + w > j.deadline && now + critical_path(j, now, k) > j.deadline)
+    if (now + padded(w, margin) > j.deadline &&
+        now + padded(critical_path(j, now, k), margin) > j.deadline)
       return static_cast<int>(i);
   }
   return -1;
 }
 
-int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k) {
+bool Scheduler::Impl::doomed(Job& j, TimePoint now, std::size_t k) {
+  return now + critical_path(j, now, k) > j.deadline;
+}
+
+int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k, int margin, std::size_t from,
+                                         bool skip_doomed) {
   lane_free.assign(lanes.size(), now);
   gap_begin.assign(lanes.size(), now);
   gap_end.assign(lanes.size(), now);
@@ -89,11 +120,13 @@ int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k) {
       const Job& j = job(mb.slot);
       if (!j.live || j.id != mb.job) continue;
       lane_free[l] =
-          std::max(lane_free[l], now + residual(j, static_cast<std::size_t>(mb.unit), now, k));
+          std::max(lane_free[l],
+                   now + padded(residual(j, static_cast<std::size_t>(mb.unit), now, k), margin));
     }
   }
   for (std::size_t i = 0; i < by_deadline.size(); ++i) {
     Job& j = job(by_deadline[i]);
+    if (skip_doomed && doomed(j, now, k)) continue;
     const RefinedGraph& g = *j.g;
     unit_end.assign(g.units.size(), now);
     TimePoint end = now;
@@ -101,14 +134,14 @@ int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k) {
       const UnitRt& ur = j.u[u];
       if (ur.state == UState::Done || ur.state == UState::Cancelled) continue;
       if (ur.state == UState::Running) {
-        unit_end[u] = now + residual(j, u, now, k);
+        unit_end[u] = now + padded(residual(j, u, now, k), margin);
         end = std::max(end, unit_end[u]);
         continue;
       }
       TimePoint ready_at = now;
       for (int p : g.units[u].preds)
         ready_at = std::max(ready_at, unit_end[static_cast<std::size_t>(p)]);
-      Duration c = g.units[u].costs[k];
+      Duration c = padded(g.units[u].costs[k], margin);
       if (ur.state == UState::Queued && ur.task >= 0)  // a merged encoder run is shared
         c /= static_cast<std::int64_t>(std::max<std::size_t>(1, task(ur.task).members.size()));
       // An idle gap left on a lane by a unit that waited for its predecessors takes the
@@ -144,7 +177,7 @@ int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k) {
       lane_free[best] = unit_end[u];
       end = std::max(end, unit_end[u]);
     }
-    if (end > j.deadline) return static_cast<int>(i);
+    if (i >= from && end > j.deadline) return static_cast<int>(i);
   }
   return -1;
 }
@@ -172,13 +205,22 @@ void Scheduler::Impl::admit(TimePoint now) {
   // it would reject jobs that the policy's intermediate deadlines fit in; the lower bound
   // decides there. Past capacity the list schedule keeps what the lanes cannot finish out.
   const bool schedule = past_capacity();
+  // The margin keeps room for overruns where the lanes are full (below capacity the idle
+  // time absorbs them).
+  const int margin = schedule ? opt.admit_margin : 0;
+  // Moore and Hodgson over the jobs by deadline: at each window that overruns, the victim
+  // goes and the test starts again; a window with nothing to shed is passed over. A job that
+  // cannot make it even alone (on the estimate, from now) counts for nothing: the hopeless
+  // check ends it, and its work would make every later window overrun.
+  std::size_t from = 0;
   for (;;) {
-    const int over = first_overrun(now, k, schedule);
+    const int over = first_overrun(now, k, schedule, margin, from, true);
     if (over < 0) return;
-    // One job alone overrunning its deadline on the estimate: rejecting it frees the lanes
-    // for nobody now, and the estimate may be pessimistic (a profile taken under load); the
-    // hopeless check decides on its progress instead.
-    if (over == 0) return;
+    from = static_cast<std::size_t>(over) + 1;
+    // The first job alone overrunning its deadline on the estimate: rejecting it frees the
+    // lanes for nobody now, and the estimate may be pessimistic (a profile taken under
+    // load); the hopeless check decides on its progress instead.
+    if (over == 0) continue;
     int victim = -1;
     Duration victim_work{0};
     int victim_crit = 0;
@@ -186,7 +228,7 @@ void Scheduler::Impl::admit(TimePoint now) {
       const int slot = by_deadline[static_cast<std::size_t>(i)];
       Job& j = job(slot);
       refresh(j);
-      if (j.started) continue;
+      if (j.started || doomed(j, now, k)) continue;
       const int crit = ops[static_cast<std::size_t>(j.op)].criticality;
       const Duration w = work_left(j, now, k);
       const bool better = victim < 0 || crit < victim_crit ||
@@ -198,7 +240,8 @@ void Scheduler::Impl::admit(TimePoint now) {
         victim_crit = crit;
       }
     }
-    if (victim < 0) return;  // only started jobs are due by then: hopeless checks decide
+    if (victim < 0) continue;  // only started jobs are due by then: hopeless checks decide
+    from = 0;
     job(victim).reason = "rejected at release";
     ++s.stats_.rejected;
     end_job(victim, JobOutcome::Dropped, now);

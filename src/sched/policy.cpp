@@ -1,6 +1,9 @@
 #include "red/sched/policy.hpp"
 
 #include <array>
+#include <charconv>
+#include <string>
+#include <system_error>
 #include <utility>
 
 namespace red {
@@ -112,6 +115,15 @@ std::string set_option(PolicyOptions& o, std::string_view key, std::string_view 
     return choose(o.admission, key, value,
                   std::array<std::pair<const char*, Admission>, 2>{
                       {{"none", Admission::None}, {"shed", Admission::Shed}}});
+  if (key == "admit_margin") {
+    int v = -1;
+    const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), v);
+    if (ec != std::errc{} || end != value.data() + value.size() || v < 0 || v > 100)
+      return "option 'admit_margin': '" + std::string(value) +
+             "' is not a whole percent from 0 to 100";
+    o.admit_margin = v;
+    return {};
+  }
   if (key == "rank")
     return choose(
         o.rank, key, value,
@@ -141,9 +153,9 @@ std::string apply_options(PolicyOptions& o, std::string_view list) {
 }
 
 const std::vector<std::string>& option_keys() {
-  static const std::vector<std::string> v{"graph",     "deadlines", "reassign", "merge",
-                                          "batching",  "sync",      "drop",     "drop_estimate",
-                                          "admission", "rank"};
+  static const std::vector<std::string> v{"graph",     "deadlines",    "reassign", "merge",
+                                          "batching",  "sync",         "drop",     "drop_estimate",
+                                          "admission", "admit_margin", "rank"};
   return v;
 }
 
@@ -153,7 +165,8 @@ std::string describe(const PolicyOptions& o) {
          ",reassign=" + yn(o.reassign) + ",merge=" + yn(o.merge) + ",batching=" + yn(o.batching) +
          ",sync=" + to_string(o.sync) + ",drop=" + to_string(o.drop) +
          ",drop_estimate=" + estimate_name(o.drop_estimate) +
-         ",admission=" + to_string(o.admission) + ",rank=" + to_string(o.rank);
+         ",admission=" + to_string(o.admission) +
+         ",admit_margin=" + std::to_string(o.admit_margin) + ",rank=" + to_string(o.rank);
 }
 
 std::optional<PolicyOptions> preset_options(std::string_view name) {
@@ -192,6 +205,7 @@ std::optional<PolicyOptions> preset_options(std::string_view name) {
       o.drop = DropMode::Hopeless;
       o.drop_estimate = EstimateKind::Mean;
       o.admission = Admission::Shed;
+      o.admit_margin = 5;  // the least of 0, 5, 10, 20 % with the most points near the bound
       o.rank = RankMode::Overload;
     }
   } else {

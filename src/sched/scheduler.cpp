@@ -431,12 +431,14 @@ int Scheduler::Impl::alloc_task() {
 
 void Scheduler::Impl::push_ready(int t) {
   task(t).ready_pos = static_cast<int>(ready.size());
+  ready_encoders += task(t).kind == UnitKind::Encoder ? 1 : 0;
   ready.push_back(t);
 }
 
 void Scheduler::Impl::pop_ready(int t) {
   Task& k = task(t);
   if (k.ready_pos < 0) return;
+  ready_encoders -= k.kind == UnitKind::Encoder ? 1 : 0;
   const int last = ready.back();
   ready[static_cast<std::size_t>(k.ready_pos)] = last;
   task(last).ready_pos = k.ready_pos;
@@ -982,12 +984,18 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   for (const Lane& l : m.lanes) idle += l.busy ? 0 : 1;
   if (idle > 0 && !m.ready.empty()) {
     ++stats_.decisions;
-    m.overloaded = (m.opt.rank == RankMode::Overload || m.mixed_criticality) &&
-                   m.first_overrun(now, idx(config_.estimate), false) >= 0;
     // §5 max_inflight: an operation at its limit skips its next release, so finishing its
     // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
-    m.demand_overrun = m.overloaded;
-    if (m.opt.rank == RankMode::Overload && !m.overloaded) m.overloaded = m.saturated();
+    const bool robust = m.opt.rank == RankMode::Overload;
+    const bool saturated = robust && m.saturated();
+    // The demand test (a walk over every job in flight) decides nothing that a saturated
+    // operation has not decided already, unless criticalities differ or a ready encoder on
+    // several lanes is ranked by it (no encoder becomes ready within a round): skipped then.
+    const bool test =
+        (robust || m.mixed_criticality) &&
+        (!saturated || m.mixed_criticality || (config_.lanes > 1 && m.ready_encoders > 0));
+    m.demand_overrun = test && m.first_overrun(now, idx(config_.estimate), false, 0, 0, false) >= 0;
+    m.overloaded = m.demand_overrun || saturated;
     // §15 "finish what was started": once overloaded, the jobs in flight then are finished
     // by job deadline; ranking them back by intermediate deadlines between two overloaded
     // rounds would start newer jobs' early levels ahead of them again.

@@ -165,6 +165,7 @@ struct Scheduler::Impl {
   std::vector<Task> tasks;
   std::vector<int> free_tasks;
   std::vector<int> ready;
+  int ready_encoders = 0;                  // encoder tasks in `ready`
   std::vector<std::vector<int>> open_enc;  // per sensor: queued encoder tasks
   std::vector<Lane> lanes;
   std::vector<Dispatch*> out;
@@ -281,12 +282,25 @@ struct Scheduler::Impl {
   // lanes' parallelism. `schedule` then list-schedules the remaining units (admission, at
   // releases); without it (the per-round overload check) the bound is the larger of the
   // job's own critical path and the work due spread over every lane, a lower bound.
-  int first_overrun(TimePoint now, std::size_t k, bool schedule);
+  // `margin` (percent) pads every estimate (admission's margin, §15); 0 in the per-round
+  // overload test.
+  // Admission passes `from` (the first position that may be returned; earlier jobs still
+  // count) and `skip_doomed` (jobs that cannot make it alone count for nothing).
+  int first_overrun(TimePoint now, std::size_t k, bool schedule, int margin, std::size_t from,
+                    bool skip_doomed);
+
+  // A job that cannot finish by its deadline even alone: its critical path under estimate
+  // kind k ends after it.
+  bool doomed(Job& j, TimePoint now, std::size_t k);
+
+  // d padded by `margin` percent (d itself for 0).
+  static Duration padded(Duration d, int margin);
 
   // The demand test on several lanes: jobs by deadline, each remaining unit at its earliest
   // start (its predecessors' end, a lane's end) on the lane that leaves the smallest gap (or in an
   // idle gap it fits).
-  int first_overrun_lanes(TimePoint now, std::size_t k);
+  int first_overrun_lanes(TimePoint now, std::size_t k, int margin, std::size_t from,
+                          bool skip_doomed);
 
   // True when an operation that still releases jobs is at its max_inflight (§5).
   bool saturated() const;

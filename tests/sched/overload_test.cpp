@@ -2,6 +2,7 @@
 // against edf and red, the wasted lane time, the accounting of every release, and
 // criticality under combined overload.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include "../support/load_grid.hpp"
 #include "red/scenario/builder.hpp"
 #include "red/scenario/loader.hpp"
+#include "red/sched/policy.hpp"
 #include "red/sim/run.hpp"
 
 namespace red {
@@ -300,6 +302,68 @@ TEST(Overload, APessimisticProfileDoesNotMakeRedRobustRejectLoneJobs) {
   EXPECT_EQ(robust->metrics.missed, 0);
   EXPECT_EQ(robust->metrics.drop_reasons.count("rejected at release"), 0u);
   EXPECT_EQ(robust->metrics.completed, red->metrics.completed);
+}
+
+// Admission's margin (§15), worked out by hand: one lane, fixed costs, A and B (C ms each,
+// deadline 2.1 C) released together. On the bare estimates both fit (2 C of work by 2.1 C).
+// With C = 200 ms the offered load (0.4 s of work in the last 0.25 s) is past the lane's
+// capacity and the margin applies: at 10 % the work due is 2.2 C, so B (equal work and
+// criticality: the later of the two) is rejected at release and A runs alone from 0 to C;
+// at 5 % (2.1 C) both still fit. With C = 10 ms the lane is below capacity and no margin
+// applies: both run, back to back.
+TEST(Overload, AdmissionMarginAppliesPastCapacity) {
+  for (const int cost : {200, 10}) {
+    auto s =
+        parse_scenario(fmt::format(R"(
+name: margin
+duration_s: {}
+device: {{lanes: 1, sync_cost_us: 0}}
+operations:
+  - name: A
+    release: {{count: 1}}
+    deadline_ms: {}
+    nodes:
+      X: {{cost_ms: {}}}
+  - name: B
+    release: {{count: 1}}
+    deadline_ms: {}
+    nodes:
+      Y: {{cost_ms: {}}}
+)",
+                                   cost * 2.5 / 1000, cost * 21 / 10, cost, cost * 21 / 10, cost),
+                       "margin.yaml");
+    ASSERT_TRUE(s.has_value()) << s.error().to_string();
+    for (const int margin : {0, 5, 10}) {
+      Scenario sm = *s;
+      sm.scheduler.policy_with = "admit_margin=" + std::to_string(margin);
+      auto r = simulate_policy(sm, default_profile(), "red-robust", 1, {}, true);
+      ASSERT_TRUE(r.has_value());
+      ASSERT_EQ(r->jobs.size(), 2u);
+      for (const JobRow& j : r->jobs) {
+        const bool a = sm.operation_name(j.operation) == "A";
+        if (a || margin < 10 || cost == 10) {
+          EXPECT_EQ(j.outcome, JobOutcome::Met) << cost << " ms, margin " << margin;
+          EXPECT_EQ(to_ms(j.finish - j.release), a ? cost : 2 * cost) << margin;
+        } else {
+          EXPECT_EQ(j.outcome, JobOutcome::Dropped) << cost << " ms, margin " << margin;
+          EXPECT_EQ(j.reason, "rejected at release");
+        }
+      }
+    }
+  }
+}
+
+TEST(Overload, AdmissionMarginIsAWholePercent) {
+  PolicyOptions o = *preset_options("red-robust");
+  EXPECT_EQ(apply_options(o, "admit_margin=15"), "");
+  EXPECT_EQ(o.admit_margin, 15);
+  for (const char* bad : {"admit_margin=101", "admit_margin=-1", "admit_margin=5%",
+                          "admit_margin=1.5", "admit_margin=x"}) {
+    const std::string err = apply_options(o, bad);
+    EXPECT_NE(err.find("admit_margin"), std::string::npos) << bad;
+    EXPECT_EQ(o.admit_margin, 15) << bad;  // a bad value changes nothing
+  }
+  EXPECT_NE(describe(o).find("admit_margin=15"), std::string::npos);
 }
 
 }  // namespace

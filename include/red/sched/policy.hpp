@@ -64,6 +64,9 @@ struct PolicyOptions {
   /// keeps the jobs that can still make it (§15).
   EstimateKind drop_estimate = EstimateKind::Mean;
   Admission admission = Admission::None;
+  /// Admission's margin (§15), in percent of the estimates it plans with: admitting work up
+  /// to exactly the lanes' capacity on mean costs lets every overrun cost a job.
+  int admit_margin = 0;
   RankMode rank = RankMode::Policy;
 
   bool operator==(const PolicyOptions&) const = default;
