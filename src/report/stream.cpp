@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -179,13 +180,15 @@ std::optional<std::vector<std::string>> fields(const std::string& line) {
 // each row; a row's Error stops the reading.
 template <typename Row>
 Expected<std::vector<std::pair<std::string, std::vector<Row>>>> read_rows(
-    const std::string& path, const std::string& header, std::size_t columns,
+    const std::string& path, const char* what, const std::string& header, std::size_t columns,
     const std::function<std::optional<Error>(const std::vector<std::string>&, int, Row&)>& parse) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Error{path, 0, "cannot open for reading"};
   std::string line;
   if (!std::getline(in, line) || line + "\n" != header)
-    return Error{path, 1, "not the expected header"};
+    return Error{path, 1,
+                 fmt::format("not a {} (header '{}' expected)", what,
+                             std::string_view(header).substr(0, header.size() - 1))};
   std::vector<std::pair<std::string, std::vector<Row>>> out;
   for (int n = 2; std::getline(in, line); ++n) {
     if (line.empty()) continue;
@@ -214,7 +217,7 @@ TimePoint at_ms(const std::string& v) {
 Expected<std::vector<std::pair<std::string, std::vector<JobRow>>>> read_job_rows(
     const std::string& path, const Scenario& s) {
   return read_rows<JobRow>(
-      path, jobs_csv_header(), 11,
+      path, "jobs.csv", jobs_csv_header(), 11,
       [&](const std::vector<std::string>& f, int n, JobRow& r) -> std::optional<Error> {
         r.operation = -1;
         for (int i = 0; i < s.operation_count(); ++i)
@@ -242,7 +245,7 @@ Expected<std::vector<std::pair<std::string, std::vector<JobRow>>>> read_job_rows
 Expected<std::vector<std::pair<std::string, std::vector<UnitRow>>>> read_unit_rows(
     const std::string& path, const Scenario& s) {
   return read_rows<UnitRow>(
-      path, units_csv_header(), 13,
+      path, "units.csv", units_csv_header(), 13,
       [&](const std::vector<std::string>& f, int n, UnitRow& r) -> std::optional<Error> {
         r.dispatch = std::stoull(f[1]);
         r.lane = std::stoi(f[2]);

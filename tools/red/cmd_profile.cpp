@@ -21,6 +21,7 @@
 #include "real_run.hpp"
 #include "red/profile/calibrate.hpp"
 #include "red/profile/profile.hpp"
+#include "red/report/stream.hpp"
 #include "red/torch/profiler.hpp"
 #endif
 
@@ -183,87 +184,18 @@ void print_table(const Profile& p, const std::vector<std::string>& heads) {
   fmt::print("profiled in {:.1f} s\n", p.profile_wall_s);
 }
 
-/// One RFC 4180 CSV line as fields (quoted fields may hold commas and doubled quotes).
-std::vector<std::string> csv_fields(const std::string& line) {
-  std::vector<std::string> f(1);
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        f.back() += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        f.back() += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      f.emplace_back();
-    } else if (c != '\r') {
-      f.back() += c;
-    }
-  }
-  return f;
-}
-
 /// The units of the real runs written to DIR/units.csv (`red compare --backend torch
 /// --out DIR`, `red run --out DIR`), one CalibrationRun per policy.
 Expected<std::vector<CalibrationRun> > read_units_csv(const std::string& dir, const Scenario& s) {
-  const std::string path = dir + "/units.csv";
-  std::ifstream in(path);
-  if (!in) return Error{path, 0, "cannot open (give the --out directory of a real run)"};
-  std::string line;
-  const std::string header =
-      "policy,dispatch,lane,decided_ms,start_ms,end_ms,kind,head,batch,members,round_trip,"
-      "status,jobs";
-  if (!std::getline(in, line) || line.rfind(header, 0) != 0)
-    return Error{path, 1, "not a units.csv (header '" + header + "' expected)"};
-  std::vector<CalibrationRun> runs;
-  int n = 1;
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.empty()) continue;
-    const std::vector<std::string> f = csv_fields(line);
-    if (f.size() != 13) return Error{path, n, fmt::format("{} fields, 13 expected", f.size())};
-    UnitRow r;
-    try {
-      r.lane = std::stoi(f[2]);
-      r.decided = TimePoint{from_ms(std::stod(f[3]))};
-      r.start = TimePoint{from_ms(std::stod(f[4]))};
-      r.end = TimePoint{from_ms(std::stod(f[5]))};
-      r.batch = std::stoi(f[8]);
-      r.members = std::stoi(f[9]);
-    } catch (const std::exception&) {
-      return Error{path, n, "a number is malformed"};
-    }
-    const std::string& kind = f[6];
-    if (kind == "encoder")
-      r.kind = UnitKind::Encoder;
-    else if (kind == "head")
-      r.kind = UnitKind::Head;
-    else if (kind == "coarse")
-      r.kind = UnitKind::Coarse;
-    else if (kind == "mono")
-      r.kind = UnitKind::Mono;
-    else if (kind == "plain")
-      r.kind = UnitKind::Plain;
-    else
-      return Error{path, n, "unknown unit kind '" + kind + "'"};
-    r.head = -1;
-    for (std::size_t h = 0; h < s.model.heads.size(); ++h)
-      if (s.model.heads[h] == f[7]) r.head = static_cast<int>(h);
-    if (!f[7].empty() && r.head < 0)
-      return Error{path, n, "head '" + f[7] + "' is not in the scenario's model"};
-    r.round_trip = f[10] == "1";
-    r.status = f[11] == "completed" ? UnitStatus::Completed : UnitStatus::Failed;
-    r.jobs = f[12];
-    if (runs.empty() || runs.back().policy != f[0])
-      runs.push_back(CalibrationRun{f[0], {}, {}, false});
-    runs.back().units.push_back(std::move(r));
+  auto rows = read_unit_rows(dir + "/units.csv", s);
+  if (!rows) {
+    Error e = rows.error();
+    if (e.line == 0) e.message += " (give the --out directory of a real run)";
+    return e;
   }
+  std::vector<CalibrationRun> runs;
+  for (auto& [policy, units] : *rows)
+    runs.push_back(CalibrationRun{policy, std::move(units), {}, false});
   return runs;
 }
 
