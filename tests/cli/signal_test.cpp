@@ -181,6 +181,9 @@ TEST_F(Signals, RunStopsOnSigintWithJobsUnfinished) {
   start({"run", data("signal.yaml"), "--backend", "synthetic", "--policy", "edf", "--no-realtime",
          "--out", out_dir()});
   ASSERT_TRUE(wait_for_stderr("measuring")) << err();
+  // Let the backlog build (a second frame, then queued units): a SIGINT within the first
+  // frame period found only the first job, whose last unit was already running and ended.
+  std::this_thread::sleep_for(std::chrono::milliseconds{200});
   EXPECT_EQ(stop_with(SIGINT), 130) << err();
   EXPECT_NE(err().find("stopped by SIGINT"), std::string::npos) << err();
   const json p = check_outputs();
