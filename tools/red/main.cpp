@@ -5,9 +5,11 @@
 #include <string>
 
 #include "commands.hpp"
+#include "real_run.hpp"
 #include "red/version.hpp"
 
 int main(int argc, char** argv) {
+  red::cli::use_one_malloc_arena();
   CLI::App app{"RED: real-time scheduling of multi-task DNN inference for robots"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "red " + std::string(red::kVersion));

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <optional>
 #include <thread>
@@ -46,6 +48,14 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
 #endif
   }
   return Error{"", 0, "unknown backend '" + o.backend + "' (known: torch, synthetic)"};
+}
+
+void use_one_malloc_arena() noexcept {
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (std::getenv("MALLOC_ARENA_MAX") != nullptr ||
+      (tunables != nullptr && std::strstr(tunables, "arena_max") != nullptr))
+    return;
+  (void)mallopt(M_ARENA_MAX, 1);
 }
 
 namespace {

@@ -50,4 +50,13 @@ std::string samples_csv(const std::vector<std::string>& policies,
 /// Prints what a real run measured besides the job metrics.
 void print_runtime_report(const std::string& policy, const RuntimeReport& r);
 
+/// One glibc malloc arena for the whole process (`mallopt(M_ARENA_MAX, 1)`), unless the
+/// environment sets the arena count itself (MALLOC_ARENA_MAX, or GLIBC_TUNABLES naming
+/// arena_max). Called first thing in main, before any thread allocates. With LibTorch,
+/// the handler threads' and intra-op workers' allocations otherwise land in several
+/// arenas whose partly used pages malloc_trim cannot give back: a `red compare` then kept
+/// 20-40 % more after its later policies than after the first (docs/BENCHMARKS.md,
+/// "Memory of a real run"); with one arena each policy's memory goes back to the same level.
+void use_one_malloc_arena() noexcept;
+
 }  // namespace red::cli

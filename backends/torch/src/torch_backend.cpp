@@ -100,16 +100,25 @@ class TorchBackend final : public Backend {
     impl->exchangeStream(*lane_stream_);
   }
 
-  // One pass of every head (the encoder with it) on a batch of one and on the largest
-  // batch, before the run: LibTorch's thread pools, its kernels' pages and the heap's high
-  // water mark are then in place.
+  // Before the run, every shape the run can use, once: the shared encoder on a batch of
+  // each size from one to the largest (merged encoder runs cat frames into one batch) and
+  // every head on that encoder's output (batched heads), or each full network in separate
+  // mode. LibTorch's thread pools, its kernels' pages, the allocator's blocks for each
+  // size and the heap's high-water mark are then in place, so that the run's first batch of
+  // a new size is not slower than the next, and memory reached in one policy's run is
+  // already reached before the first (a compare's policies then start level).
   void warm_up(int /*lane*/) noexcept override {
     try {
       c10::InferenceMode guard;
-      for (int batch : {1, std::max(1, scenario_.scheduler.max_batch)}) {
+      const int largest = std::max(1, scenario_.scheduler.max_batch);
+      for (int batch = 1; batch <= largest; ++batch) {
         const at::Tensor input = model_->make_input(batch, scenario_.seed);
-        for (int h : head_map_) model_->full(h, input);
-        if (scenario_.scheduler.max_batch <= 1) break;
+        if (model_->separate()) {
+          for (int h : head_map_) model_->full(h, input);
+          continue;
+        }
+        const Features f = model_->encode(input);
+        for (int h : head_map_) model_->head(h, f);
       }
       if (lane_stream_)
         c10::impl::getDeviceGuardImpl(lane_stream_->device_type())
