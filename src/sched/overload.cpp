@@ -36,13 +36,6 @@ Duration Scheduler::Impl::critical_path(Job& j, TimePoint now, std::size_t k) {
   return cp;
 }
 
-Duration Scheduler::Impl::residual(const Job& j, std::size_t unit, TimePoint now,
-                                   std::size_t k) const {
-  const Duration c = j.g->units[unit].costs[k];
-  const TimePoint start = j.u[unit].start;
-  return now > start ? std::max(Duration{0}, c - (now - start)) : c;
-}
-
 Duration Scheduler::Impl::work_left(Job& j, TimePoint now, std::size_t k) {
   refresh(j);
   Duration w = j.work_base[k];
@@ -56,10 +49,6 @@ Duration Scheduler::Impl::work_left(Job& j, TimePoint now, std::size_t k) {
     w += residual(j, ui, now, k) / std::max(1, j.u[ui].share);
   }
   return w;
-}
-
-Duration Scheduler::Impl::padded(Duration d, int margin) {
-  return margin == 0 ? d : d * (100 + margin) / 100;
 }
 
 int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, int margin,

@@ -296,8 +296,7 @@ void Scheduler::Impl::free_job(int slot) {
   free_jobs.push_back(slot);
 }
 
-void Scheduler::Impl::refresh(Job& j) {
-  if (!j.dirty) return;
+void Scheduler::Impl::rebuild(Job& j) {
   j.dirty = false;
   const RefinedGraph& g = *j.g;
   const auto levels = static_cast<std::size_t>(g.levels);
@@ -362,15 +361,7 @@ void Scheduler::Impl::shares(const Job& j, const std::vector<Duration>& lvl,
   }
 }
 
-TimePoint Scheduler::Impl::from_share(const Job& j, double frac, TimePoint now) {
-  const Duration budget = j.deadline - now;
-  if (budget <= Duration{0} || frac == 1.0) return j.deadline;
-  return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
-}
-
-void Scheduler::Impl::eval(Job& j, TimePoint now) {
-  refresh(j);
-  if (j.stamp == stamp) return;
+void Scheduler::Impl::eval_now(Job& j, TimePoint now) {
   j.stamp = stamp;
   const RefinedGraph& g = *j.g;
   const bool sum = s.config_.level_cost == LevelCost::Sum;
@@ -523,13 +514,30 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   v.job_deadline = kNever;
   v.cost = k.cost;
   Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
+  // §4 re-assignment (red, red-ida): one look at the job's cache gives both its height's
+  // deadline and its remaining work (height_deadline and remaining_work, inlined).
+  const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
+                                       opt.deadlines == DeadlineMode::Equal);
   for (auto [slot, unit] : k.members) {
     Job& j = job(slot);
     const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
-    v.deadline = std::min(v.deadline, height_deadline(j, ru.height, now));
+    if (shared) {
+      refresh(j);
+      const auto h = static_cast<std::size_t>(ru.height);
+      if (j.running_units.empty()) {
+        v.deadline = std::min(v.deadline, from_share(j, j.frac[h], now));
+        v.remaining = std::max(v.remaining, j.remaining_base);
+      } else {
+        eval(j, now);
+        v.deadline = std::min(v.deadline, from_share(j, j.frac_now[h], now));
+        v.remaining = std::max(v.remaining, j.remaining);
+      }
+    } else {
+      v.deadline = std::min(v.deadline, height_deadline(j, ru.height, now));
+      v.remaining = std::max(v.remaining, remaining_work(j, now));
+    }
     v.release = std::min(v.release, j.release);
     v.job_deadline = std::min(v.job_deadline, j.deadline);
-    v.remaining = std::max(v.remaining, remaining_work(j, now));
     v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
     const Key mk{0, j.release, j.op, j.seq, ru.node, unit};
     if (mk < best) best = mk;
@@ -771,6 +779,10 @@ bool Scheduler::Impl::pick(TimePoint now) {
         const TimePoint until = predicted_member(k, now);
         if (until != kNever && slack_covers(k, now, until)) {
           k.wait_until = until;
+          if (!k.in_waits) {
+            k.in_waits = true;
+            waits.push_back(best);
+          }
           min_wait = std::min(min_wait, until);
           ++s.stats_.merge_waits;
           for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);
@@ -1009,13 +1021,21 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed
   // after every round from the waits that end after now, so a wait that is over (its member
   // came, or every lane is busy) never becomes a wake-up in the past.
+  // Only tasks that began a wait can be waiting: m.waits lists them (a wait ends for good
+  // once it is over or the task left the ready set).
   int waiting = 0;
   m.min_wait = kNever;
-  for (int t : m.ready) {
-    const TimePoint until = m.task(t).wait_until;
-    if (until <= now) continue;
+  for (std::size_t i = 0; i < m.waits.size();) {
+    Task& k = m.task(m.waits[i]);
+    if (!k.live || k.ready_pos < 0 || k.wait_until <= now) {
+      k.in_waits = false;
+      m.waits[i] = m.waits.back();
+      m.waits.pop_back();
+      continue;
+    }
     ++waiting;
-    m.min_wait = std::min(m.min_wait, until);
+    m.min_wait = std::min(m.min_wait, k.wait_until);
+    ++i;
   }
   for (Observer* ob : m.observers)
     ob->on_decision(now, static_cast<int>(m.ready.size()), idle, waiting);
