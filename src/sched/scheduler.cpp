@@ -94,6 +94,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   for (const EventSpec& e : sc.events)
     for (const auto& [i, op] : e.changes) see(op);
   mixed_criticality = lo < hi;
+  uniform_criticality = lo <= hi ? lo : 0;
 }
 
 void Scheduler::Impl::notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event) {
@@ -415,6 +416,7 @@ int Scheduler::Impl::alloc_task() {
   Task& k = task(t);
   k.live = true;
   k.members.clear();
+  k.member_at.clear();
   k.wait_until = TimePoint{0};
   k.ready_pos = -1;
   return t;
@@ -454,7 +456,15 @@ void Scheduler::Impl::free_task(int t) {
 void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   Task& k = task(t);
   auto& m = k.members;
-  m.erase(std::remove(m.begin(), m.end(), std::pair<int, int>{slot, unit}), m.end());
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < m.size(); ++i) {
+    if (m[i] == std::pair<int, int>{slot, unit}) continue;
+    m[kept] = m[i];
+    k.member_at[kept] = k.member_at[i];
+    ++kept;
+  }
+  m.resize(kept);
+  k.member_at.resize(kept);
   if (m.empty()) {
     free_task(t);
     return;
@@ -480,6 +490,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
           k.gamma && j.samples_newest && j.release - k.min_release <= s.config_.gamma;
       if (!same && !gamma) continue;
       k.members.emplace_back(slot, unit);
+      k.member_at.emplace_back(ru.height, ru.node);
       if (gamma && frame > k.frame) {
         k.frame = frame;
         k.frame_time = j.frame_time[si];
@@ -498,6 +509,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   k.frame = ru.sensor >= 0 ? j.frame[static_cast<std::size_t>(ru.sensor)] : 0;
   k.frame_time = ru.sensor >= 0 ? j.frame_time[static_cast<std::size_t>(ru.sensor)] : j.release;
   k.members.emplace_back(slot, unit);
+  k.member_at.emplace_back(ru.height, ru.node);
   k.min_release = j.release;
   k.cost = ru.estimate;
   u.task = t;
@@ -518,12 +530,13 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   // deadline and its remaining work (height_deadline and remaining_work, inlined).
   const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
                                        opt.deadlines == DeadlineMode::Equal);
-  for (auto [slot, unit] : k.members) {
+  for (std::size_t i = 0; i < k.members.size(); ++i) {
+    const auto [slot, unit] = k.members[i];
+    const auto [height, node] = k.member_at[i];
     Job& j = job(slot);
-    const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
     if (shared) {
       refresh(j);
-      const auto h = static_cast<std::size_t>(ru.height);
+      const auto h = static_cast<std::size_t>(height);
       if (j.running_units.empty()) {
         v.deadline = std::min(v.deadline, from_share(j, j.frac[h], now));
         v.remaining = std::max(v.remaining, j.remaining_base);
@@ -533,15 +546,19 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
         v.remaining = std::max(v.remaining, j.remaining);
       }
     } else {
-      v.deadline = std::min(v.deadline, height_deadline(j, ru.height, now));
+      v.deadline = std::min(v.deadline, height_deadline(j, height, now));
       v.remaining = std::max(v.remaining, remaining_work(j, now));
     }
     v.release = std::min(v.release, j.release);
     v.job_deadline = std::min(v.job_deadline, j.deadline);
-    v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
-    const Key mk{0, j.release, j.op, j.seq, ru.node, unit};
+    if (mixed_criticality)
+      v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
+    const Key mk{0, j.release, j.op, j.seq, node, unit};
     if (mk < best) best = mk;
   }
+  // Equal criticalities everywhere (every version of every operation): no look at them.
+  if (!mixed_criticality && !k.members.empty())
+    v.criticality = std::max(v.criticality, uniform_criticality);
   v.overloaded = overloaded;
   // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
   // policy ranks by the job's end-to-end deadline; the task's own deadline stays what

@@ -86,6 +86,9 @@ struct Task {
   std::uint64_t frame = 0;
   TimePoint frame_time{0};
   std::vector<std::pair<int, int>> members;  // (job slot, unit)
+  // Per member, beside `members`: its unit's (height, node), read by ranking at every
+  // decision without a look into the job's graph.
+  std::vector<std::pair<int, int>> member_at;
   TimePoint min_release{0};
   TimePoint wait_until{0};
   bool in_waits = false;  // listed in Impl::waits (it began a merge wait)
@@ -189,6 +192,7 @@ struct Scheduler::Impl {
   bool demand_overrun = false;  // this round's demand test found more work than the lanes do
   TimePoint overload_hold{0};   // red-robust ranks by job deadline until then (§15)
   bool mixed_criticality = false;
+  int uniform_criticality = 0;       // every operation's, when not mixed
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
   std::vector<TimePoint> unit_end;
   std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
