@@ -94,6 +94,33 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
   return -1;
 }
 
+bool Scheduler::Impl::demand_overruns(TimePoint now, std::size_t k) {
+  // first_overrun returns the first job i with now + due_i / lanes > d_i (due_i the work
+  // left of jobs 0..i), or with its own work and critical path past d_i. Only whether one
+  // exists matters here. With due bracketed by prefix sums of work_base (at most the work
+  // left) and work_most (at least it), and the critical path at most the job's own work:
+  // a lower prefix past some deadline is an overrun; upper prefixes and upper own work
+  // within every deadline are none. Otherwise the exact walk decides.
+  const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
+  Duration least{0}, most{0};
+  bool surely = false, maybe = false;
+  for (const int slot : by_deadline) {
+    Job& j = job(slot);
+    refresh(j);
+    least += j.work_base[k];
+    most += j.work_most[k];
+    if (now + least / lane_count > j.deadline) {
+      surely = true;
+      break;
+    }
+    maybe = maybe || now + most / lane_count > j.deadline ||
+            (lane_count > 1 && now + j.work_most[k] > j.deadline);
+  }
+  if (surely) return true;
+  if (!maybe) return false;
+  return first_overrun(now, k, false, 0, 0, false) >= 0;
+}
+
 bool Scheduler::Impl::doomed(Job& j, TimePoint now, std::size_t k) {
   return now + critical_path(j, now, k) > j.deadline;
 }

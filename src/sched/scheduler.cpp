@@ -307,6 +307,7 @@ void Scheduler::Impl::rebuild(Job& j) {
   j.running_units.clear();
   j.enc_queued.clear();
   j.work_base.fill(Duration{0});
+  j.work_most.fill(Duration{0});
   j.cp_base.fill(Duration{0});
   j.started = false;
   for (std::size_t i = 0; i < g.units.size(); ++i) {
@@ -318,6 +319,8 @@ void Scheduler::Impl::rebuild(Job& j) {
     j.has_base[h] = 1;
     if (u.state == UState::Running) {
       j.running_units.push_back(static_cast<int>(i));
+      for (std::size_t k = 0; k < kEstimates; ++k)
+        j.work_most[k] += ru.costs[k] / std::max(1, u.share);
       continue;
     }
     const Duration c = ru.estimate;
@@ -325,8 +328,16 @@ void Scheduler::Impl::rebuild(Job& j) {
     for (std::size_t k = 0; k < kEstimates; ++k) j.cp_base[k] = std::max(j.cp_base[k], ru.tail[k]);
     if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
       j.enc_queued.push_back(static_cast<int>(i));
+      // Shared by the task's members now; more may join (less each), and a member that
+      // leaves marks the others dirty (remove_member).
+      const auto members =
+          static_cast<std::int64_t>(std::max<std::size_t>(1, task(u.task).members.size()));
+      for (std::size_t k = 0; k < kEstimates; ++k) j.work_most[k] += ru.costs[k] / members;
     } else {
-      for (std::size_t k = 0; k < kEstimates; ++k) j.work_base[k] += ru.costs[k];
+      for (std::size_t k = 0; k < kEstimates; ++k) {
+        j.work_base[k] += ru.costs[k];
+        j.work_most[k] += ru.costs[k];
+      }
     }
   }
   j.remaining_base = Duration{0};
@@ -465,6 +476,9 @@ void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   }
   m.resize(kept);
   k.member_at.resize(kept);
+  // The others' share of a queued encoder run grew: their bounds on the work left go stale.
+  if (k.kind == UnitKind::Encoder)
+    for (auto [js, ju] : m) job(js).dirty = true;
   if (m.empty()) {
     free_task(t);
     return;
@@ -1023,7 +1037,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
     const bool test =
         (robust || m.mixed_criticality) &&
         (!saturated || m.mixed_criticality || (config_.lanes > 1 && m.ready_encoders > 0));
-    m.demand_overrun = test && m.first_overrun(now, idx(config_.estimate), false, 0, 0, false) >= 0;
+    m.demand_overrun = test && m.demand_overruns(now, idx(config_.estimate));
     m.overloaded = m.demand_overrun || saturated;
     // §15 "finish what was started": once overloaded, the jobs in flight then are finished
     // by job deadline; ranking them back by intermediate deadlines between two overloaded

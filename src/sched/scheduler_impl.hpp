@@ -64,6 +64,9 @@ struct Job {
   // encoder's cost is shared by the members of its task, read when asked); and the level
   // costs under the drop estimate, for hopeless checks.
   std::array<Duration, kEstimates> work_base{};
+  // At most work_left at any time while not dirty (every unit not done at its full cost, a
+  // running one's shared among its dispatch); work_base is at least it.
+  std::array<Duration, kEstimates> work_most{};
   std::vector<int> enc_queued;
   std::array<Duration, kEstimates> cp_base{};  // longest tail among units not started
   std::vector<UnitRt> u;
@@ -310,6 +313,11 @@ struct Scheduler::Impl {
   // count) and `skip_doomed` (jobs that cannot make it alone count for nothing).
   int first_overrun(TimePoint now, std::size_t k, bool schedule, int margin, std::size_t from,
                     bool skip_doomed);
+
+  // first_overrun(now, k, false, 0, 0, false) >= 0, the per-round overload test (§15),
+  // decided where it can be from bounds kept per job (work_base and work_most bracket
+  // work_left), walking the jobs' units only where the bounds do not tell.
+  bool demand_overruns(TimePoint now, std::size_t k);
 
   // A job that cannot finish by its deadline even alone: its critical path under estimate
   // kind k ends after it.
