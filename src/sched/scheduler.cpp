@@ -753,7 +753,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
       if (task(t).wait_until > now) continue;
       TaskView v;
       const Key k = key(t, now, v);
-      scanned.push_back({k, v.deadline, t, v.criticality});
+      scanned.push_back({k, v.deadline, t, v.criticality, task(t).kind, task(t).head});
       overload = overload || now + v.remaining > v.job_deadline;
       top = std::max(top, v.criticality);
     }
@@ -768,11 +768,13 @@ bool Scheduler::Impl::pick(TimePoint now) {
     const Scan* best_scan = nullptr;
     TimePoint best_deadline{};
     bool rescan = false;
+    // Every scanned task was past its merge wait; only a wait begun below changes that.
+    bool began_wait = false;
     for (;;) {
       best = -1;
       best_scan = nullptr;
       for (const Scan& e : scanned) {
-        if (task(e.task).wait_until > now) continue;  // began a merge wait this round
+        if (began_wait && task(e.task).wait_until > now) continue;  // began a wait this round
         if (best_scan == nullptr || before(e, *best_scan)) {
           best_scan = &e;
           best = e.task;
@@ -810,6 +812,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
         const TimePoint until = predicted_member(k, now);
         if (until != kNever && slack_covers(k, now, until)) {
           k.wait_until = until;
+          began_wait = true;
           if (!k.in_waits) {
             k.in_waits = true;
             waits.push_back(best);
@@ -832,8 +835,9 @@ bool Scheduler::Impl::pick(TimePoint now) {
       cand.clear();
       for (const Scan& e : scanned) {
         if (limit <= 1) break;
-        const Task& o = task(e.task);
-        if (e.task == best || o.kind != k.kind || o.head != k.head || o.wait_until > now) continue;
+        if (e.task == best || e.kind != k.kind || e.head != k.head ||
+            (began_wait && task(e.task).wait_until > now))
+          continue;
         Key byd = e.key;
         byd.rank = e.deadline.count();  // a batch takes its members by deadline
         cand.emplace_back(byd, e.task);

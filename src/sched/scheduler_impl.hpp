@@ -206,6 +206,8 @@ struct Scheduler::Impl {
     TimePoint deadline;
     int task;
     int criticality;
+    UnitKind kind;  // the task's, for batching without another look at it
+    int head;
   };
   std::vector<Scan> scanned;
   std::vector<int> batch;
