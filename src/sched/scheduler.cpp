@@ -173,7 +173,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   // §3: a job computes on frames its sensors produced. Before a sensor's first frame there
   // is nothing to read, so this tick or trigger frame releases no job.
   if (!inputs_ready(*o.g, trigger_sensor)) return;
-  if (o.remaining > 0) --o.remaining;
+  if (o.remaining > 0 && --o.remaining == 0) rates_changed = true;
   const std::uint64_t seq = o.released++;
   ++s.stats_.releases;
   const RefinedGraph& g = *o.g;
@@ -192,6 +192,14 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     notify_job(tmp, JobOutcome::Skipped, now, false);
     return;
   }
+  // §15: past capacity, the jobs of an operation that cheaper ones outrank are rejected
+  // before they cost anything (plan_rates).
+  const bool reject =
+      opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality && [&] {
+        if (rates_changed) plan_rates();
+        return outranked[static_cast<std::size_t>(op_index)] != 0 && past_capacity() &&
+               ahead_shed(op_index, now);
+      }();
   const int slot = alloc_job();
   Job& j = job(slot);
   j.id = next_job_id++;
@@ -256,6 +264,13 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   for (std::size_t i = 0; i < g.units.size(); ++i)
     if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
   if (opt.admission == Admission::Shed) note_offered(j, now);
+  if (reject) {
+    j.reason = "rejected at release";
+    ++s.stats_.rejected;
+    rejecting_by_rate = true;
+    end_job(slot, JobOutcome::Dropped, now);
+    rejecting_by_rate = false;
+  }
 }
 
 void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
@@ -264,6 +279,8 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   j.ended = true;
   --s.in_flight_;
   --ops[static_cast<std::size_t>(j.op)].inflight;
+  if (outcome == JobOutcome::Dropped && !rejecting_by_rate)
+    ops[static_cast<std::size_t>(j.op)].last_shed = now;
   const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
                                    [this](int a, int b) { return earlier(a, b); });
   if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);
@@ -888,6 +905,7 @@ void Scheduler::apply_events(TimePoint now) {
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
+    m.rates_changed = true;
     for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
     ++m.next_event;
   }

@@ -116,6 +116,7 @@ struct OpState {
   int last_slot = -1;
   JobId last_job = 0;
   std::vector<int> sensors_read;  // sensors of its inference nodes
+  TimePoint last_shed = kNever;   // its last job shed for want of lane time (§15), kNever: none
 };
 
 struct SensorState {
@@ -348,6 +349,21 @@ struct Scheduler::Impl {
 
   // True when the offered load exceeds what the lanes can do (§15 detect from demand).
   bool past_capacity() const;
+
+  // §15 "shed early", by rate (the work bound's rule, cheapest jobs first; opt.shed_by_rate):
+  // periodic operations without sensors ordered by the lane time one job needs; one whose
+  // cheaper ones alone ask for every lane at their rates is `outranked`, and while past
+  // capacity, with equal criticalities, and while one of those cheaper operations sheds
+  // jobs itself (ahead_shed), its jobs are rejected at release. Recomputed when rates or
+  // graphs change (rates_changed).
+  void plan_rates();
+  bool rates_changed = true;
+  bool rejecting_by_rate = false;  // a drop now is plan_rates' rejection, not for lane time
+  // True when an operation ahead of `op` in plan_rates' order shed a job within the last
+  // kOfferedWindow (rejected, hopeless or past its deadline; not by this rule).
+  bool ahead_shed(int op, TimePoint now) const;
+  std::vector<std::uint8_t> outranked;               // per operation
+  std::vector<std::pair<Duration, int>> rate_order;  // (a job's cost, operation), cheapest first
 
   // Adds a released job's work to the offered load (§15 detect overload from demand).
   void note_offered(Job& j, TimePoint now);
