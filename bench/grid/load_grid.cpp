@@ -4,14 +4,17 @@
 /// scenarios, each swept over rate_scale; beside each policy's on-time fraction, the work
 /// bound and the wasted lane time. Prints the table; with --markdown FILE it rewrites the
 /// section between `<!-- load-grid:begin -->` and `<!-- load-grid:end -->` of FILE and
-/// draws docs/plots/load-grid.svg with gnuplot (when present).
+/// draws docs/plots/load-grid.svg with gnuplot (when present); --points F writes every
+/// point's on-time fractions, bound and waste to F (tab-separated), for diffs and lists.
 ///
-///     red_load_grid [--seeds N] [--duration S] [--markdown docs/BENCHMARKS.md]
+///     red_load_grid [--seeds N] [--duration S] [--markdown docs/BENCHMARKS.md] [--points F]
 ///     red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES LOAD [--with K=V,…]
 ///
 /// --point prints one grid point's diagnostics instead: per policy the on-time fraction,
 /// drops by reason and wasted lane time, and the jobs edf or red met that red-robust did
-/// not (with what became of them); --with sets red-robust's options (ablations).
+/// not (with what became of them); --with sets red-robust's options (ablations); --yaml
+/// prints the point's scenario at load 1 instead (run it with `red compare FILE --set
+/// rate_scale=LOAD`).
 
 #include <fmt/format.h>
 
@@ -57,6 +60,7 @@ struct Summary {
   // points that miss a §15 target: below edf, below red − 0.005, below 0.9 × the bound past
   // capacity (of `overloaded` points), over 10 % wasted at 1.5×
   int below_edf = 0, below_red = 0, below_bound = 0, overloaded = 0, over_waste_15 = 0;
+  std::ostream* points_out = nullptr;  // --points: one line per point
 };
 
 void add_point(Summary& sum, const std::string& family, const std::string& label, double load,
@@ -95,6 +99,12 @@ void add_point(Summary& sum, const std::string& family, const std::string& label
   if (load == 1.5) {
     sum.wasted_15 = std::max(sum.wasted_15, pts.at("red-robust").wasted);
     ++sum.wasted_15_n;
+  }
+  if (sum.points_out != nullptr) {
+    *sum.points_out << fmt::format("{}\t{:.1f}", label, load);
+    for (const std::string& p : kPolicies)
+      *sum.points_out << fmt::format("\t{:.4f}", pts.at(p).on_time);
+    *sum.points_out << fmt::format("\t{:.4f}\t{:.4f}\n", bound, pts.at("red-robust").wasted);
   }
 }
 
@@ -262,6 +272,8 @@ int main(int argc, char** argv) {
   double duration = 4.0;
   std::string markdown;
   std::string with;
+  bool yaml = false;        // --point: print the point's scenario instead
+  std::string points_file;  // every point's on-time fractions, bound and waste (TSV)
   std::optional<std::pair<red::grid::SetSpec, double>> point;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -280,6 +292,10 @@ int main(int argc, char** argv) {
       markdown = next();
     } else if (a == "--with") {
       with = next();
+    } else if (a == "--points") {
+      points_file = next();
+    } else if (a == "--yaml") {
+      yaml = true;
     } else if (a == "--point") {
       red::grid::SetSpec spec;
       const std::string nodes = next(), shape = next();
@@ -301,9 +317,10 @@ int main(int argc, char** argv) {
       }
       point = std::pair{spec, load};
     } else {
-      std::cerr << "usage: red_load_grid [--seeds N] [--duration S] [--markdown FILE]\n"
+      std::cerr << "usage: red_load_grid [--seeds N] [--duration S] [--markdown FILE] "
+                   "[--points FILE]\n"
                    "       red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES "
-                   "LOAD [--duration S] [--with K=V,...]\n";
+                   "LOAD [--duration S] [--with K=V,...] [--yaml]\n";
       return 2;
     }
   }
@@ -322,11 +339,28 @@ int main(int argc, char** argv) {
       std::cerr << "red_load_grid: --with: " << err << "\n";
       return 2;
     }
+    if (yaml) {
+      // The set at load 1; `red compare FILE --set rate_scale=LOAD` runs the point.
+      std::cout << red::grid::set_yaml(point->first, red::default_profile());
+      return 0;
+    }
     return diagnose(point->first, point->second, with);
   }
   const auto t0 = std::chrono::steady_clock::now();
   const red::Profile profile = red::default_profile();
   Summary sum;
+  std::ofstream points_out;
+  if (!points_file.empty()) {
+    points_out.open(points_file);
+    if (!points_out) {
+      std::cerr << "red_load_grid: cannot write " << points_file << "\n";
+      return 1;
+    }
+    points_out << "point\tload";
+    for (const std::string& p : kPolicies) points_out << "\t" << p;
+    points_out << "\tbound\twaste\n";
+    sum.points_out = &points_out;
+  }
   for (const red::grid::SetSpec& spec : red::grid::grid_sets(seeds, duration)) {
     const std::string family = fmt::format("{}, {} lane{}", red::grid::to_string(spec.nodes),
                                            spec.lanes, spec.lanes > 1 ? "s" : "");

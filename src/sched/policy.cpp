@@ -124,6 +124,7 @@ std::string set_option(PolicyOptions& o, std::string_view key, std::string_view 
     o.admit_margin = v;
     return {};
   }
+  if (key == "shed_rate") return choose(o.shed_by_rate, key, value, kBool);
   if (key == "rank")
     return choose(
         o.rank, key, value,
@@ -155,7 +156,7 @@ std::string apply_options(PolicyOptions& o, std::string_view list) {
 const std::vector<std::string>& option_keys() {
   static const std::vector<std::string> v{"graph",     "deadlines",    "reassign", "merge",
                                           "batching",  "sync",         "drop",     "drop_estimate",
-                                          "admission", "admit_margin", "rank"};
+                                          "admission", "admit_margin", "rank",     "shed_rate"};
   return v;
 }
 
@@ -166,7 +167,8 @@ std::string describe(const PolicyOptions& o) {
          ",sync=" + to_string(o.sync) + ",drop=" + to_string(o.drop) +
          ",drop_estimate=" + estimate_name(o.drop_estimate) +
          ",admission=" + to_string(o.admission) +
-         ",admit_margin=" + std::to_string(o.admit_margin) + ",rank=" + to_string(o.rank);
+         ",admit_margin=" + std::to_string(o.admit_margin) + ",rank=" + to_string(o.rank) +
+         ",shed_rate=" + yn(o.shed_by_rate);
 }
 
 std::optional<PolicyOptions> preset_options(std::string_view name) {
@@ -207,6 +209,7 @@ std::optional<PolicyOptions> preset_options(std::string_view name) {
       o.admission = Admission::Shed;
       o.admit_margin = 5;  // the least of 0, 5, 10, 20 % with the most points near the bound
       o.rank = RankMode::Overload;
+      o.shed_by_rate = true;
     }
   } else {
     return std::nullopt;

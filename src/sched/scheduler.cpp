@@ -94,6 +94,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   for (const EventSpec& e : sc.events)
     for (const auto& [i, op] : e.changes) see(op);
   mixed_criticality = lo < hi;
+  uniform_criticality = lo <= hi ? lo : 0;
 }
 
 void Scheduler::Impl::notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event) {
@@ -172,7 +173,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   // §3: a job computes on frames its sensors produced. Before a sensor's first frame there
   // is nothing to read, so this tick or trigger frame releases no job.
   if (!inputs_ready(*o.g, trigger_sensor)) return;
-  if (o.remaining > 0) --o.remaining;
+  if (o.remaining > 0 && --o.remaining == 0) rates_changed = true;
   const std::uint64_t seq = o.released++;
   ++s.stats_.releases;
   const RefinedGraph& g = *o.g;
@@ -191,6 +192,14 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     notify_job(tmp, JobOutcome::Skipped, now, false);
     return;
   }
+  // §15: past capacity, the jobs of an operation that cheaper ones outrank are rejected
+  // before they cost anything (plan_rates).
+  const bool reject =
+      opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality && [&] {
+        if (rates_changed) plan_rates();
+        return outranked[static_cast<std::size_t>(op_index)] != 0 && past_capacity() &&
+               ahead_shed(op_index, now);
+      }();
   const int slot = alloc_job();
   Job& j = job(slot);
   j.id = next_job_id++;
@@ -255,6 +264,13 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   for (std::size_t i = 0; i < g.units.size(); ++i)
     if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
   if (opt.admission == Admission::Shed) note_offered(j, now);
+  if (reject) {
+    j.reason = "rejected at release";
+    ++s.stats_.rejected;
+    rejecting_by_rate = true;
+    end_job(slot, JobOutcome::Dropped, now);
+    rejecting_by_rate = false;
+  }
 }
 
 void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
@@ -263,6 +279,8 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   j.ended = true;
   --s.in_flight_;
   --ops[static_cast<std::size_t>(j.op)].inflight;
+  if (outcome == JobOutcome::Dropped && !rejecting_by_rate)
+    ops[static_cast<std::size_t>(j.op)].last_shed = now;
   const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
                                    [this](int a, int b) { return earlier(a, b); });
   if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);
@@ -296,8 +314,7 @@ void Scheduler::Impl::free_job(int slot) {
   free_jobs.push_back(slot);
 }
 
-void Scheduler::Impl::refresh(Job& j) {
-  if (!j.dirty) return;
+void Scheduler::Impl::rebuild(Job& j) {
   j.dirty = false;
   const RefinedGraph& g = *j.g;
   const auto levels = static_cast<std::size_t>(g.levels);
@@ -307,6 +324,7 @@ void Scheduler::Impl::refresh(Job& j) {
   j.running_units.clear();
   j.enc_queued.clear();
   j.work_base.fill(Duration{0});
+  j.work_most.fill(Duration{0});
   j.cp_base.fill(Duration{0});
   j.started = false;
   for (std::size_t i = 0; i < g.units.size(); ++i) {
@@ -318,6 +336,8 @@ void Scheduler::Impl::refresh(Job& j) {
     j.has_base[h] = 1;
     if (u.state == UState::Running) {
       j.running_units.push_back(static_cast<int>(i));
+      for (std::size_t k = 0; k < kEstimates; ++k)
+        j.work_most[k] += ru.costs[k] / std::max(1, u.share);
       continue;
     }
     const Duration c = ru.estimate;
@@ -325,8 +345,16 @@ void Scheduler::Impl::refresh(Job& j) {
     for (std::size_t k = 0; k < kEstimates; ++k) j.cp_base[k] = std::max(j.cp_base[k], ru.tail[k]);
     if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
       j.enc_queued.push_back(static_cast<int>(i));
+      // Shared by the task's members now; more may join (less each), and a member that
+      // leaves marks the others dirty (remove_member).
+      const auto members =
+          static_cast<std::int64_t>(std::max<std::size_t>(1, task(u.task).members.size()));
+      for (std::size_t k = 0; k < kEstimates; ++k) j.work_most[k] += ru.costs[k] / members;
     } else {
-      for (std::size_t k = 0; k < kEstimates; ++k) j.work_base[k] += ru.costs[k];
+      for (std::size_t k = 0; k < kEstimates; ++k) {
+        j.work_base[k] += ru.costs[k];
+        j.work_most[k] += ru.costs[k];
+      }
     }
   }
   j.remaining_base = Duration{0};
@@ -362,15 +390,7 @@ void Scheduler::Impl::shares(const Job& j, const std::vector<Duration>& lvl,
   }
 }
 
-TimePoint Scheduler::Impl::from_share(const Job& j, double frac, TimePoint now) {
-  const Duration budget = j.deadline - now;
-  if (budget <= Duration{0} || frac == 1.0) return j.deadline;
-  return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
-}
-
-void Scheduler::Impl::eval(Job& j, TimePoint now) {
-  refresh(j);
-  if (j.stamp == stamp) return;
+void Scheduler::Impl::eval_now(Job& j, TimePoint now) {
   j.stamp = stamp;
   const RefinedGraph& g = *j.g;
   const bool sum = s.config_.level_cost == LevelCost::Sum;
@@ -424,6 +444,7 @@ int Scheduler::Impl::alloc_task() {
   Task& k = task(t);
   k.live = true;
   k.members.clear();
+  k.member_at.clear();
   k.wait_until = TimePoint{0};
   k.ready_pos = -1;
   return t;
@@ -463,7 +484,18 @@ void Scheduler::Impl::free_task(int t) {
 void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   Task& k = task(t);
   auto& m = k.members;
-  m.erase(std::remove(m.begin(), m.end(), std::pair<int, int>{slot, unit}), m.end());
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < m.size(); ++i) {
+    if (m[i] == std::pair<int, int>{slot, unit}) continue;
+    m[kept] = m[i];
+    k.member_at[kept] = k.member_at[i];
+    ++kept;
+  }
+  m.resize(kept);
+  k.member_at.resize(kept);
+  // The others' share of a queued encoder run grew: their bounds on the work left go stale.
+  if (k.kind == UnitKind::Encoder)
+    for (auto [js, ju] : m) job(js).dirty = true;
   if (m.empty()) {
     free_task(t);
     return;
@@ -489,6 +521,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
           k.gamma && j.samples_newest && j.release - k.min_release <= s.config_.gamma;
       if (!same && !gamma) continue;
       k.members.emplace_back(slot, unit);
+      k.member_at.emplace_back(ru.height, ru.node);
       if (gamma && frame > k.frame) {
         k.frame = frame;
         k.frame_time = j.frame_time[si];
@@ -507,6 +540,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   k.frame = ru.sensor >= 0 ? j.frame[static_cast<std::size_t>(ru.sensor)] : 0;
   k.frame_time = ru.sensor >= 0 ? j.frame_time[static_cast<std::size_t>(ru.sensor)] : j.release;
   k.members.emplace_back(slot, unit);
+  k.member_at.emplace_back(ru.height, ru.node);
   k.min_release = j.release;
   k.cost = ru.estimate;
   u.task = t;
@@ -523,17 +557,39 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   v.job_deadline = kNever;
   v.cost = k.cost;
   Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
-  for (auto [slot, unit] : k.members) {
+  // §4 re-assignment (red, red-ida): one look at the job's cache gives both its height's
+  // deadline and its remaining work (height_deadline and remaining_work, inlined).
+  const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
+                                       opt.deadlines == DeadlineMode::Equal);
+  for (std::size_t i = 0; i < k.members.size(); ++i) {
+    const auto [slot, unit] = k.members[i];
+    const auto [height, node] = k.member_at[i];
     Job& j = job(slot);
-    const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
-    v.deadline = std::min(v.deadline, height_deadline(j, ru.height, now));
+    if (shared) {
+      refresh(j);
+      const auto h = static_cast<std::size_t>(height);
+      if (j.running_units.empty()) {
+        v.deadline = std::min(v.deadline, from_share(j, j.frac[h], now));
+        v.remaining = std::max(v.remaining, j.remaining_base);
+      } else {
+        eval(j, now);
+        v.deadline = std::min(v.deadline, from_share(j, j.frac_now[h], now));
+        v.remaining = std::max(v.remaining, j.remaining);
+      }
+    } else {
+      v.deadline = std::min(v.deadline, height_deadline(j, height, now));
+      v.remaining = std::max(v.remaining, remaining_work(j, now));
+    }
     v.release = std::min(v.release, j.release);
     v.job_deadline = std::min(v.job_deadline, j.deadline);
-    v.remaining = std::max(v.remaining, remaining_work(j, now));
-    v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
-    const Key mk{0, j.release, j.op, j.seq, ru.node, unit};
+    if (mixed_criticality)
+      v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
+    const Key mk{0, j.release, j.op, j.seq, node, unit};
     if (mk < best) best = mk;
   }
+  // Equal criticalities everywhere (every version of every operation): no look at them.
+  if (!mixed_criticality && !k.members.empty())
+    v.criticality = std::max(v.criticality, uniform_criticality);
   v.overloaded = overloaded;
   // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
   // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
@@ -714,7 +770,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
       if (task(t).wait_until > now) continue;
       TaskView v;
       const Key k = key(t, now, v);
-      scanned.push_back({k, v.deadline, t, v.criticality});
+      scanned.push_back({k, v.deadline, t, v.criticality, task(t).kind, task(t).head});
       overload = overload || now + v.remaining > v.job_deadline;
       top = std::max(top, v.criticality);
     }
@@ -729,11 +785,13 @@ bool Scheduler::Impl::pick(TimePoint now) {
     const Scan* best_scan = nullptr;
     TimePoint best_deadline{};
     bool rescan = false;
+    // Every scanned task was past its merge wait; only a wait begun below changes that.
+    bool began_wait = false;
     for (;;) {
       best = -1;
       best_scan = nullptr;
       for (const Scan& e : scanned) {
-        if (task(e.task).wait_until > now) continue;  // began a merge wait this round
+        if (began_wait && task(e.task).wait_until > now) continue;  // began a wait this round
         if (best_scan == nullptr || before(e, *best_scan)) {
           best_scan = &e;
           best = e.task;
@@ -771,6 +829,11 @@ bool Scheduler::Impl::pick(TimePoint now) {
         const TimePoint until = predicted_member(k, now);
         if (until != kNever && slack_covers(k, now, until)) {
           k.wait_until = until;
+          began_wait = true;
+          if (!k.in_waits) {
+            k.in_waits = true;
+            waits.push_back(best);
+          }
           min_wait = std::min(min_wait, until);
           ++s.stats_.merge_waits;
           for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);
@@ -789,8 +852,9 @@ bool Scheduler::Impl::pick(TimePoint now) {
       cand.clear();
       for (const Scan& e : scanned) {
         if (limit <= 1) break;
-        const Task& o = task(e.task);
-        if (e.task == best || o.kind != k.kind || o.head != k.head || o.wait_until > now) continue;
+        if (e.task == best || e.kind != k.kind || e.head != k.head ||
+            (began_wait && task(e.task).wait_until > now))
+          continue;
         Key byd = e.key;
         byd.rank = e.deadline.count();  // a batch takes its members by deadline
         cand.emplace_back(byd, e.task);
@@ -841,6 +905,7 @@ void Scheduler::apply_events(TimePoint now) {
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
+    m.rates_changed = true;
     for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
     ++m.next_event;
   }
@@ -994,7 +1059,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
     const bool test =
         (robust || m.mixed_criticality) &&
         (!saturated || m.mixed_criticality || (config_.lanes > 1 && m.ready_encoders > 0));
-    m.demand_overrun = test && m.first_overrun(now, idx(config_.estimate), false, 0, 0, false) >= 0;
+    m.demand_overrun = test && m.demand_overruns(now, idx(config_.estimate));
     m.overloaded = m.demand_overrun || saturated;
     // §15 "finish what was started": once overloaded, the jobs in flight then are finished
     // by job deadline; ranking them back by intermediate deadlines between two overloaded
@@ -1009,13 +1074,21 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed
   // after every round from the waits that end after now, so a wait that is over (its member
   // came, or every lane is busy) never becomes a wake-up in the past.
+  // Only tasks that began a wait can be waiting: m.waits lists them (a wait ends for good
+  // once it is over or the task left the ready set).
   int waiting = 0;
   m.min_wait = kNever;
-  for (int t : m.ready) {
-    const TimePoint until = m.task(t).wait_until;
-    if (until <= now) continue;
+  for (std::size_t i = 0; i < m.waits.size();) {
+    Task& k = m.task(m.waits[i]);
+    if (!k.live || k.ready_pos < 0 || k.wait_until <= now) {
+      k.in_waits = false;
+      m.waits[i] = m.waits.back();
+      m.waits.pop_back();
+      continue;
+    }
     ++waiting;
-    m.min_wait = std::min(m.min_wait, until);
+    m.min_wait = std::min(m.min_wait, k.wait_until);
+    ++i;
   }
   for (Observer* ob : m.observers)
     ob->on_decision(now, static_cast<int>(m.ready.size()), idle, waiting);

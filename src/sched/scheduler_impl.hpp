@@ -36,16 +36,39 @@ inline std::size_t idx(EstimateKind k) {
 }
 
 struct Job {
+  // What ranking and the demand test read at every decision comes first (one cache line).
   JobId id = 0;
   bool live = false;   // slot in use (until its running units have returned)
   bool ended = false;  // outcome decided
+  bool counted = true;
+  bool samples_newest = false;
+  // §4 re-assignment cache. The base (costs of units not started, per height) changes
+  // only when a unit starts or ends (dirty); running units are adjusted at each decision.
+  bool dirty = true;
+  bool started = false;  // a unit of it has started
   int op = -1;
   std::uint64_t seq = 0;
   const RefinedGraph* g = nullptr;
   TimePoint release{0};
   TimePoint deadline{0};
-  bool counted = true;
-  bool samples_newest = false;
+  std::uint64_t stamp = 0;     // decision stamp the values below are valid for
+  Duration remaining_base{0};  // Σ lvl_base
+  Duration remaining{0};       // Σ remaining level costs (critical-path estimate)
+  std::vector<int> running_units;
+  std::vector<double> frac;  // budget shares per height, valid while no unit runs
+  std::vector<double> frac_now;
+  std::vector<Duration> lvl_base;
+  std::vector<std::uint8_t> has_base;
+  std::vector<Duration> lvl;  // level costs with the running units' remaining costs
+  // §15 demand: work of units not started, by estimate kind, encoders aside (a queued
+  // encoder's cost is shared by the members of its task, read when asked); and the level
+  // costs under the drop estimate, for hopeless checks.
+  std::array<Duration, kEstimates> work_base{};
+  // At most work_left at any time while not dirty (every unit not done at its full cost, a
+  // running one's shared among its dispatch); work_base is at least it.
+  std::array<Duration, kEstimates> work_most{};
+  std::vector<int> enc_queued;
+  std::array<Duration, kEstimates> cp_base{};  // longest tail among units not started
   std::vector<UnitRt> u;
   int unfinished = 0;
   int running = 0;
@@ -55,25 +78,6 @@ struct Job {
   std::vector<int> dependents;        // slots of jobs waiting for this one (depends_on)
   std::vector<JobId> dependent_ids;
   std::string reason;
-  // §4 re-assignment cache. The base (costs of units not started, per height) changes
-  // only when a unit starts or ends (dirty); running units are adjusted at each decision.
-  bool dirty = true;
-  std::vector<Duration> lvl_base;
-  std::vector<std::uint8_t> has_base;
-  std::vector<int> running_units;
-  Duration remaining_base{0};  // Σ lvl_base
-  std::vector<double> frac;    // budget shares per height, valid while no unit runs
-  std::uint64_t stamp = 0;     // decision stamp the values below are valid for
-  std::vector<Duration> lvl;   // level costs with the running units' remaining costs
-  std::vector<double> frac_now;
-  Duration remaining{0};  // Σ remaining level costs (critical-path estimate)
-  // §15 demand: work of units not started, by estimate kind, encoders aside (a queued
-  // encoder's cost is shared by the members of its task, read when asked); and the level
-  // costs under the drop estimate, for hopeless checks.
-  std::array<Duration, kEstimates> work_base{};
-  std::vector<int> enc_queued;
-  std::array<Duration, kEstimates> cp_base{};  // longest tail among units not started
-  bool started = false;                        // a unit of it has started
 };
 
 struct Task {
@@ -85,8 +89,12 @@ struct Task {
   std::uint64_t frame = 0;
   TimePoint frame_time{0};
   std::vector<std::pair<int, int>> members;  // (job slot, unit)
+  // Per member, beside `members`: its unit's (height, node), read by ranking at every
+  // decision without a look into the job's graph.
+  std::vector<std::pair<int, int>> member_at;
   TimePoint min_release{0};
   TimePoint wait_until{0};
+  bool in_waits = false;  // listed in Impl::waits (it began a merge wait)
   int ready_pos = -1;
   Duration cost{0};
 };
@@ -108,6 +116,7 @@ struct OpState {
   int last_slot = -1;
   JobId last_job = 0;
   std::vector<int> sensors_read;  // sensors of its inference nodes
+  TimePoint last_shed = kNever;   // its last job shed for want of lane time (§15), kNever: none
 };
 
 struct SensorState {
@@ -165,7 +174,8 @@ struct Scheduler::Impl {
   std::vector<Task> tasks;
   std::vector<int> free_tasks;
   std::vector<int> ready;
-  int ready_encoders = 0;                  // encoder tasks in `ready`
+  std::vector<int> waits;  // tasks that began a merge wait (a superset of those still waiting)
+  int ready_encoders = 0;  // encoder tasks in `ready`
   std::vector<std::vector<int>> open_enc;  // per sensor: queued encoder tasks
   std::vector<Lane> lanes;
   std::vector<Dispatch*> out;
@@ -186,6 +196,7 @@ struct Scheduler::Impl {
   bool demand_overrun = false;  // this round's demand test found more work than the lanes do
   TimePoint overload_hold{0};   // red-robust ranks by job deadline until then (§15)
   bool mixed_criticality = false;
+  int uniform_criticality = 0;       // every operation's, when not mixed
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
   std::vector<TimePoint> unit_end;
   std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
@@ -196,6 +207,8 @@ struct Scheduler::Impl {
     TimePoint deadline;
     int task;
     int criticality;
+    UnitKind kind;  // the task's, for batching without another look at it
+    int head;
   };
   std::vector<Scan> scanned;
   std::vector<int> batch;
@@ -235,7 +248,10 @@ struct Scheduler::Impl {
   // Rebuilds what changes only when one of the job's units starts or ends: the costs of
   // its units not yet started, per height, and — when none is running — the shares of the
   // re-assigned budget (§4), which are then the same at every decision.
-  void refresh(Job& j);
+  void refresh(Job& j) {
+    if (j.dirty) rebuild(j);
+  }
+  void rebuild(Job& j);
 
   // §4 re-assignment: the budget left, B = deadline − now, is spread over the heights that
   // still have work in proportion to their remaining level costs (or per-node overrides);
@@ -244,11 +260,19 @@ struct Scheduler::Impl {
   void shares(const Job& j, const std::vector<Duration>& lvl, const std::vector<std::uint8_t>& has,
               std::vector<double>& frac) const;
 
-  static TimePoint from_share(const Job& j, double frac, TimePoint now);
+  static TimePoint from_share(const Job& j, double frac, TimePoint now) {
+    const Duration budget = j.deadline - now;
+    if (budget <= Duration{0} || frac == 1.0) return j.deadline;
+    return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
+  }
 
   // A job with running units: their remaining cost is c(x) − elapsed, at least 0 (§4), so
   // level costs, the remaining work and the shares depend on now. Cached per decision.
-  void eval(Job& j, TimePoint now);
+  void eval(Job& j, TimePoint now) {
+    refresh(j);
+    if (j.stamp != stamp) eval_now(j, now);
+  }
+  void eval_now(Job& j, TimePoint now);
 
   // Absolute intermediate deadline of height h of a job at `now` (§4, §7).
   TimePoint height_deadline(Job& j, int h, TimePoint now);
@@ -267,7 +291,11 @@ struct Scheduler::Impl {
   Duration critical_path(Job& j, TimePoint now, std::size_t k);
 
   // Remaining cost of a running unit under estimate kind k (§4: c(x) − elapsed, at least 0).
-  Duration residual(const Job& j, std::size_t unit, TimePoint now, std::size_t k) const;
+  static Duration residual(const Job& j, std::size_t unit, TimePoint now, std::size_t k) {
+    const Duration c = j.g->units[unit].costs[k];
+    const TimePoint start = j.u[unit].start;
+    return now > start ? std::max(Duration{0}, c - (now - start)) : c;
+  }
 
   // §15 demand: the lane time a job still needs under estimate kind k. A queued encoder run
   // is shared by the members of its task and a running unit by the members of its dispatch,
@@ -289,12 +317,19 @@ struct Scheduler::Impl {
   int first_overrun(TimePoint now, std::size_t k, bool schedule, int margin, std::size_t from,
                     bool skip_doomed);
 
+  // first_overrun(now, k, false, 0, 0, false) >= 0, the per-round overload test (§15),
+  // decided where it can be from bounds kept per job (work_base and work_most bracket
+  // work_left), walking the jobs' units only where the bounds do not tell.
+  bool demand_overruns(TimePoint now, std::size_t k);
+
   // A job that cannot finish by its deadline even alone: its critical path under estimate
   // kind k ends after it.
   bool doomed(Job& j, TimePoint now, std::size_t k);
 
   // d padded by `margin` percent (d itself for 0).
-  static Duration padded(Duration d, int margin);
+  static Duration padded(Duration d, int margin) {
+    return margin == 0 ? d : d * (100 + margin) / 100;
+  }
 
   // The demand test on several lanes: jobs by deadline, each remaining unit at its earliest
   // start (its predecessors' end, a lane's end) on the lane that leaves the smallest gap (or in an
@@ -314,6 +349,21 @@ struct Scheduler::Impl {
 
   // True when the offered load exceeds what the lanes can do (§15 detect from demand).
   bool past_capacity() const;
+
+  // §15 "shed early", by rate (the work bound's rule, cheapest jobs first; opt.shed_by_rate):
+  // periodic operations without sensors ordered by the lane time one job needs; one whose
+  // cheaper ones alone ask for every lane at their rates is `outranked`, and while past
+  // capacity, with equal criticalities, and while one of those cheaper operations sheds
+  // jobs itself (ahead_shed), its jobs are rejected at release. Recomputed when rates or
+  // graphs change (rates_changed).
+  void plan_rates();
+  bool rates_changed = true;
+  bool rejecting_by_rate = false;  // a drop now is plan_rates' rejection, not for lane time
+  // True when an operation ahead of `op` in plan_rates' order shed a job within the last
+  // kOfferedWindow (rejected, hopeless or past its deadline; not by this rule).
+  bool ahead_shed(int op, TimePoint now) const;
+  std::vector<std::uint8_t> outranked;               // per operation
+  std::vector<std::pair<Duration, int>> rate_order;  // (a job's cost, operation), cheapest first
 
   // Adds a released job's work to the offered load (§15 detect overload from demand).
   void note_offered(Job& j, TimePoint now);

@@ -366,5 +366,83 @@ TEST(Overload, AdmissionMarginIsAWholePercent) {
   EXPECT_NE(describe(o).find("admit_margin=15"), std::string::npos);
 }
 
+// The work bound admits the cheapest jobs first. One cheap operation (a 6.3 ms chain, 8.2 ms
+// deadline) alone asks for 1.35 lanes at 2x; an expensive one (a 20.7 ms chain) asks for
+// 0.65 more. Admission by deadline windows admits the expensive jobs (the cheap ones due
+// after them are not released yet) and their units then block the cheap jobs, which are
+// shed. shed_rate rejects the expensive operation's jobs at release instead, while the
+// cheap one sheds: more jobs meet their deadlines. Below capacity it rejects nothing.
+TEST(Overload, ShedByRateRejectsTheJobsThatCheaperOnesOutrank) {
+  auto base = parse_scenario(R"(
+name: shed-rate
+duration_s: 4
+warmup_s: 0.5
+seed: 2
+device: {lanes: 1, sync_cost_us: 0}
+operations:
+  - name: expensive
+    rate_hz: 15.78
+    phase_ms: 7.879
+    deadline_ms: 85.757
+    max_inflight: 4
+    nodes:
+      N0: {cost: {mean_ms: 1.528, p99_ms: 1.987}}
+      N1: {cost: {mean_ms: 3.686, p99_ms: 4.792}}
+      N2: {cost: {mean_ms: 5.518, p99_ms: 7.173}}
+      N3: {cost: {mean_ms: 5.836, p99_ms: 7.586}}
+      N4: {cost: {mean_ms: 4.173, p99_ms: 5.425}}
+    edges: [[N0, N1], [N1, N2], [N2, N3], [N3, N4]]
+  - name: cheap
+    rate_hz: 107.0793
+    phase_ms: 0.024
+    deadline_ms: 8.167
+    max_inflight: 4
+    nodes:
+      N0: {cost: {mean_ms: 3.817, p99_ms: 4.962}}
+      N1: {cost: {mean_ms: 2.466, p99_ms: 3.205}}
+    edges: [[N0, N1]]
+)",
+                             "shed-rate.yaml");
+  ASSERT_TRUE(base.has_value()) << base.error().to_string();
+  struct Count {
+    int met = 0, expensive = 0, expensive_rejected = 0;
+  };
+  auto run = [&](double load, const char* with) {
+    Scenario s = *base;
+    EXPECT_FALSE(apply_override(s, "rate_scale", load).has_value());
+    s.scheduler.policy_with = with;
+    auto r = simulate_policy(s, default_profile(), "red-robust", 2, {}, false);
+    EXPECT_TRUE(r.has_value());
+    Count c;
+    for (const JobRow& j : r->jobs) {
+      c.met += j.outcome == JobOutcome::Met ? 1 : 0;
+      if (s.operation_name(j.operation) != "expensive") continue;
+      ++c.expensive;
+      c.expensive_rejected += j.reason == "rejected at release" ? 1 : 0;
+    }
+    return c;
+  };
+  const Count with = run(2.0, "");
+  const Count without = run(2.0, "shed_rate=no");
+  ASSERT_GT(with.expensive, 100);
+  EXPECT_EQ(without.expensive_rejected, 0);
+  EXPECT_GT(with.expensive_rejected, with.expensive * 9 / 10);
+  EXPECT_GT(with.met, without.met * 13 / 10) << with.met << " vs " << without.met;
+  // At 1.0 the cheap operation asks for 0.67 of the lane: nothing is outranked.
+  EXPECT_EQ(run(1.0, "").expensive_rejected, 0);
+}
+
+TEST(Overload, ShedByRateIsAnOptionOfRedRobustOnly) {
+  for (const std::string& p : known_policies())
+    EXPECT_EQ(preset_options(p)->shed_by_rate, p == "red-robust") << p;
+  PolicyOptions o = *preset_options("red");
+  EXPECT_EQ(apply_options(o, "admission=shed,shed_rate=yes"), "");
+  EXPECT_TRUE(o.shed_by_rate);
+  EXPECT_NE(describe(o).find("shed_rate=yes"), std::string::npos);
+  const std::string err = apply_options(o, "shed_rate=maybe");
+  EXPECT_NE(err.find("shed_rate"), std::string::npos);
+  EXPECT_TRUE(o.shed_by_rate);  // a bad value changes nothing
+}
+
 }  // namespace
 }  // namespace red

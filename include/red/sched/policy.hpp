@@ -68,6 +68,10 @@ struct PolicyOptions {
   /// to exactly the lanes' capacity on mean costs lets every overrun cost a job.
   int admit_margin = 0;
   RankMode rank = RankMode::Policy;
+  /// With admission=shed, past capacity (§15): reject at release the jobs of an operation
+  /// that operations with cheaper jobs (at equal criticality) fill the lanes without, while
+  /// one of those sheds jobs itself — the work bound's rule, cheapest jobs first.
+  bool shed_by_rate = false;
 
   bool operator==(const PolicyOptions&) const = default;
 };
