@@ -246,6 +246,7 @@ int main(int argc, char** argv) {
       {"response_ms",
        {{"mean", mean},
         {"p50", percentile(response_ms, 0.5)},
+        {"p90", percentile(response_ms, 0.9)},
         {"p99", percentile(response_ms, 0.99)}}},
       {"camera_samples", cam.samples}};
   for (std::size_t i = 0; i < topics.size(); ++i)
