@@ -55,12 +55,60 @@ constexpr std::size_t kLatencyWindow = 1024;  // latencies kept per operation
 constexpr std::size_t kDecisionWindow = 4096;
 constexpr std::size_t kIntakeWindow = 16384;  // frame intake times kept (newest)
 
+// What a frame's outputs are computed from (fixed rules, §9: the built-in model's weights
+// are random), once per frame however many heads publish it, on the receiving thread after
+// the release (off the way from a job's end to its outputs).
+struct FrameStats {
+  double mean = 0;
+  double left = 0, right = 0;            // luminance sums of the left and right halves
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // box around the pixels brighter than the threshold
+  int bright = 0;                        // how many: above mean + (255 - mean) / 2
+};
+
+FrameStats frame_stats(const FrameView& g) {
+  FrameStats f;
+  const std::size_t w = static_cast<std::size_t>(g.width), h = static_cast<std::size_t>(g.height);
+  std::uint64_t left = 0, right = 0;
+  for (std::size_t y = 0; y < h; ++y) {
+    const std::uint8_t* row = g.data + y * w;
+    std::uint32_t l = 0, r = 0;
+    for (std::size_t x = 0; x < w / 2; ++x) l += row[x];
+    for (std::size_t x = w / 2; x < w; ++x) r += row[x];
+    left += l;
+    right += r;
+  }
+  f.left = static_cast<double>(left);
+  f.right = static_cast<double>(right);
+  f.mean = (f.left + f.right) / std::max(1.0, static_cast<double>(w * h));
+  // An integer pixel is above the threshold exactly when it is above its floor.
+  const auto above =
+      static_cast<std::uint8_t>(std::min(255.0, std::floor(f.mean + (255.0 - f.mean) / 2.0)));
+  f.x0 = g.width;
+  f.y0 = g.height;
+  for (std::size_t y = 0; y < h; ++y) {
+    const std::uint8_t* row = g.data + y * w;
+    std::uint32_t n = 0;
+    for (std::size_t x = 0; x < w; ++x) n += row[x] > above ? 1U : 0U;
+    if (n == 0) continue;
+    std::size_t first = 0, last = w - 1;
+    while (row[first] <= above) ++first;
+    while (row[last] <= above) --last;
+    f.x0 = std::min(f.x0, static_cast<int>(first));
+    f.x1 = std::max(f.x1, static_cast<int>(last));
+    f.y0 = std::min(f.y0, static_cast<int>(y));
+    f.y1 = static_cast<int>(y);
+    f.bright += static_cast<int>(n);
+  }
+  return f;
+}
+
 struct FrameSlot {
   std::uint64_t id = ~std::uint64_t{0};
   HeaderValue header;
   // The frame's luminance at the model's input size that the outputs are computed from,
   // converted after the release (or by the publisher, whichever asks first; LazyFrame).
   std::shared_ptr<const ConvertedImage> gray;
+  std::optional<FrameStats> stats;  // computed after the release, with the luminance
 };
 
 struct SensorState {
@@ -97,43 +145,6 @@ struct Output {
 // runtime releases a pushed frame's job on the pushing thread when its lock is free (a
 // direct release), and the node's observer stamps that moment (taken -> released, §14).
 thread_local const void* pushing_node = nullptr;
-
-// What a frame's outputs are computed from (fixed rules, §9: the built-in model's weights
-// are random), once per frame however many heads publish it: two passes over the luminance
-// rather than two per output.
-struct FrameStats {
-  double mean = 0;
-  double left = 0, right = 0;            // luminance sums of the left and right halves
-  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // box around the pixels brighter than `bright`
-  int bright = 0;                        // how many
-};
-
-FrameStats frame_stats(const FrameView& g) {
-  FrameStats f;
-  const std::size_t w = static_cast<std::size_t>(g.width), h = static_cast<std::size_t>(g.height);
-  std::uint64_t left = 0, right = 0;
-  for (std::size_t y = 0; y < h; ++y) {
-    const std::uint8_t* row = g.data + y * w;
-    std::uint32_t l = 0, r = 0;
-    for (std::size_t x = 0; x < w / 2; ++x) l += row[x];
-    for (std::size_t x = w / 2; x < w; ++x) r += row[x];
-    left += l;
-    right += r;
-  }
-  f.left = static_cast<double>(left);
-  f.right = static_cast<double>(right);
-  f.mean = (f.left + f.right) / std::max(1.0, static_cast<double>(w * h));
-  const double bright = f.mean + (255.0 - f.mean) / 2.0;
-  f.x0 = g.width;
-  f.y0 = g.height;
-  for (int y = 0; y < g.height; ++y)
-    for (int x = 0; x < g.width; ++x)
-      if (g.data[static_cast<std::size_t>(y * g.width + x)] > bright) {
-        f.x0 = std::min(f.x0, x), f.x1 = std::max(f.x1, x), f.y0 = std::min(f.y0, y),
-        f.y1 = std::max(f.y1, y), ++f.bright;
-      }
-  return f;
-}
 
 std::string fmt_double(double v) {
   char buf[64];
@@ -367,6 +378,7 @@ struct Node::Impl final : Observer {
       slot.id = id;
       slot.header = header;
       slot.gray = gray;
+      slot.stats.reset();
       st.last = taken;
       ++st.frames;
     }
@@ -408,8 +420,13 @@ struct Node::Impl final : Observer {
       record(timings.transport_us, intakes, transport);
       ++intakes;
     }
-    // After the release: the outputs' luminance, so that the publisher finds it ready.
-    if (released) (void)gray->pixels();
+    // After the release: the outputs' luminance and what they are computed from, so that the
+    // publisher finds them ready when the job ends.
+    if (released) {
+      const FrameStats fs = frame_stats(gray->pixels());
+      std::lock_guard lock(frames_mu);
+      if (FrameSlot& slot = sensors[sensor].ring[id % kFrameRing]; slot.id == id) slot.stats = fs;
+    }
   }
 
   void receive_main() {
@@ -513,12 +530,14 @@ struct Node::Impl final : Observer {
   // ---- publishing ----
 
   // The frame a head read, if still kept: its header and (shared, not copied) luminance.
-  bool frame_of(const Output& o, HeaderValue& header, std::shared_ptr<const ConvertedImage>& gray) {
+  bool frame_of(const Output& o, HeaderValue& header, std::shared_ptr<const ConvertedImage>& gray,
+                std::optional<FrameStats>& fs) {
     std::lock_guard lock(frames_mu);
     const FrameSlot& slot = sensors[static_cast<std::size_t>(o.sensor)].ring[o.frame % kFrameRing];
     if (slot.id != o.frame || !slot.gray) return false;
     header = slot.header;
     gray = slot.gray;
+    fs = slot.stats;
     return true;
   }
 
@@ -690,9 +709,7 @@ struct Node::Impl final : Observer {
     TimePoint next_diag = clock.now() + options.diagnostics_period;
     HeaderValue header;
     std::shared_ptr<const ConvertedImage> gray;
-    // The frame whose statistics `frame` holds (sensor, frame id): a job's outputs share it.
-    std::optional<std::pair<int, std::uint64_t>> frame_of_stats;
-    FrameStats frame;
+    std::optional<FrameStats> fs;
     for (;;) {
       std::optional<Output> item;
       bool done = false;
@@ -708,13 +725,11 @@ struct Node::Impl final : Observer {
         }
       }
       if (item) {
-        if (frame_of(*item, header, gray)) {
+        if (frame_of(*item, header, gray, fs)) {
           const FrameView g = gray->pixels();
-          if (frame_of_stats != std::make_pair(item->sensor, item->frame)) {
-            frame = frame_stats(g);
-            frame_of_stats = std::make_pair(item->sensor, item->frame);
-          }
-          publish(*item, g, frame, header);
+          // Computed after the release unless this job ended first (then here, alike).
+          if (!fs) fs = frame_stats(g);
+          publish(*item, g, *fs, header);
           gray.reset();
           const double us = to_us(clock.now() - item->ended);
           std::lock_guard lock(counters_mu);
