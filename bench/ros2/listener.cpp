@@ -59,6 +59,7 @@ struct Topic {
   const dds_topic_descriptor_t* desc = nullptr;
   dds_entity_t reader = 0;
   std::uint64_t samples = 0;
+  bool sensor_qos = false;  // best effort, as the camera's frames (kind `frames`)
 };
 
 // The header of a sample of `desc` (every type here has one).
@@ -90,7 +91,9 @@ int main(int argc, char** argv) {
   app.add_option("--camera-stamps", camera_stamps,
                  "Count the frames sent from this topic of their headers (red camera "
                  "--stamps-topic) instead of subscribing to the frames themselves");
-  app.add_option("--topic", specs, "KIND:/topic, KIND = image | twist_stamped | detections")
+  app.add_option("--topic", specs,
+                 "KIND:/topic, KIND = image | twist_stamped | detections | frames (an Image "
+                 "topic with the sensor-data QoS: the camera's own frames, to time the transport)")
       ->required();
   app.add_option("--config", config_file, "Cyclone DDS XML configuration file (default: loopback)")
       ->check(CLI::ExistingFile);
@@ -110,12 +113,13 @@ int main(int argc, char** argv) {
     const std::string kind = s.substr(0, colon),
                       name = colon == std::string::npos ? "" : s.substr(colon + 1);
     Topic t{name, nullptr, 0, 0};
-    if (kind == "image") t.desc = &sensor_msgs_msg_dds__Image__desc;
+    if (kind == "image" || kind == "frames") t.desc = &sensor_msgs_msg_dds__Image__desc;
+    t.sensor_qos = kind == "frames";
     if (kind == "twist_stamped") t.desc = &geometry_msgs_msg_dds__TwistStamped__desc;
     if (kind == "detections") t.desc = &vision_msgs_msg_dds__Detection2DArray__desc;
     if (t.desc == nullptr || !red::dds::valid_ros_topic(name)) {
       std::cerr << "red_ros2_listener: --topic '" << s
-                << "': expected image|twist_stamped|detections:/absolute/topic\n";
+                << "': expected image|twist_stamped|detections|frames:/absolute/topic\n";
       return 2;
     }
     topics.push_back(t);
@@ -149,7 +153,7 @@ int main(int argc, char** argv) {
                           reader(&sensor_msgs_msg_dds__Image__desc, camera, qos.input), 0}
                   : Topic{camera_stamps, &std_msgs_msg_dds__Header__desc,
                           reader(&std_msgs_msg_dds__Header__desc, camera_stamps, qos.output), 0};
-  for (Topic& t : topics) t.reader = reader(t.desc, t.name, qos.output);
+  for (Topic& t : topics) t.reader = reader(t.desc, t.name, t.sensor_qos ? qos.input : qos.output);
   const dds_entity_t ws = dds_create_waitset(pp);
   for (Topic* t : [&] {
          std::vector<Topic*> all{&cam};
@@ -242,6 +246,7 @@ int main(int argc, char** argv) {
       {"response_ms",
        {{"mean", mean},
         {"p50", percentile(response_ms, 0.5)},
+        {"p90", percentile(response_ms, 0.9)},
         {"p99", percentile(response_ms, 0.99)}}},
       {"camera_samples", cam.samples}};
   for (std::size_t i = 0; i < topics.size(); ++i)

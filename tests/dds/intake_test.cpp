@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
+#include <functional>
 #include <latch>
 #include <map>
 #include <memory>
@@ -215,8 +217,10 @@ class RecordingBackend final : public Backend {
   }
 };
 
-void publish(dds_entity_t writer, const std::string& encoding, std::uint32_t w, std::uint32_t h,
-             std::uint32_t step, std::vector<std::uint8_t>& data) {
+// Publishes a frame; returns its stamp (sec, nanosec).
+std::pair<std::int32_t, std::uint32_t> publish(dds_entity_t writer, const std::string& encoding,
+                                               std::uint32_t w, std::uint32_t h, std::uint32_t step,
+                                               std::vector<std::uint8_t>& data) {
   const std::string frame_id = "camera";
   Image img{};
   stamp_now(img.header_.stamp_.sec_, img.header_.stamp_.nanosec_);
@@ -226,7 +230,8 @@ void publish(dds_entity_t writer, const std::string& encoding, std::uint32_t w, 
   img.height_ = h;
   img.step_ = step;
   borrow(img.data_, data);
-  ASSERT_GE(dds_write(writer, &img), 0);
+  EXPECT_GE(dds_write(writer, &img), 0);
+  return {img.header_.stamp_.sec_, img.header_.stamp_.nanosec_};
 }
 
 TEST(DdsNodeIntake, FramesAreReleasedUnconvertedConvertedOnceWholeAndBadOnesNeverReleased) {
@@ -316,6 +321,196 @@ TEST(DdsNodeIntake, FramesAreReleasedUnconvertedConvertedOnceWholeAndBadOnesNeve
   EXPECT_EQ(report.frame_release_us.size(), c.released);
   const Node::Timings t = (*node)->timings();
   EXPECT_EQ(t.released_intake_us.size(), c.released);
+  // Received -> released, frame by frame: stamped at the release when the runtime released
+  // the frame on the receiving thread (inside push_frame, so after the intake), else NaN.
+  ASSERT_EQ(t.taken_released_us.size(), c.released);
+  std::size_t direct = 0;
+  for (std::size_t i = 0; i < t.taken_released_us.size(); ++i) {
+    if (std::isnan(t.taken_released_us[i])) continue;
+    ++direct;
+    EXPECT_GE(t.taken_released_us[i], t.released_intake_us[i])
+        << "released before pushed, frame " << i;
+  }
+  EXPECT_GT(direct, 0U)
+      << "without the real-time knobs the receiving thread releases frames itself";
+  EXPECT_EQ(t.after_release_us.size(), direct);
+}
+
+// What the node publishes for a frame, computed here from the frame's own luminance by the
+// rules of docs/ROS2.md ("What the outputs contain"), independently of the node's code.
+struct Expected {
+  std::vector<std::uint8_t> lane, seg;
+  double linear = 0, angular = 0;
+  bool has_box = false;
+  double cx = 0, cy = 0, sx = 0, sy = 0, score = 0;
+};
+
+Expected expected_outputs(const std::vector<std::uint8_t>& rgb, std::uint32_t w, std::uint32_t h) {
+  const std::string encoding = "rgb8";
+  Image img{};
+  img.encoding_ = borrow(encoding);
+  img.width_ = w;
+  img.height_ = h;
+  img.step_ = w * 3U;
+  std::vector<std::uint8_t> data = rgb;
+  borrow(img.data_, data);
+  GrayFrame g;
+  to_gray(img, static_cast<int>(w), static_cast<int>(h), g);  // the model input: no resize
+  Expected e;
+  double sum = 0, left = 0, right = 0;
+  for (std::uint32_t y = 0; y < h; ++y)
+    for (std::uint32_t x = 0; x < w; ++x) {
+      const double v = g.pixels[y * w + x];
+      sum += v;
+      (x < w / 2 ? left : right) += v;
+    }
+  const double n = static_cast<double>(w * h), mean = sum / n;
+  for (std::uint8_t v : g.pixels) {
+    e.lane.push_back(v > mean ? 255 : 0);
+    e.seg.push_back(static_cast<std::uint8_t>(v / 64));
+  }
+  e.linear = mean / 255.0;
+  e.angular = (right - left) / (n / 2.0) / 255.0;
+  const double bright = mean + (255.0 - mean) / 2.0;
+  std::uint32_t x0 = w, y0 = h, x1 = 0, y1 = 0, count = 0;
+  for (std::uint32_t y = 0; y < h; ++y)
+    for (std::uint32_t x = 0; x < w; ++x)
+      if (g.pixels[y * w + x] > bright) {
+        x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+        ++count;
+      }
+  if (count > 0) {
+    e.has_box = true;
+    e.cx = (x0 + x1) / 2.0;
+    e.cy = (y0 + y1) / 2.0;
+    e.sx = x1 - x0 + 1;
+    e.sy = y1 - y0 + 1;
+    e.score = count / (e.sx * e.sy);
+  }
+  return e;
+}
+
+TEST(DdsNodeIntake, EveryOutputIsItsFramesRuleWhateverTheOrderOfHeads) {
+  auto s = load_scenario(RED_SOURCE_DIR "/tests/dds/data/node.yaml");
+  ASSERT_TRUE(s.has_value());
+  auto profile = resolve_profile(*s, std::nullopt);
+  ASSERT_TRUE(profile.has_value());
+  RecordingBackend backend;
+  NodeOptions o;
+  o.domain = test_domain();
+  o.realtime = false;
+  o.watchdog_x = 0;
+  auto node = Node::make(*s, *profile, backend, o);
+  ASSERT_TRUE(node.has_value()) << node.error().to_string();
+  auto dom = Domain::open(o.domain, "");
+  ASSERT_TRUE(dom.has_value());
+  const dds_entity_t pp = (*dom)->participant();
+  const auto reader = [&](const dds_topic_descriptor_t* desc, const std::string& name) {
+    const dds_entity_t t =
+        dds_create_topic(pp, desc, dds_topic_name(name).c_str(), nullptr, nullptr);
+    EndpointQos q = QosSettings{}.output;
+    q.depth = 200;
+    dds_qos_t* qos = make_qos(q);
+    const dds_entity_t r = dds_create_reader(pp, t, qos, nullptr);
+    dds_delete_qos(qos);
+    return r;
+  };
+  const auto& nodes = (*node)->topics().nodes;
+  const dds_entity_t lane = reader(&sensor_msgs_msg_dds__Image__desc, nodes.at({0, "L"}));
+  const dds_entity_t seg = reader(&sensor_msgs_msg_dds__Image__desc, nodes.at({0, "S"}));
+  const dds_entity_t steer =
+      reader(&geometry_msgs_msg_dds__TwistStamped__desc, nodes.at({0, "C"}) + "/stamped");
+  const dds_entity_t det = reader(&vision_msgs_msg_dds__Detection2DArray__desc, nodes.at({1, "O"}));
+  ASSERT_GT(lane, 0);
+  ASSERT_GT(det, 0);
+  const dds_entity_t topic =
+      dds_create_topic(pp, &sensor_msgs_msg_dds__Image__desc,
+                       dds_topic_name((*node)->topics().sensors.front()).c_str(), nullptr, nullptr);
+  dds_qos_t* qos = make_qos(QosSettings{}.input);
+  const dds_entity_t writer = dds_create_writer(pp, topic, qos, nullptr);
+  dds_delete_qos(qos);
+  ASSERT_GT(writer, 0);
+  RuntimeReport report;
+  std::thread runner([&] { report = (*node)->run(); });
+  std::map<std::pair<std::int32_t, std::uint32_t>, std::vector<std::uint8_t>> sent;
+  for (int k = 0; k < 40; ++k) {
+    std::vector<std::uint8_t> data(kW * kH * 3U);
+    // A bright square that moves, on a gradient: the box and the balance change per frame.
+    for (std::uint32_t y = 0; y < kH; ++y)
+      for (std::uint32_t x = 0; x < kW; ++x)
+        for (std::uint32_t c = 0; c < 3; ++c) {
+          const bool square = x >= static_cast<std::uint32_t>(k) &&
+                              x < static_cast<std::uint32_t>(k) + 12 && y >= 10 && y < 20;
+          data[(y * kW + x) * 3U + c] =
+              square ? 250 : static_cast<std::uint8_t>((x + y * 2 + c * 7) % 160);
+        }
+    sent[publish(writer, "rgb8", kW, kH, kW * 3U, data)] = data;
+    std::this_thread::sleep_for(std::chrono::milliseconds{40});
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds{500});
+  (*node)->stop();
+  runner.join();
+
+  int checked[4] = {0, 0, 0, 0};
+  const auto each = [](dds_entity_t r, const std::function<void(const void*)>& f) {
+    void* samples[16] = {};
+    dds_sample_info_t infos[16];
+    for (;;) {
+      std::fill(std::begin(samples), std::end(samples), nullptr);
+      const dds_return_t n = dds_take(r, samples, infos, 16, 16);
+      if (n <= 0) return;
+      for (dds_return_t i = 0; i < n; ++i)
+        if (infos[i].valid_data) f(samples[i]);
+      dds_return_loan(r, samples, n);
+    }
+  };
+  const auto frame_of = [&](const Header& h) -> const std::vector<std::uint8_t>* {
+    const auto it = sent.find({h.stamp_.sec_, h.stamp_.nanosec_});
+    return it == sent.end() ? nullptr : &it->second;
+  };
+  for (const dds_entity_t r : {lane, seg}) {
+    each(r, [&](const void* p) {
+      const auto& m = *static_cast<const Image*>(p);
+      const auto* f = frame_of(m.header_);
+      ASSERT_NE(f, nullptr) << "a mask with a stamp no frame had";
+      const Expected e = expected_outputs(*f, kW, kH);
+      const std::vector<std::uint8_t>& want = r == lane ? e.lane : e.seg;
+      ASSERT_EQ(m.data_._length, want.size());
+      EXPECT_TRUE(std::equal(want.begin(), want.end(), m.data_._buffer))
+          << (r == lane ? "lane" : "seg");
+      ++checked[r == lane ? 0 : 1];
+    });
+  }
+  each(steer, [&](const void* p) {
+    const auto& t = *static_cast<const TwistStamped*>(p);
+    const auto* f = frame_of(t.header_);
+    ASSERT_NE(f, nullptr);
+    const Expected e = expected_outputs(*f, kW, kH);
+    EXPECT_NEAR(t.twist_.linear_.x_, e.linear, 1e-12);
+    EXPECT_NEAR(t.twist_.angular_.z_, e.angular, 1e-12);
+    ++checked[2];
+  });
+  each(det, [&](const void* p) {
+    const auto& a = *static_cast<const Detection2DArray*>(p);
+    const auto* f = frame_of(a.header_);
+    ASSERT_NE(f, nullptr);
+    const Expected e = expected_outputs(*f, kW, kH);
+    ASSERT_EQ(a.detections_._length, e.has_box ? 1U : 0U);
+    if (e.has_box) {
+      const Detection2D& d = a.detections_._buffer[0];
+      EXPECT_DOUBLE_EQ(d.bbox_.center_.position_.x_, e.cx);
+      EXPECT_DOUBLE_EQ(d.bbox_.center_.position_.y_, e.cy);
+      EXPECT_DOUBLE_EQ(d.bbox_.size_x_, e.sx);
+      EXPECT_DOUBLE_EQ(d.bbox_.size_y_, e.sy);
+      ASSERT_EQ(d.results_._length, 1U);
+      EXPECT_NEAR(d.results_._buffer[0].hypothesis_.score_, e.score, 1e-12);
+    }
+    ++checked[3];
+  });
+  EXPECT_GT(checked[0], 0) << "lane masks";
+  EXPECT_GT(checked[1], 0) << "seg masks";
+  EXPECT_GT(checked[2], 0) << "steering";
+  EXPECT_GT(checked[3], 0) << "detections";
 }
 
 }  // namespace

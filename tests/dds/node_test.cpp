@@ -378,6 +378,44 @@ int run(const std::string& args) {
   return exit_code(std::system((kRed + " " + args + " >/dev/null 2>&1").c_str()));
 }
 
+// A 640x480 rgb8 frame (921 KB) crosses from `red camera` to another process with the
+// default loopback configuration, whose 60000 B fragments travel in 16 datagrams of up to
+// 65000 B (best effort: some of the frames suffice).
+TEST(DdsNodeCli, LargeFramesCrossTheDefaultLoopbackConfigurationWhole) {
+  const int domain = test_domain();
+  auto dom = Domain::open(domain, "");
+  ASSERT_TRUE(dom.has_value()) << dom.error().to_string();
+  Listener frames;
+  frames.reader = make_reader((*dom)->participant(), &sensor_msgs_msg_dds__Image__desc,
+                              "/camera/image_raw", false);
+  ASSERT_GT(frames.reader, 0);
+  std::uint64_t whole = 0, broken = 0;
+  frames.on_sample = [&](const void* p) {
+    const auto& img = *static_cast<const Image*>(p);
+    const bool ok = img.width_ == 640 && img.height_ == 480 && img.step_ == 640 * 3 &&
+                    img.data_._length == 640U * 480U * 3U;
+    (ok ? whole : broken) += 1;
+  };
+  Command camera(kRed + " camera --rate 20 --count 10 --size 640x480 --domain " +
+                 std::to_string(domain) + " 2>/dev/null");
+  std::atomic<bool> done{false};
+  std::thread waiter([&] {
+    camera.join();
+    done.store(true);
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  while (!done.load() && std::chrono::steady_clock::now() - t0 < std::chrono::seconds{30}) {
+    drain(frames);
+    std::this_thread::sleep_for(std::chrono::milliseconds{10});
+  }
+  waiter.join();
+  std::this_thread::sleep_for(std::chrono::milliseconds{200});
+  drain(frames);
+  EXPECT_EQ(camera.code, 0);
+  EXPECT_GT(whole, 0U) << "no 640x480 frame arrived";
+  EXPECT_EQ(broken, 0U);
+}
+
 TEST(DdsNodeCli, BadInputExitsTwo) {
   const std::string s = "'" + kScenario + "' --backend synthetic --duration 0.1 --domain " +
                         std::to_string(test_domain());

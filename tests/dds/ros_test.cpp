@@ -1,8 +1,13 @@
 // ROS 2 conventions on DDS (§14): topic names, remapping, QoS files, the loopback config.
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <fstream>
+#include <sstream>
+#include <string>
 
 #include "red/dds/ros.hpp"
 
@@ -73,6 +78,31 @@ TEST(DdsRos, TheDefaultConfigurationStaysOnLoopback) {
   EXPECT_NE(c.find("<AllowMulticast>false</AllowMulticast>"), std::string::npos);
   EXPECT_NE(c.find("127.0.0.1"), std::string::npos);
   EXPECT_FALSE(Domain::open(500, "").has_value()) << "domain ids above 232 are rejected";
+}
+
+// The large fragments are not only written but applied: Cyclone's own trace of the
+// configuration it runs with (verbosity "config") shows them.
+TEST(DdsRos, TheDefaultConfigurationsFragmentSizesTakeEffect) {
+  const std::string trace =
+      ::testing::TempDir() + "red_cyclone_config_" + std::to_string(getpid()) + ".log";
+  std::string c = loopback_config();
+  const auto end = c.find("</Domain>");
+  ASSERT_NE(end, std::string::npos);
+  c.insert(end, "<Tracing><Verbosity>config</Verbosity><OutputFile>" + trace +
+                    "</OutputFile></Tracing>");
+  const int domain = 200 + static_cast<int>(getpid() % 30);
+  {
+    auto d = Domain::open(domain, c);
+    ASSERT_TRUE(d.has_value()) << d.error().to_string();
+  }
+  std::ifstream f(trace);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const std::string log = ss.str();
+  EXPECT_NE(log.find("General/FragmentSize/#text: 60000 B"), std::string::npos)
+      << log.substr(0, 400);
+  EXPECT_NE(log.find("General/MaxMessageSize/#text: 65000 B"), std::string::npos);
+  std::remove(trace.c_str());
 }
 
 }  // namespace

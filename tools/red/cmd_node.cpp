@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <iostream>
 #include <optional>
@@ -190,23 +191,38 @@ int run_node(const NodeArgs& a) {
       "red node: job end -> output written p50 {:.2f} us, p99 {:.2f} us ({} outputs)\n",
       percentile(tm.publish_us, 0.5), percentile(tm.publish_us, 0.99), tm.publish_us.size());
   std::cerr << fmt::format(
-      "red node: frame taken -> pushed (check, move; converted after the release) p50 {:.2f} "
-      "us, p99 {:.2f} us ({} frames)\n",
+      "red node: frame taken -> pushed (check, move, keep; converted after the release) p50 "
+      "{:.2f} us, p99 {:.2f} us ({} frames)\n",
       percentile(intake, 0.5), percentile(intake, 0.99), intake.size());
   std::cerr << fmt::format(
-      "red node: frame received -> released p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
+      "red node: frame pushed -> released (runtime) p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
       percentile(report.frame_release_us, 0.5), percentile(report.frame_release_us, 0.99),
       report.frame_release_us.size());
-  // The whole of DESIGN §14's "frame received -> job released", frame by frame: taken from
-  // the reader -> push_frame() returned, plus posted -> released (the runtime's part).
+  // DESIGN §14's "frame received -> job released", frame by frame: taken from the reader ->
+  // the job released, stamped by the node's observer when the runtime released it on the
+  // receiving thread; for a frame posted to the global synchronizer, taken -> pushed plus
+  // the runtime's pushed -> released.
   std::vector<double> taken_released;
-  for (std::size_t i = 0;
-       i < std::min(tm.released_intake_us.size(), report.frame_release_us.size()); ++i)
-    taken_released.push_back(tm.released_intake_us[i] + report.frame_release_us[i]);
+  std::size_t direct = 0;
+  for (std::size_t i = 0; i < tm.released_intake_us.size(); ++i) {
+    const double d = i < tm.taken_released_us.size() ? tm.taken_released_us[i] : std::nan("");
+    if (!std::isnan(d)) {
+      taken_released.push_back(d);
+      ++direct;
+    } else if (i < report.frame_release_us.size()) {
+      taken_released.push_back(tm.released_intake_us[i] + report.frame_release_us[i]);
+    }
+  }
   std::cerr << fmt::format(
-      "red node: frame taken -> job released (intake + release) p50 {:.2f} us, p99 {:.2f} us "
-      "({} frames)\n",
-      percentile(taken_released, 0.5), percentile(taken_released, 0.99), taken_released.size());
+      "red node: frame taken -> job released p50 {:.2f} us, p99 {:.2f} us ({} frames, {} "
+      "released on the receiving thread)\n",
+      percentile(taken_released, 0.5), percentile(taken_released, 0.99), taken_released.size(),
+      direct);
+  std::cerr << fmt::format(
+      "red node: job released -> push returned (the runtime's round after the release, on the "
+      "receiving thread) p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
+      percentile(tm.after_release_us, 0.5), percentile(tm.after_release_us, 0.99),
+      tm.after_release_us.size());
   if (a.out) {
     PolicyRun run;
     run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <deque>
 #include <iostream>
+#include <limits>
 #include <mutex>
 #include <thread>
 
@@ -53,12 +55,60 @@ constexpr std::size_t kLatencyWindow = 1024;  // latencies kept per operation
 constexpr std::size_t kDecisionWindow = 4096;
 constexpr std::size_t kIntakeWindow = 16384;  // frame intake times kept (newest)
 
+// What a frame's outputs are computed from (fixed rules, §9: the built-in model's weights
+// are random), once per frame however many heads publish it, on the receiving thread after
+// the release (off the way from a job's end to its outputs).
+struct FrameStats {
+  double mean = 0;
+  double left = 0, right = 0;            // luminance sums of the left and right halves
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // box around the pixels brighter than the threshold
+  int bright = 0;                        // how many: above mean + (255 - mean) / 2
+};
+
+FrameStats frame_stats(const FrameView& g) {
+  FrameStats f;
+  const std::size_t w = static_cast<std::size_t>(g.width), h = static_cast<std::size_t>(g.height);
+  std::uint64_t left = 0, right = 0;
+  for (std::size_t y = 0; y < h; ++y) {
+    const std::uint8_t* row = g.data + y * w;
+    std::uint32_t l = 0, r = 0;
+    for (std::size_t x = 0; x < w / 2; ++x) l += row[x];
+    for (std::size_t x = w / 2; x < w; ++x) r += row[x];
+    left += l;
+    right += r;
+  }
+  f.left = static_cast<double>(left);
+  f.right = static_cast<double>(right);
+  f.mean = (f.left + f.right) / std::max(1.0, static_cast<double>(w * h));
+  // An integer pixel is above the threshold exactly when it is above its floor.
+  const auto above =
+      static_cast<std::uint8_t>(std::min(255.0, std::floor(f.mean + (255.0 - f.mean) / 2.0)));
+  f.x0 = g.width;
+  f.y0 = g.height;
+  for (std::size_t y = 0; y < h; ++y) {
+    const std::uint8_t* row = g.data + y * w;
+    std::uint32_t n = 0;
+    for (std::size_t x = 0; x < w; ++x) n += row[x] > above ? 1U : 0U;
+    if (n == 0) continue;
+    std::size_t first = 0, last = w - 1;
+    while (row[first] <= above) ++first;
+    while (row[last] <= above) --last;
+    f.x0 = std::min(f.x0, static_cast<int>(first));
+    f.x1 = std::max(f.x1, static_cast<int>(last));
+    f.y0 = std::min(f.y0, static_cast<int>(y));
+    f.y1 = static_cast<int>(y);
+    f.bright += static_cast<int>(n);
+  }
+  return f;
+}
+
 struct FrameSlot {
   std::uint64_t id = ~std::uint64_t{0};
   HeaderValue header;
   // The frame's luminance at the model's input size that the outputs are computed from,
   // converted after the release (or by the publisher, whichever asks first; LazyFrame).
   std::shared_ptr<const ConvertedImage> gray;
+  std::optional<FrameStats> stats;  // computed after the release, with the luminance
 };
 
 struct SensorState {
@@ -75,6 +125,12 @@ struct OpStats {
   std::size_t next = 0;
 };
 
+// A wall-clock time as ROS 2 stamps carry it.
+struct WallStamp {
+  std::int32_t sec = 0;
+  std::uint32_t nanosec = 0;
+};
+
 // One output to publish: a node of a finished job and the frame its head read.
 struct Output {
   int operation = -1;
@@ -84,6 +140,11 @@ struct Output {
   std::uint64_t frame = 0;
   TimePoint ended{0};  // when its job ended
 };
+
+// The node whose receiving thread is inside Runtime::push_frame() on this thread: the
+// runtime releases a pushed frame's job on the pushing thread when its lock is free (a
+// direct release), and the node's observer stamps that moment (taken -> released, §14).
+thread_local const void* pushing_node = nullptr;
 
 std::string fmt_double(double v) {
   char buf[64];
@@ -114,11 +175,14 @@ struct Node::Impl final : Observer {
   dds_entity_t wake = 0;  // guard condition: stop receiving
   std::unique_ptr<Runtime> runtime;
 
-  mutable std::mutex frames_mu;  // sensors, counters
+  // The receiving thread takes frames_mu before each release (the frame ring): nothing else
+  // holds it for more than a copy. Counters and timings have their own lock.
+  mutable std::mutex frames_mu;  // sensors
   std::vector<SensorState> sensors;
+  mutable std::mutex counters_mu;  // counters, timings and the vectors below
   NodeCounters counters;
   Node::Timings timings;  // rings of the newest kIntakeWindow each
-  std::uint64_t intakes = 0, publishes = 0;
+  std::uint64_t intakes = 0, publishes = 0, after_releases = 0;
 
   // Observer state: touched only from observer callbacks (serialized by the runtime).
   std::map<JobId, std::vector<Output>> finished_heads;
@@ -134,9 +198,13 @@ struct Node::Impl final : Observer {
   std::deque<Output> queue;
   bool publishing = true;
   std::atomic<bool> receiving{true};
-  // Per released frame, in release order: taken from the reader -> push_frame() returned
-  // (paired with RuntimeReport::frame_release_us for received -> released).
-  std::vector<double> released_intake_us;
+  // Per released frame, in release order: taken from the reader -> push_frame() called
+  // (paired with RuntimeReport::frame_release_us), and taken -> released when the runtime
+  // released it on the receiving thread (NaN when it was posted to the synchronizer).
+  std::vector<double> released_intake_us, taken_released_us;
+  // Receiving thread only: when the job of the frame being pushed was released, if it was
+  // released on this thread (set by on_job_release() during push_frame()).
+  std::optional<TimePoint> released_at;
   std::vector<std::uint8_t> mask;  // the publisher's output buffer, reused
 
   Impl(const Scenario& s, const Profile& p, Backend& b, NodeOptions o)
@@ -246,7 +314,7 @@ struct Node::Impl final : Observer {
   void reject(std::size_t sensor, Reject why, const Image& img) {
     std::uint64_t n = 0;
     {
-      std::lock_guard lock(frames_mu);
+      std::lock_guard lock(counters_mu);
       n = ++counters.rejected[static_cast<std::size_t>(why)];
     }
     if (n <= 3 || n % 100 == 0)
@@ -269,7 +337,7 @@ struct Node::Impl final : Observer {
     const Reject why = type ? Reject::WrongType : Reject::IncompatibleQos;
     std::uint64_t n = 0;
     {
-      std::lock_guard lock(m.frames_mu);
+      std::lock_guard lock(m.counters_mu);
       n = m.counters.rejected[static_cast<std::size_t>(why)] += st.total_count_change;
     }
     std::cerr << "red node: a writer on " << m.topics.sensors[ctx.sensor] << " was not matched ("
@@ -291,16 +359,16 @@ struct Node::Impl final : Observer {
   // when a unit first needs them (the encoder's start), so a frame whose job is dropped
   // before it runs is never converted. Only after the release is the frame's luminance (what
   // the outputs are computed from) converted, here, off the release path.
-  void accept(std::size_t sensor, Image& img, TimePoint taken) {
+  void accept(std::size_t sensor, Image& img, TimePoint taken, WallStamp taken_wall) {
     const auto& in = scenario.model.input;
     const int h = in.size() >= 3 ? static_cast<int>(in[1]) : 192;
     const int w = in.size() >= 3 ? static_cast<int>(in[2]) : 384;
     const int channels = !in.empty() && in[0] == 1 ? 1 : 3;
     std::shared_ptr<const ReceivedImage> received = ReceivedImage::take(img);
+    const HeaderValue& header = received->header();
     auto gray = std::make_shared<const ConvertedImage>(received, w, h, 1);
     std::shared_ptr<const LazyFrame> input =
         channels == 1 ? gray : std::make_shared<const ConvertedImage>(received, w, h, 3);
-    received.reset();  // the two conversions hold it until both are done
     std::uint64_t id = 0;
     {
       std::lock_guard lock(frames_mu);
@@ -308,38 +376,57 @@ struct Node::Impl final : Observer {
       id = st.next_id++;
       FrameSlot& slot = st.ring[id % kFrameRing];
       slot.id = id;
-      slot.header = HeaderValue::from(img.header_);
+      slot.header = header;
       slot.gray = gray;
-      st.last = clock.now();
+      slot.stats.reset();
+      st.last = taken;
       ++st.frames;
-      ++counters.frames;
     }
+    received.reset();  // the two conversions hold it until both are done
     const FrameView px{w, h, channels, nullptr, std::move(input)};
+    released_at.reset();
+    const TimePoint pushed = clock.now();
+    pushing_node = this;
     const bool released = runtime->push_frame(static_cast<int>(sensor), id, &px);
-    const double us = to_us(clock.now() - taken);
-    // Wall clocks: the sender's stamp against this machine's time of the take.
-    std::int32_t sec = 0;
-    std::uint32_t nsec = 0;
-    stamp_now(sec, nsec);
-    {
+    pushing_node = nullptr;
+    const TimePoint returned = clock.now();
+    const double us = to_us(pushed - taken);
+    if (!released) {
       std::lock_guard lock(frames_mu);
+      if (FrameSlot& slot = sensors[sensor].ring[id % kFrameRing]; slot.id == id)
+        slot.gray.reset();  // no job reads it: let the received pixels go now
+    }
+    {
+      std::lock_guard lock(counters_mu);
+      ++counters.frames;
       if (released) {
         ++counters.released;
-        if (released_intake_us.size() < kIntakeWindow) released_intake_us.push_back(us);
-      } else if (FrameSlot& slot = sensors[sensor].ring[id % kFrameRing]; slot.id == id) {
-        slot.gray.reset();  // no job reads it: let the received pixels go now
+        if (released_intake_us.size() < kIntakeWindow) {
+          released_intake_us.push_back(us);
+          taken_released_us.push_back(released_at ? to_us(*released_at - taken)
+                                                  : std::numeric_limits<double>::quiet_NaN());
+        }
+        if (released_at) {
+          record(timings.after_release_us, after_releases++, to_us(returned - *released_at));
+        }
       }
+      // Wall clocks: the sender's stamp against this machine's time of the take.
       const double transport =
-          (static_cast<double>(sec - img.header_.stamp_.sec_) * 1e9 +
-           (static_cast<double>(nsec) - static_cast<double>(img.header_.stamp_.nanosec_))) /
-              1e3 -
-          us;
+          (static_cast<double>(taken_wall.sec - img.header_.stamp_.sec_) * 1e9 +
+           (static_cast<double>(taken_wall.nanosec) -
+            static_cast<double>(img.header_.stamp_.nanosec_))) /
+          1e3;
       record(timings.intake_us, intakes, us);
       record(timings.transport_us, intakes, transport);
       ++intakes;
     }
-    // After the release: the outputs' luminance, so that the publisher finds it ready.
-    if (released) (void)gray->pixels();
+    // After the release: the outputs' luminance and what they are computed from, so that the
+    // publisher finds them ready when the job ends.
+    if (released) {
+      const FrameStats fs = frame_stats(gray->pixels());
+      std::lock_guard lock(frames_mu);
+      if (FrameSlot& slot = sensors[sensor].ring[id % kFrameRing]; slot.id == id) slot.stats = fs;
+    }
   }
 
   void receive_main() {
@@ -357,13 +444,15 @@ struct Node::Impl final : Observer {
                                           static_cast<uint32_t>(samples.size()));
           if (n <= 0) break;
           const TimePoint taken = clock.now();
+          WallStamp taken_wall;
+          stamp_now(taken_wall.sec, taken_wall.nanosec);
           for (dds_return_t i = 0; i < n; ++i) {
             if (!infos[static_cast<std::size_t>(i)].valid_data) continue;
             Image& img = *static_cast<Image*>(samples[static_cast<std::size_t>(i)]);
             if (auto why = check_image(img))
               reject(s, *why, img);
             else
-              accept(s, img, taken);
+              accept(s, img, taken, taken_wall);
           }
           dds_return_loan(readers[s], samples.data(), n);
         }
@@ -385,6 +474,12 @@ struct Node::Impl final : Observer {
             {m.operation, spec.name, spec.head, spec.sensor, m.frame, TimePoint{0}});
       }
     }
+  }
+
+  // A job released on the receiving thread while it pushes a frame is that frame's release
+  // (the runtime released it there, holding the scheduler's lock): the first one stamps it.
+  void on_job_release(const JobRecord&) override {
+    if (pushing_node == this && !released_at) released_at = clock.now();
   }
 
   void on_job_end(const JobRecord& j) override {
@@ -417,7 +512,7 @@ struct Node::Impl final : Observer {
     }
     // A finished job publishes what it computed; a dropped one (strict) nothing (§14).
     if (!completed) {
-      std::lock_guard lock(frames_mu);
+      std::lock_guard lock(counters_mu);
       if (j.outcome != JobOutcome::Unfinished) ++counters.jobs_without_output;
       return;
     }
@@ -435,36 +530,40 @@ struct Node::Impl final : Observer {
   // ---- publishing ----
 
   // The frame a head read, if still kept: its header and (shared, not copied) luminance.
-  bool frame_of(const Output& o, HeaderValue& header, std::shared_ptr<const ConvertedImage>& gray) {
+  bool frame_of(const Output& o, HeaderValue& header, std::shared_ptr<const ConvertedImage>& gray,
+                std::optional<FrameStats>& fs) {
     std::lock_guard lock(frames_mu);
     const FrameSlot& slot = sensors[static_cast<std::size_t>(o.sensor)].ring[o.frame % kFrameRing];
     if (slot.id != o.frame || !slot.gray) return false;
     header = slot.header;
     gray = slot.gray;
+    fs = slot.stats;
     return true;
   }
 
   // The published values are computed from the frame by fixed rules (the built-in model's
   // weights are random, §9): lane a bright-pixel mask, seg four luminance classes, steer the
   // left/right balance, det the box around the brightest pixels.
-  void publish(const Output& o, const FrameView& g, const HeaderValue& hv) {
+  void publish(const Output& o, const FrameView& g, const FrameStats& f, const HeaderValue& hv) {
     const std::string& head = scenario.model.heads[static_cast<std::size_t>(o.head)];
     const auto topic = topics.nodes.find(std::make_pair(o.operation, o.node));
     if (topic == topics.nodes.end()) return;
     const auto wit = writers.find(topic->second);
     if (wit == writers.end()) return;
     const std::size_t n_px = static_cast<std::size_t>(g.width) * static_cast<std::size_t>(g.height);
-    std::uint64_t sum = 0;
-    for (std::size_t i = 0; i < n_px; ++i) sum += g.data[i];
-    const double mean = static_cast<double>(sum) / std::max<double>(1.0, static_cast<double>(n_px));
     switch (output_kind(head)) {
       case OutputKind::Mask: {
         // Computed into the publisher's own buffer; dds_write serializes it (its one copy).
         mask.resize(n_px);
-        const bool classes = head == "seg";
-        for (std::size_t i = 0; i < n_px; ++i)
-          mask[i] =
-              classes ? static_cast<std::uint8_t>(g.data[i] / 64) : (g.data[i] > mean ? 255 : 0);
+        if (head == "seg") {
+          for (std::size_t i = 0; i < n_px; ++i)
+            mask[i] = static_cast<std::uint8_t>(g.data[i] / 64);
+        } else {
+          // An integer pixel is above the mean exactly when it is above its floor.
+          const auto above = static_cast<std::uint8_t>(std::min(255.0, std::floor(f.mean)));
+          for (std::size_t i = 0; i < n_px; ++i)
+            mask[i] = static_cast<std::uint8_t>(g.data[i] > above ? 255 : 0);
+        }
         Image m{};
         hv.fill(m.header_);
         m.height_ = static_cast<std::uint32_t>(g.height);
@@ -473,19 +572,15 @@ struct Node::Impl final : Observer {
         m.step_ = static_cast<std::uint32_t>(g.width);
         borrow(m.data_, mask);
         dds_write(wit->second, &m);
-        std::lock_guard lock(frames_mu);
+        std::lock_guard lock(counters_mu);
         ++counters.masks;
         break;
       }
       case OutputKind::Velocity: {
-        double left = 0, right = 0;
-        for (int y = 0; y < g.height; ++y)
-          for (int x = 0; x < g.width; ++x)
-            (x < g.width / 2 ? left : right) += g.data[static_cast<std::size_t>(y * g.width + x)];
         const double half = std::max(1.0, static_cast<double>(g.width * g.height) / 2.0);
         Twist t{};
-        t.linear_.x_ = mean / 255.0;
-        t.angular_.z_ = (right - left) / half / 255.0;
+        t.linear_.x_ = f.mean / 255.0;
+        t.angular_.z_ = (f.right - f.left) / half / 255.0;
         dds_write(wit->second, &t);
         if (const auto sit = writers.find(wit->first + "/stamped"); sit != writers.end()) {
           TwistStamped ts{};
@@ -493,19 +588,12 @@ struct Node::Impl final : Observer {
           ts.twist_ = t;
           dds_write(sit->second, &ts);
         }
-        std::lock_guard lock(frames_mu);
+        std::lock_guard lock(counters_mu);
         ++counters.twists;
         break;
       }
       case OutputKind::Detections: {
-        int x0 = g.width, y0 = g.height, x1 = -1, y1 = -1, n = 0;
-        const double bright = mean + (255.0 - mean) / 2.0;
-        for (int y = 0; y < g.height; ++y)
-          for (int x = 0; x < g.width; ++x)
-            if (g.data[static_cast<std::size_t>(y * g.width + x)] > bright) {
-              x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y),
-              y1 = std::max(y1, y), ++n;
-            }
+        const int x0 = f.x0, y0 = f.y0, x1 = f.x1, y1 = f.y1, n = f.bright;
         Detection2DArray a{};
         hv.fill(a.header_);
         std::vector<Detection2D> dets;
@@ -528,7 +616,7 @@ struct Node::Impl final : Observer {
         }
         borrow(a.detections_, dets);
         dds_write(wit->second, &a);
-        std::lock_guard lock(frames_mu);
+        std::lock_guard lock(counters_mu);
         ++counters.detections;
         break;
       }
@@ -580,8 +668,11 @@ struct Node::Impl final : Observer {
     std::string silent;
     NodeCounters c;
     {
-      std::lock_guard lock(frames_mu);
+      std::lock_guard lock(counters_mu);
       c = counters;
+    }
+    {
+      std::lock_guard lock(frames_mu);
       const TimePoint now = clock.now();
       for (std::size_t i = 0; i < sensors.size(); ++i) {
         const double rate = scenario.sensors[i].rate_hz;
@@ -610,7 +701,7 @@ struct Node::Impl final : Observer {
     a.header_.frame_id_ = s("");
     borrow(a.status_, status);
     dds_write(diag_writer, &a);
-    std::lock_guard lock(frames_mu);
+    std::lock_guard lock(counters_mu);
     ++counters.diagnostics;
   }
 
@@ -618,6 +709,7 @@ struct Node::Impl final : Observer {
     TimePoint next_diag = clock.now() + options.diagnostics_period;
     HeaderValue header;
     std::shared_ptr<const ConvertedImage> gray;
+    std::optional<FrameStats> fs;
     for (;;) {
       std::optional<Output> item;
       bool done = false;
@@ -633,14 +725,17 @@ struct Node::Impl final : Observer {
         }
       }
       if (item) {
-        if (frame_of(*item, header, gray)) {
-          publish(*item, gray->pixels(), header);
+        if (frame_of(*item, header, gray, fs)) {
+          const FrameView g = gray->pixels();
+          // Computed after the release unless this job ended first (then here, alike).
+          if (!fs) fs = frame_stats(g);
+          publish(*item, g, *fs, header);
           gray.reset();
           const double us = to_us(clock.now() - item->ended);
-          std::lock_guard lock(frames_mu);
+          std::lock_guard lock(counters_mu);
           record(timings.publish_us, publishes++, us);
         } else {
-          std::lock_guard lock(frames_mu);
+          std::lock_guard lock(counters_mu);
           ++counters.jobs_without_output;  // its frame left the ring: never a wrong stamp
         }
       }
@@ -716,14 +811,15 @@ void Node::stop() {
 }
 
 NodeCounters Node::counters() const {
-  std::lock_guard lock(impl_->frames_mu);
+  std::lock_guard lock(impl_->counters_mu);
   return impl_->counters;
 }
 
 Node::Timings Node::timings() const {
-  std::lock_guard lock(impl_->frames_mu);
+  std::lock_guard lock(impl_->counters_mu);
   Timings t = impl_->timings;
   t.released_intake_us = impl_->released_intake_us;
+  t.taken_released_us = impl_->taken_released_us;
   return t;
 }
 

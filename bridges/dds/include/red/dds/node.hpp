@@ -100,13 +100,21 @@ class Node {
   struct Timings {
     /// Header stamp -> taken from the DDS reader (wall clocks: the sender's and this one).
     std::vector<double> transport_us;
-    /// Taken from the DDS reader -> the runtime has it (checked, pixels moved out of the
-    /// sample, pushed; not converted: that happens after the release). The runtime's
-    /// RuntimeReport::frame_release_us goes on from there to the release.
+    /// Taken from the DDS reader -> handed to the runtime (checked, pixels moved out of the
+    /// sample, kept for the outputs; push_frame() called). Not converted: that happens after
+    /// the release. The runtime's RuntimeReport::frame_release_us goes on to the release.
     std::vector<double> intake_us;
-    /// As intake_us, for released frames only, the first 16384 in release order: element i
-    /// plus the report's frame_release_us[i] is frame i's received -> released.
+    /// As intake_us, for released frames only, the first 16384 in release order.
     std::vector<double> released_intake_us;
+    /// Per element of released_intake_us: taken -> the frame's job released, when the
+    /// runtime released it on the receiving thread (inside push_frame(), the usual case);
+    /// NaN when it was posted to the global synchronizer, whose part is then the report's
+    /// frame_release_us[i] (received -> released = released_intake_us[i] + that).
+    std::vector<double> taken_released_us;
+    /// Released on the receiving thread -> push_frame() returned: the rest of the runtime's
+    /// round there (the scheduling decision, waking lanes), after the release; it delays
+    /// only the next frame's take.
+    std::vector<double> after_release_us;
     /// A job ended -> its last output written to DDS (queue, computing, serializing).
     std::vector<double> publish_us;
   };

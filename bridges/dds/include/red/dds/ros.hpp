@@ -58,7 +58,9 @@ Expected<QosSettings> load_qos_file(const std::string& path);
 dds_qos_t* make_qos(const EndpointQos& q);
 
 /// The loopback-only Cyclone DDS configuration: interface `lo`, no multicast, unicast
-/// discovery to 127.0.0.1, so that nothing leaves the machine.
+/// discovery to 127.0.0.1, so that nothing leaves the machine; fragments of 60000 B in
+/// datagrams of up to 65000 B (loopback's MTU is 64 KiB), so that a large image crosses in
+/// few datagrams.
 std::string loopback_config();
 
 /// A process's DDS domain and participant. `config` is Cyclone DDS XML (or a file://
