@@ -215,8 +215,20 @@ TEST(DdsNode, CameraToNodeToListenersWithMatchingStampsAndDiagnostics) {
        {"/red/drive/L", "/red/drive/S", "/red/drive/C/stamped", "/red/detect/O"}) {
     SCOPED_TRACE(t);
     ASSERT_FALSE(stamps[t].empty()) << "no output on " << t;
-    // Each output carries the header of a frame the camera sent, never a new stamp.
-    for (const Stamp& s : stamps[t]) EXPECT_EQ(sent.count(s), 1U) << s.first << "." << s.second;
+    // Each output carries the header of a frame the camera sent, never a new stamp. The
+    // test's best-effort probe may match the camera after the node did (discovery of the
+    // camera's participant is not simultaneous): an output of a frame older than the first
+    // one the probe saw cannot be checked against it, and there can be only a few.
+    std::size_t before_probe = 0;
+    for (const Stamp& s : stamps[t]) {
+      if (s < *sent.begin()) {
+        ++before_probe;
+        continue;
+      }
+      EXPECT_EQ(sent.count(s), 1U) << s.first << "." << s.second;
+    }
+    EXPECT_LE(before_probe, 4U) << "outputs of frames sent before the probe matched";
+    EXPECT_LT(before_probe, stamps[t].size());
   }
   EXPECT_EQ(stamps["/red/drive/L"].size(), stamps["/red/drive/S"].size());
   EXPECT_EQ(bad_masks, 0U);
