@@ -21,6 +21,7 @@
 #include "red/dds/camera.hpp"
 #include "red/dds/node.hpp"
 #include "red/metrics/metrics.hpp"
+#include "red/report/row_queue.hpp"
 #include "red/report/stream.hpp"
 #include "red/sched/policy.hpp"
 #include "signals.hpp"
@@ -127,6 +128,7 @@ int run_node(const NodeArgs& a) {
   // (with --out), never into memory; the summary keeps bounded state (docs/REPORTS.md).
   metrics.set_keep_rows(false);
   std::unique_ptr<CsvRowStream> stream;
+  std::optional<RowQueue> queue;
   if (a.out) {
     auto st = CsvRowStream::open(*a.out, *s, true);
     if (!st) {
@@ -135,7 +137,9 @@ int run_node(const NodeArgs& a) {
     }
     stream = std::move(st.value());
     stream->begin_policy(a.policy);
-    metrics.set_sink(stream.get());
+    // Rows are formatted and written on the queue's thread, off the hand-off (row_queue.hpp).
+    queue.emplace(*stream);
+    metrics.set_sink(&*queue);
   }
   (*node)->add_observer(&metrics);
   const dds::NodeTopics& t = (*node)->topics();
@@ -231,6 +235,7 @@ int run_node(const NodeArgs& a) {
     run.metrics.decision_p99_us = percentile(report.decision_us, 0.99);
     run.result.end = report.end;
     run.result.stats = report.stats;
+    queue->drain();
     const std::optional<Error> flushed = stream->flush();
     auto rows = flushed ? Expected<std::vector<StreamedRows>>(*flushed) : stream->rows();
     if (!rows) {
