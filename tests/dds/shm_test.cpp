@@ -89,6 +89,7 @@ struct Child {
 struct Roudi {
   Child child;
   std::string config, log;
+  bool ready = false;  // seen running: the files at RouDi's fixed paths are this one's
   Roudi(const std::string& exe, const std::string& dir)
       : config(dir + "roudi.toml"), log(dir + "roudi.log") {
     // Pools for the test's 640x480 rgb8 frames (921 KB) and the node's small outputs.
@@ -103,12 +104,14 @@ struct Roudi {
       kill(child.pid, SIGINT);
       child.wait(std::chrono::seconds{15});
     }
-    const passwd* pw = getpwuid(geteuid());
-    std::vector<std::string> left = {"/dev/shm/iceoryx_mgmt", "/tmp/roudi", "/tmp/roudi.lock",
-                                     "/tmp/iox-unique-roudi.lock"};
-    if (pw != nullptr) left.push_back(std::string("/dev/shm/") + pw->pw_name);
     std::error_code ec;
-    for (const std::string& f : left) fs::remove(f, ec);
+    if (ready) {
+      const passwd* pw = getpwuid(geteuid());
+      std::vector<std::string> left = {"/dev/shm/iceoryx_mgmt", "/tmp/roudi", "/tmp/roudi.lock",
+                                       "/tmp/iox-unique-roudi.lock"};
+      if (pw != nullptr) left.push_back(std::string("/dev/shm/") + pw->pw_name);
+      for (const std::string& f : left) fs::remove(f, ec);
+    }
     fs::remove(config, ec);
     fs::remove(log, ec);
   }
@@ -187,7 +190,9 @@ TEST(DdsNodeShm, CameraToNodeToListenerThroughSharedMemoryWithARoudiOfItsOwn) {
   while (!roudi_running() && roudi.child.running() &&
          std::chrono::steady_clock::now() - t0 < std::chrono::seconds{20})
     std::this_thread::sleep_for(std::chrono::milliseconds{50});
-  ASSERT_TRUE(roudi_running()) << "RouDi did not start: " << read_text(roudi.log);
+  ASSERT_TRUE(roudi_running() && roudi.child.running())
+      << "RouDi did not start: " << read_text(roudi.log);
+  roudi.ready = true;
 
   // The camera traces what Cyclone does (the loopback configuration plus a trace file): a
   // sample that goes over RTPS (UDP) is traced as write_sample, one through iceoryx is not.
