@@ -167,5 +167,10 @@ if torch:
     tpeak = tp.get("peak_rss_mb") or 0.0
     print(f"   torch: red node {trss:.1f} MB resident vs red run peak {tpeak} MB with the same model: "
           f"the node adds {trss - tpeak:+.1f} MB")
+    tlat, tr2 = tp["latency_ms"], tl["response_ms"]
+    print(f"   torch: red run {tp['jobs']} jobs, response p50 {tlat['p50']:.2f} ms, p99 {tlat['p99']:.2f} ms; "
+          f"red node {tl['frames']} frames, {tl['complete']} complete, p50 {tr2['p50']:.2f} ms, p99 {tr2['p99']:.2f} ms; "
+          f"camera -> taken p50 {float(tt.group(1)) / 1e3:.2f} ms, p99 {float(tt.group(2)) / 1e3:.2f} ms; "
+          f"node adds p50 {tr2['p50'] - tlat['p50']:+.2f} ms, p99 {tr2['p99'] - tlat['p99']:+.2f} ms")
 PY
 echo "ros2 targets: done at $(date -u +%H:%M) UTC, load average $(cut -d' ' -f1-3 /proc/loadavg)"
