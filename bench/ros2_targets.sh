@@ -24,7 +24,8 @@
 #   (--shm, iceoryx): the script starts a RouDi with ROUDI_CONFIG (default
 #   bench/ros2/roudi.toml) and stops it at the end; none may be running before.
 #   Every run prints the host's UDP datagrams received during the node's run (/proc/net/snmp,
-#   the whole host): with SHM=1 only discovery and heartbeats remain.
+#   the whole host): with SHM=1 only discovery and heartbeats remain; and the node's minor
+#   page faults meanwhile (/proc/PID/stat).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/ros2-targets}
@@ -78,8 +79,9 @@ node_run() { # TAG BACKEND
     2>"$OUT/$tag.log" &
   local pid=$!
   for _ in $(seq 1200); do grep -q "out /diagnostics" "$OUT/$tag.log" && break; sleep 0.1; done
-  local udp0
+  local udp0 flt0
   udp0=$(awk '/^Udp:/ && $2 ~ /^[0-9]+$/ {print $2}' /proc/net/snmp)
+  flt0=$(awk '{print $10}' "/proc/$pid/stat")
   "$LISTENER" --domain "$d" --deadline-ms "$deadline" --warmup 1 --idle 2 --timeout $((SECS + 60)) \
     "${LISTENER_ARGS[@]}" "${DDS_ARGS[@]}" \
     --topic image:/red/perceive/L --topic image:/red/perceive/S \
@@ -91,6 +93,7 @@ node_run() { # TAG BACKEND
     "${DDS_ARGS[@]}" 2>/dev/null
   wait $listener
   echo $(($(awk '/^Udp:/ && $2 ~ /^[0-9]+$/ {print $2}' /proc/net/snmp) - udp0)) >"$OUT/$tag.udp"
+  echo $(($(awk '{print $10}' "/proc/$pid/stat") - flt0)) >"$OUT/$tag.faults"
   awk '/^VmRSS/ {print $2}' "/proc/$pid/status" >"$OUT/$tag.rss_kb"
   kill -INT $pid
   wait $pid
@@ -126,7 +129,9 @@ def node(tag):
     lst = json.load(open(f"{out}/{tag}.json"))
     rss = int(open(f"{out}/{tag}.rss_kb").read().strip() or 0) / 1024
     udp = open(f"{out}/{tag}.udp").read().strip() if os.path.exists(f"{out}/{tag}.udp") else "?"
-    print(f"   ({tag}: the host received {udp} UDP datagrams from the node being ready to the listener's end)")
+    flt = open(f"{out}/{tag}.faults").read().strip() if os.path.exists(f"{out}/{tag}.faults") else "?"
+    print(f"   ({tag}: the host received {udp} UDP datagrams from the node being ready to the listener's end;"
+          f" the node had {flt} minor page faults meanwhile)")
     return intake, release, lst, rss, transport, publish, whole, after
 def run(tag):
     p = json.load(open(f"{out}/{tag}/summary.json"))["policies"][0]

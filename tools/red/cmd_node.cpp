@@ -3,6 +3,7 @@
 /// camera publisher for demos and tests. Built only with the DDS bridge (RED_HAVE_DDS).
 
 #include <fmt/format.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <atomic>
@@ -45,6 +46,17 @@ void add_dds(CLI::App* cmd, DdsArgs& a) {
   cmd->add_flag("--shm", a.shm,
                 "Exchange samples with this host's other processes through shared memory "
                 "(iceoryx; needs a running iox-roudi, see docs/ROS2.md)");
+}
+
+// With --shm, keep the pages of large buffers: each frame's pixel buffer (921 KB for 640x480
+// rgb8) is allocated when the node takes the sample from shared memory and freed once
+// converted, and glibc's dynamic mmap and trim thresholds returned and faulted those pages
+// in again in about half the runs (~150 page faults a frame, transport p50 ~1.0 ms instead of
+// ~0.5 ms; docs/BENCHMARKS.md, "Shared memory (iceoryx)"). Large blocks come from the heap,
+// which is not trimmed below 128 MiB of free space.
+void keep_large_buffers() {
+  (void)mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest (64-bit)
+  (void)mallopt(M_TRIM_THRESHOLD, 128 << 20);
 }
 
 // With --shm, RouDi must run: iceoryx would wait for it and then abort the process. Exit 2
@@ -99,6 +111,7 @@ int run_node(const NodeArgs& a) {
     return kBadInput;
   }
   if (!roudi_ok(a.dds)) return kBadInput;
+  if (a.dds.shm) keep_large_buffers();
   dds::NodeOptions o;
   o.policy = a.policy;
   o.domain = a.dds.domain;
