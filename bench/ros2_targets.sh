@@ -20,6 +20,12 @@
 #   DDS_CONFIG=FILE: a Cyclone DDS XML configuration for the node, the camera and the listener
 #   (default: the built-in loopback-only one).
 #   RUN=0: leave out `red run` and reuse OUT/run-synthetic from an earlier run.
+#   SHM=1: the camera, the node and the listener exchange samples through shared memory
+#   (--shm, iceoryx): the script starts a RouDi with ROUDI_CONFIG (default
+#   bench/ros2/roudi.toml) and stops it at the end; none may be running before.
+#   Every run prints the host's UDP datagrams received during the node's run (/proc/net/snmp,
+#   the whole host): with SHM=1 only discovery and heartbeats remain; and the node's minor
+#   page faults meanwhile (/proc/PID/stat).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/ros2-targets}
@@ -38,6 +44,20 @@ DDS_ARGS=()
 [ -n "${DDS_CONFIG:-}" ] && DDS_ARGS=(--config "$DDS_CONFIG")
 CAMERA_ARGS=()
 LISTENER_ARGS=()
+roudi_up() { python3 -c 'import socket,sys; s=socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM); s.connect("/tmp/roudi")' 2>/dev/null; }
+ROUDI_PID=
+if [ "${SHM:-0}" = 1 ]; then
+  command -v iox-roudi >/dev/null || { echo "ros2 targets: SHM=1 needs iox-roudi (apt-get install iceoryx)" >&2; exit 2; }
+  roudi_up && { echo "ros2 targets: a RouDi already runs (/tmp/roudi); stop it first" >&2; exit 2; }
+  mkdir -p "$OUT"
+  iox-roudi -c "${ROUDI_CONFIG:-bench/ros2/roudi.toml}" -l warning >"$OUT/roudi.log" 2>&1 &
+  ROUDI_PID=$!
+  # Stopping RouDi terminates the processes still registered with it: it goes last.
+  trap 'kill -INT $ROUDI_PID 2>/dev/null; wait $ROUDI_PID 2>/dev/null || true' EXIT
+  for _ in $(seq 100); do roudi_up && break; sleep 0.1; done
+  roudi_up || { echo "ros2 targets: RouDi did not start: $(cat "$OUT/roudi.log")" >&2; exit 1; }
+  DDS_ARGS+=(--shm)
+fi
 if [ "${STAMPS:-1}" = 1 ]; then
   CAMERA_ARGS=(--stamps-topic /camera/stamps)
   LISTENER_ARGS=(--camera-stamps /camera/stamps)
@@ -48,7 +68,7 @@ if [ "${REALTIME:-1}" = 1 ]; then RUN_RT=(); NODE_RT=(--realtime); fi
 mkdir -p "$OUT"
 deadline=$(grep -oE 'deadline_ms: *[0-9.]+' "$SCENARIO" | grep -oE '[0-9.]+$')
 rate=$(grep -oE 'rate_hz: *[0-9.]+' "$SCENARIO" | head -1 | grep -oE '[0-9.]+$')
-echo "ros2 targets: $SCENARIO, ${SECS}s, real-time knobs ${REALTIME:-1}; $(nproc) cores," \
+echo "ros2 targets: $SCENARIO, ${SECS}s, real-time knobs ${REALTIME:-1}, shared memory ${SHM:-0}; $(nproc) cores," \
   "load average $(cut -d' ' -f1-3 /proc/loadavg) at $(date -u +%H:%M) UTC"
 
 # red node + camera + listener; prints the listener's JSON, leaves the node's log and RSS.
@@ -59,6 +79,9 @@ node_run() { # TAG BACKEND
     2>"$OUT/$tag.log" &
   local pid=$!
   for _ in $(seq 1200); do grep -q "out /diagnostics" "$OUT/$tag.log" && break; sleep 0.1; done
+  local udp0 flt0
+  udp0=$(awk '/^Udp:/ && $2 ~ /^[0-9]+$/ {print $2}' /proc/net/snmp)
+  flt0=$(awk '{print $10}' "/proc/$pid/stat")
   "$LISTENER" --domain "$d" --deadline-ms "$deadline" --warmup 1 --idle 2 --timeout $((SECS + 60)) \
     "${LISTENER_ARGS[@]}" "${DDS_ARGS[@]}" \
     --topic image:/red/perceive/L --topic image:/red/perceive/S \
@@ -69,6 +92,8 @@ node_run() { # TAG BACKEND
   "$RED" camera --rate "$rate" --duration "$SECS" --size 640x480 --domain "$d" "${CAMERA_ARGS[@]}" \
     "${DDS_ARGS[@]}" 2>/dev/null
   wait $listener
+  echo $(($(awk '/^Udp:/ && $2 ~ /^[0-9]+$/ {print $2}' /proc/net/snmp) - udp0)) >"$OUT/$tag.udp"
+  echo $(($(awk '{print $10}' "/proc/$pid/stat") - flt0)) >"$OUT/$tag.faults"
   awk '/^VmRSS/ {print $2}' "/proc/$pid/status" >"$OUT/$tag.rss_kb"
   kill -INT $pid
   wait $pid
@@ -103,6 +128,10 @@ def node(tag):
     publish = re.search(rf"job end -> output written p50 {num} us, p99 {num} us", log)
     lst = json.load(open(f"{out}/{tag}.json"))
     rss = int(open(f"{out}/{tag}.rss_kb").read().strip() or 0) / 1024
+    udp = open(f"{out}/{tag}.udp").read().strip() if os.path.exists(f"{out}/{tag}.udp") else "?"
+    flt = open(f"{out}/{tag}.faults").read().strip() if os.path.exists(f"{out}/{tag}.faults") else "?"
+    print(f"   ({tag}: the host received {udp} UDP datagrams from the node being ready to the listener's end;"
+          f" the node had {flt} minor page faults meanwhile)")
     return intake, release, lst, rss, transport, publish, whole, after
 def run(tag):
     p = json.load(open(f"{out}/{tag}/summary.json"))["policies"][0]
@@ -143,5 +172,10 @@ if torch:
     tpeak = tp.get("peak_rss_mb") or 0.0
     print(f"   torch: red node {trss:.1f} MB resident vs red run peak {tpeak} MB with the same model: "
           f"the node adds {trss - tpeak:+.1f} MB")
+    tlat, tr2 = tp["latency_ms"], tl["response_ms"]
+    print(f"   torch: red run {tp['jobs']} jobs, response p50 {tlat['p50']:.2f} ms, p99 {tlat['p99']:.2f} ms; "
+          f"red node {tl['frames']} frames, {tl['complete']} complete, p50 {tr2['p50']:.2f} ms, p99 {tr2['p99']:.2f} ms; "
+          f"camera -> taken p50 {float(tt.group(1)) / 1e3:.2f} ms, p99 {float(tt.group(2)) / 1e3:.2f} ms; "
+          f"node adds p50 {tr2['p50'] - tlat['p50']:+.2f} ms, p99 {tr2['p99'] - tlat['p99']:+.2f} ms")
 PY
 echo "ros2 targets: done at $(date -u +%H:%M) UTC, load average $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -3,6 +3,7 @@
 /// camera publisher for demos and tests. Built only with the DDS bridge (RED_HAVE_DDS).
 
 #include <fmt/format.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <atomic>
@@ -33,6 +34,7 @@ namespace {
 struct DdsArgs {
   int domain = 0;
   std::string config;  // file with Cyclone DDS XML
+  bool shm = false;    // through iceoryx shared memory
 };
 
 void add_dds(CLI::App* cmd, DdsArgs& a) {
@@ -41,6 +43,29 @@ void add_dds(CLI::App* cmd, DdsArgs& a) {
       ->capture_default_str();
   cmd->add_option("--config", a.config,
                   "Cyclone DDS XML configuration file (default: loopback only, see docs/ROS2.md)");
+  cmd->add_flag("--shm", a.shm,
+                "Exchange samples with this host's other processes through shared memory "
+                "(iceoryx; needs a running iox-roudi, see docs/ROS2.md)");
+}
+
+// With --shm, keep the pages of large buffers: each frame's pixel buffer (921 KB for 640x480
+// rgb8) is allocated when the node takes the sample from shared memory and freed once
+// converted, and glibc's dynamic mmap and trim thresholds returned and faulted those pages
+// in again in about half the runs (~150 page faults a frame, transport p50 ~1.0 ms instead of
+// ~0.5 ms; docs/BENCHMARKS.md, "Shared memory (iceoryx)"). Large blocks come from the heap,
+// which is not trimmed below 128 MiB of free space.
+void keep_large_buffers() {
+  (void)mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest (64-bit)
+  (void)mallopt(M_TRIM_THRESHOLD, 128 << 20);
+}
+
+// With --shm, RouDi must run: iceoryx would wait for it and then abort the process. Exit 2
+// (bad input) with how to start it, before anything else is opened.
+bool roudi_ok(const DdsArgs& a) {
+  if (!a.shm) return true;
+  auto up = dds::roudi_running();
+  if (!up) print_error(up.error());
+  return up.has_value();
 }
 
 // The configuration text of --config, or empty for the loopback default.
@@ -85,9 +110,12 @@ int run_node(const NodeArgs& a) {
     print_error(Error{"", 0, "unknown policy '" + a.policy + "' (known: " + known + ")"});
     return kBadInput;
   }
+  if (!roudi_ok(a.dds)) return kBadInput;
+  if (a.dds.shm) keep_large_buffers();
   dds::NodeOptions o;
   o.policy = a.policy;
   o.domain = a.dds.domain;
+  o.shared_memory = a.dds.shm;
   o.realtime = a.realtime;
   o.watchdog_x = a.real.watchdog_x;
   if (a.duration_s > 0) o.duration = Duration{static_cast<std::int64_t>(a.duration_s * 1e9)};
@@ -143,9 +171,9 @@ int run_node(const NodeArgs& a) {
   }
   (*node)->add_observer(&metrics);
   const dds::NodeTopics& t = (*node)->topics();
-  std::cerr << fmt::format("red node: {} on DDS domain {} ({}), policy {}, backend {}\n", s->name,
-                           o.domain, o.config.empty() ? "loopback only" : a.dds.config, a.policy,
-                           (*backend)->name());
+  std::cerr << fmt::format("red node: {} on DDS domain {} ({}{}), policy {}, backend {}\n", s->name,
+                           o.domain, o.config.empty() ? "loopback only" : a.dds.config,
+                           o.shared_memory ? ", shared memory" : "", a.policy, (*backend)->name());
   for (std::size_t i = 0; i < t.sensors.size(); ++i)
     std::cerr << fmt::format("red node:   in  {} (sensor {}, sensor_msgs/msg/Image)\n",
                              t.sensors[i], s->sensors[i].name);
@@ -276,9 +304,11 @@ int run_camera(CameraArgs& a) {
     print_error(Error{"", 0, "--size '" + a.size + "': expected WxH, e.g. 640x480"});
     return kBadInput;
   }
+  if (!roudi_ok(a.dds)) return kBadInput;
   a.o.width = w;
   a.o.height = h;
   a.o.domain = a.dds.domain;
+  a.o.shared_memory = a.dds.shm;
   if (a.count > 0) a.o.count = a.count;
   if (a.duration_s > 0) a.o.duration = Duration{static_cast<std::int64_t>(a.duration_s * 1e9)};
   auto config = read_config(a.dds.config);

@@ -227,7 +227,7 @@ struct Node::Impl final : Observer {
   }
 
   Expected<bool> open() {
-    auto d = Domain::open(options.domain, options.config);
+    auto d = Domain::open(options.domain, options.config, options.shared_memory);
     if (!d) return d.error();
     domain = std::move(*d);
     const dds_entity_t pp = domain->participant();

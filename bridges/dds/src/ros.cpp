@@ -1,8 +1,13 @@
 #include "red/dds/ros.hpp"
 
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -137,10 +142,39 @@ std::string loopback_config() {
          "</Domain></CycloneDDS>";
 }
 
-Expected<std::unique_ptr<Domain>> Domain::open(int domain_id, const std::string& config) {
+Expected<bool> roudi_running() {
+  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return Error{"", 0, std::string("shared memory: socket(): ") + std::strerror(errno)};
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, kRoudiSocket, sizeof(addr.sun_path) - 1);
+  // A datagram socket's connect() sends nothing: it only checks that a socket is bound there.
+  const int rc = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr));
+  const int err = errno;
+  ::close(fd);
+  if (rc == 0) return true;
+  return Error{"", 0,
+               std::string("shared memory needs iceoryx's daemon RouDi, which is not running (") +
+                   kRoudiSocket + ": " + std::strerror(err) +
+                   "): start it first, e.g. `iox-roudi -c bench/ros2/roudi.toml` (Debian package "
+                   "iceoryx; docs/ROS2.md, \"Shared memory\")"};
+}
+
+std::string shared_memory_config() {
+  // LogLevel warn: iceoryx's info lines (one per process) stay out of the node's log.
+  return "<CycloneDDS><Domain Id=\"any\"><SharedMemory><Enable>true</Enable>"
+         "<LogLevel>warn</LogLevel></SharedMemory></Domain></CycloneDDS>";
+}
+
+Expected<std::unique_ptr<Domain>> Domain::open(int domain_id, const std::string& config,
+                                               bool shared_memory) {
   if (domain_id < 0 || domain_id > 232)
     return Error{"", 0, "--domain " + std::to_string(domain_id) + ": must be 0..232"};
-  const std::string xml = config.empty() ? loopback_config() : config;
+  std::string xml = config.empty() ? loopback_config() : config;
+  if (shared_memory) {
+    if (auto up = roudi_running(); !up) return up.error();
+    xml += "," + shared_memory_config();
+  }
   const auto id = static_cast<dds_domainid_t>(domain_id);
   dds_entity_t dom = dds_create_domain(id, xml.c_str());
   // An already-open domain in this process (e.g. a test beside a node) is reused as is.

@@ -28,7 +28,8 @@ struct CameraOptions {
   std::optional<std::uint64_t> count;  ///< stop after this many frames
   std::optional<Duration> duration;    ///< stop after this long
   int domain = 0;
-  std::string config;  ///< Cyclone DDS XML or file:// URI; empty: loopback only
+  std::string config;          ///< Cyclone DDS XML or file:// URI; empty: loopback only
+  bool shared_memory = false;  ///< through iceoryx shared memory (Domain::open; RouDi must run)
   EndpointQos qos = QosSettings{}.input;
   /// When set, each frame's header also goes out on this topic (std_msgs/msg/Header,
   /// reliable), so that a probe (bench/ros2/listener.cpp) counts the frames sent without

@@ -57,6 +57,9 @@ struct NodeOptions {
   std::string policy = kDefaultNodePolicy;
   int domain = 0;
   std::string config;  ///< Cyclone DDS XML or file:// URI; empty: loopback only
+  /// Exchange samples with the host's other processes through iceoryx shared memory
+  /// (Domain::open; RouDi must run).
+  bool shared_memory = false;
   QosSettings qos;
   Remaps remaps;
   std::optional<Duration> duration;  ///< stop releasing after this long; none: until stop()

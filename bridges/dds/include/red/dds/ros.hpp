@@ -63,12 +63,33 @@ dds_qos_t* make_qos(const EndpointQos& q);
 /// few datagrams.
 std::string loopback_config();
 
+/// The Unix socket of iceoryx's daemon RouDi (iceoryx 2.0: one RouDi per host, at this
+/// fixed path).
+inline constexpr const char* kRoudiSocket = "/tmp/roudi";
+
+/// Whether RouDi, the iceoryx daemon that Cyclone DDS's shared memory needs, is running:
+/// its socket accepts a connection. Error says why not and how to start it. Cyclone does
+/// not fail when RouDi is missing: iceoryx waits for it and then aborts the process, hence
+/// this check before a domain with shared memory is opened.
+Expected<bool> roudi_running();
+
+/// A Cyclone DDS configuration fragment that turns on shared memory (iceoryx): appended to a
+/// configuration (Cyclone reads a comma-separated list of XML sources, later ones override),
+/// it makes every reader and writer whose QoS allows it (keep last, volatile or transient
+/// local, no deadline, automatic liveliness) exchange samples with the other processes of
+/// the host through RouDi's shared memory instead of UDP. Samples of types that are not of
+/// fixed size (Image: strings, sequences) are serialized into the iceoryx chunk.
+std::string shared_memory_config();
+
 /// A process's DDS domain and participant. `config` is Cyclone DDS XML (or a file://
-/// URI); empty means the loopback configuration. Not copyable.
+/// URI); empty means the loopback configuration. With `shared_memory`, shared_memory_config()
+/// is added to it, after checking that RouDi runs (roudi_running()). Not copyable.
 class Domain {
  public:
-  /// Error when the domain or the participant cannot be created (names the domain).
-  static Expected<std::unique_ptr<Domain>> open(int domain_id, const std::string& config);
+  /// Error when RouDi is wanted and not running, or when the domain or the participant cannot
+  /// be created (names the domain).
+  static Expected<std::unique_ptr<Domain>> open(int domain_id, const std::string& config,
+                                                bool shared_memory = false);
   ~Domain();
   Domain(const Domain&) = delete;
   Domain& operator=(const Domain&) = delete;
