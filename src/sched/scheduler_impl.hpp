@@ -80,6 +80,23 @@ struct Job {
   std::string reason;
 };
 
+struct Key {
+  std::int64_t rank;
+  TimePoint release;
+  int op;
+  std::uint64_t seq;
+  int node;  // scenario node order (§5 ties); a unit of no node (mono) sorts first
+  int unit;
+  bool operator<(const Key& o) const noexcept {
+    if (rank != o.rank) return rank < o.rank;
+    if (release != o.release) return release < o.release;
+    if (op != o.op) return op < o.op;
+    if (seq != o.seq) return seq < o.seq;
+    if (node != o.node) return node < o.node;
+    return unit < o.unit;
+  }
+};
+
 struct Task {
   bool live = false;
   UnitKind kind = UnitKind::Plain;
@@ -93,6 +110,11 @@ struct Task {
   // decision without a look into the job's graph.
   std::vector<std::pair<int, int>> member_at;
   TimePoint min_release{0};
+  // Over the members, kept as they join and leave (their jobs' fields do not change): the
+  // least tie-break key (rank 0) and the earliest end-to-end deadline, what ranking by job
+  // deadline reads without a look into the jobs.
+  Key tie{};
+  TimePoint job_deadline{0};
   TimePoint wait_until{0};
   bool in_waits = false;  // listed in Impl::waits (it began a merge wait)
   int ready_pos = -1;
@@ -134,23 +156,6 @@ struct Lane {
   // follow back to back; the run ends on a round trip or a transition other than Completed.
   bool run_open = false;
   std::vector<std::pair<int, JobId>> run_jobs;
-};
-
-struct Key {
-  std::int64_t rank;
-  TimePoint release;
-  int op;
-  std::uint64_t seq;
-  int node;  // scenario node order (§5 ties); a unit of no node (mono) sorts first
-  int unit;
-  bool operator<(const Key& o) const noexcept {
-    if (rank != o.rank) return rank < o.rank;
-    if (release != o.release) return release < o.release;
-    if (op != o.op) return op < o.op;
-    if (seq != o.seq) return seq < o.seq;
-    if (node != o.node) return node < o.node;
-    return unit < o.unit;
-  }
 };
 
 }  // namespace sched_detail
@@ -195,6 +200,9 @@ struct Scheduler::Impl {
   bool overloaded = false;
   bool demand_overrun = false;  // this round's demand test found more work than the lanes do
   TimePoint overload_hold{0};   // red-robust ranks by job deadline until then (§15)
+  // The policy is EdfPolicy (final): its rank is the deadline it is shown, and it reads no
+  // other field of the task's view.
+  bool edf_rank = false;
   bool mixed_criticality = false;
   int uniform_criticality = 0;       // every operation's, when not mixed
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
@@ -204,7 +212,8 @@ struct Scheduler::Impl {
   std::vector<std::pair<Key, int>> cand;
   struct Scan {
     Key key;
-    TimePoint deadline;
+    TimePoint deadline;  // valid where deadline_known; else task_deadline() gives it
+    bool deadline_known;
     int task;
     int criticality;
     UnitKind kind;  // the task's, for batching without another look at it
@@ -386,6 +395,32 @@ struct Scheduler::Impl {
 
   // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
   Key key(int t, TimePoint now, TaskView& v);
+
+  // True when the policy ranks the task by its jobs' end-to-end deadline this round (§15:
+  // rank=job-deadline, or rank=overload while overloaded; a ready encoder on several lanes
+  // only when the demand test overran).
+  bool by_job_deadline(const Task& k) const {
+    return opt.rank == RankMode::JobDeadline ||
+           (opt.rank == RankMode::Overload && overloaded &&
+            (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || demand_overrun));
+  }
+
+  // True when this round ranks tasks by job deadline with the EDF rank and equal
+  // criticalities (those by_job_deadline picks): pick() reads what each task keeps then,
+  // with no look into its jobs.
+  bool ranks_from_tasks() const {
+    return edf_rank && !mixed_criticality &&
+           (opt.rank == RankMode::JobDeadline || (opt.rank == RankMode::Overload && overloaded));
+  }
+
+  // The task's deadline as key() computes it (the earliest of its members' deadlines).
+  TimePoint task_deadline(const Task& k, TimePoint now);
+
+  // The member's tie-break key (rank 0): release, operation, job, node, unit.
+  Key tie_key(int slot, int unit, int node) {
+    const Job& j = job(slot);
+    return Key{0, j.release, j.op, j.seq, node, unit};
+  }
 
   // The predicted release, within γ of the task's first member, of another operation that
   // samples the same sensor (§3 rule 2); kNever if none.
