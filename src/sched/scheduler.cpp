@@ -440,6 +440,7 @@ int Scheduler::Impl::alloc_task() {
     free_tasks.pop_back();
   } else {
     tasks.emplace_back();
+    task_ranks.emplace_back();
     t = static_cast<int>(tasks.size() - 1);
   }
   Task& k = task(t);
@@ -502,14 +503,15 @@ void Scheduler::Impl::remove_member(int t, int slot, int unit) {
     return;
   }
   k.min_release = kNever;
-  k.job_deadline = kNever;
-  k.tie = tie_key(m.front().first, m.front().second, k.member_at.front().second);
+  TaskRank& r = task_rank(t);
+  r.job_deadline = kNever;
+  r.tie = tie_key(m.front().first, m.front().second, k.member_at.front().second);
   for (std::size_t i = 0; i < m.size(); ++i) {
     const Job& j = job(m[i].first);
     k.min_release = std::min(k.min_release, j.release);
-    k.job_deadline = std::min(k.job_deadline, j.deadline);
+    r.job_deadline = std::min(r.job_deadline, j.deadline);
     const Key mk = tie_key(m[i].first, m[i].second, k.member_at[i].second);
-    if (mk < k.tie) k.tie = mk;
+    if (mk < r.tie) r.tie = mk;
   }
 }
 
@@ -531,8 +533,9 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
       if (!same && !gamma) continue;
       k.members.emplace_back(slot, unit);
       k.member_at.emplace_back(ru.height, ru.node);
-      k.job_deadline = std::min(k.job_deadline, j.deadline);
-      if (const Key mk = tie_key(slot, unit, ru.node); mk < k.tie) k.tie = mk;
+      TaskRank& r = task_rank(t);
+      r.job_deadline = std::min(r.job_deadline, j.deadline);
+      if (const Key mk = tie_key(slot, unit, ru.node); mk < r.tie) r.tie = mk;
       if (gamma && frame > k.frame) {
         k.frame = frame;
         k.frame_time = j.frame_time[si];
@@ -553,8 +556,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   k.members.emplace_back(slot, unit);
   k.member_at.emplace_back(ru.height, ru.node);
   k.min_release = j.release;
-  k.job_deadline = j.deadline;
-  k.tie = tie_key(slot, unit, ru.node);
+  task_rank(t) = TaskRank{tie_key(slot, unit, ru.node), j.deadline};
   k.cost = ru.estimate;
   u.task = t;
   push_ready(t);
@@ -815,21 +817,22 @@ bool Scheduler::Impl::pick(TimePoint now) {
       if (tk.wait_until > now) continue;
       if (ranks_from_tasks() && by_job_deadline(tk)) {
         // EDF by job deadline reads only the earliest job deadline and the least member key,
-        // both kept on the task: no look into the jobs. The task's own deadline is computed
-        // where it is read (task_deadline). With equal criticalities neither the remaining
+        // both kept beside the task (TaskRank): no look into the jobs. The task's own deadline is
+        // computed where it is read (task_deadline). With equal criticalities neither the remaining
         // work nor the criticality orders anything. (A job's caches give the same values
         // whenever they are read: refresh() rebuilds from the job's own state, and a job's
         // evaluation is taken before start_dispatch changes it.)
-        Key k = tk.tie;
-        k.rank = tk.job_deadline.count();  // EdfPolicy::rank of the view by job deadline
+        const TaskRank& r = task_rank(t);
+        Key k = r.tie;
+        k.rank = r.job_deadline.count();  // EdfPolicy::rank of the view by job deadline
         // key()'s criticality with equal ones: the view's 0 or more.
         const int crit = std::max(0, uniform_criticality);
-        scanned.push_back({k, TimePoint{0}, false, t, crit, tk.kind, tk.head});
+        scanned.push_back({k, TimePoint{0}, t, crit, tk.kind, false, tk.head});
         top = std::max(top, crit);
       } else {
         TaskView v;
         const Key k = key(t, now, v);
-        scanned.push_back({k, v.deadline, true, t, v.criticality, tk.kind, tk.head});
+        scanned.push_back({k, v.deadline, t, v.criticality, tk.kind, true, tk.head});
         overload = overload || now + v.remaining > v.job_deadline;
         top = std::max(top, v.criticality);
       }

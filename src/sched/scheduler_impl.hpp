@@ -110,15 +110,19 @@ struct Task {
   // decision without a look into the job's graph.
   std::vector<std::pair<int, int>> member_at;
   TimePoint min_release{0};
-  // Over the members, kept as they join and leave (their jobs' fields do not change): the
-  // least tie-break key (rank 0) and the earliest end-to-end deadline, what ranking by job
-  // deadline reads without a look into the jobs.
-  Key tie{};
-  TimePoint job_deadline{0};
   TimePoint wait_until{0};
   bool in_waits = false;  // listed in Impl::waits (it began a merge wait)
   int ready_pos = -1;
   Duration cost{0};
+};
+
+// Over a task's members, kept as they join and leave (their jobs' fields do not change):
+// the least tie-break key (rank 0) and the earliest end-to-end deadline, what ranking by
+// job deadline reads without a look into the jobs. Beside the tasks (Impl::task_ranks), so
+// that a task stays as small as the ranking of the other presets reads it.
+struct TaskRank {
+  Key tie{};
+  TimePoint job_deadline{0};
 };
 
 struct OpState {
@@ -177,6 +181,7 @@ struct Scheduler::Impl {
   std::vector<int> free_jobs;
   JobId next_job_id = 1;
   std::vector<Task> tasks;
+  std::vector<TaskRank> task_ranks;  // beside `tasks`
   std::vector<int> free_tasks;
   std::vector<int> ready;
   std::vector<int> waits;  // tasks that began a merge wait (a superset of those still waiting)
@@ -210,15 +215,16 @@ struct Scheduler::Impl {
   std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
   // scratch for batching
   std::vector<std::pair<Key, int>> cand;
-  struct Scan {
+  struct Scan {  // one cache line
     Key key;
     TimePoint deadline;  // valid where deadline_known; else task_deadline() gives it
-    bool deadline_known;
     int task;
     int criticality;
     UnitKind kind;  // the task's, for batching without another look at it
+    bool deadline_known;
     int head;
   };
+  static_assert(sizeof(Scan) <= 64);
   std::vector<Scan> scanned;
   std::vector<int> batch;
   Duration enc_single{0};
@@ -237,6 +243,7 @@ struct Scheduler::Impl {
 
   Job& job(int slot) { return jobs[static_cast<std::size_t>(slot)]; }
   Task& task(int t) { return tasks[static_cast<std::size_t>(t)]; }
+  TaskRank& task_rank(int t) { return task_ranks[static_cast<std::size_t>(t)]; }
 
   // ---- jobs ---------------------------------------------------------------------------
 
