@@ -816,12 +816,16 @@ bool Scheduler::Impl::pick(TimePoint now) {
       Task& tk = task(t);
       if (tk.wait_until > now) continue;
       if (ranks_from_tasks() && by_job_deadline(tk)) {
-        // EDF by job deadline reads only the earliest job deadline and the least member key,
-        // both kept beside the task (TaskRank): no look into the jobs. The task's own deadline is
-        // computed where it is read (task_deadline). With equal criticalities neither the remaining
-        // work nor the criticality orders anything. (A job's caches give the same values
-        // whenever they are read: refresh() rebuilds from the job's own state, and a job's
-        // evaluation is taken before start_dispatch changes it.)
+        // EDF by job deadline reads only the earliest job deadline and the least member
+        // key, both kept beside the task (TaskRank): no look into the jobs. The task's own
+        // deadline is computed where it is read (task_deadline). With equal criticalities
+        // neither the remaining work nor the criticality orders anything. The jobs' caches
+        // read later give what this scan would have left, or values that decide the same:
+        // refresh() rebuilds from the job's state (of the changes made without `dirty`, a
+        // dependent's head source becoming ready changes nothing rebuild() computes, and
+        // another member joining a queued encoder run only loosens work_most, a bound the
+        // demand test backs with its exact walk), and start_dispatch takes a job's
+        // evaluation at `now` before it changes the job.
         const TaskRank& r = task_rank(t);
         Key k = r.tie;
         k.rank = r.job_deadline.count();  // EdfPolicy::rank of the view by job deadline
