@@ -95,6 +95,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
     for (const auto& [i, op] : e.changes) see(op);
   mixed_criticality = lo < hi;
   uniform_criticality = lo <= hi ? lo : 0;
+  edf_rank = dynamic_cast<const EdfPolicy*>(s.policy_.get()) != nullptr;
 }
 
 void Scheduler::Impl::notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event) {
@@ -439,6 +440,7 @@ int Scheduler::Impl::alloc_task() {
     free_tasks.pop_back();
   } else {
     tasks.emplace_back();
+    task_ranks.emplace_back();
     t = static_cast<int>(tasks.size() - 1);
   }
   Task& k = task(t);
@@ -501,7 +503,16 @@ void Scheduler::Impl::remove_member(int t, int slot, int unit) {
     return;
   }
   k.min_release = kNever;
-  for (auto [js, ju] : m) k.min_release = std::min(k.min_release, job(js).release);
+  TaskRank& r = task_rank(t);
+  r.job_deadline = kNever;
+  r.tie = tie_key(m.front().first, m.front().second, k.member_at.front().second);
+  for (std::size_t i = 0; i < m.size(); ++i) {
+    const Job& j = job(m[i].first);
+    k.min_release = std::min(k.min_release, j.release);
+    r.job_deadline = std::min(r.job_deadline, j.deadline);
+    const Key mk = tie_key(m[i].first, m[i].second, k.member_at[i].second);
+    if (mk < r.tie) r.tie = mk;
+  }
 }
 
 void Scheduler::Impl::make_ready(int slot, int unit) {
@@ -522,6 +533,9 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
       if (!same && !gamma) continue;
       k.members.emplace_back(slot, unit);
       k.member_at.emplace_back(ru.height, ru.node);
+      TaskRank& r = task_rank(t);
+      r.job_deadline = std::min(r.job_deadline, j.deadline);
+      if (const Key mk = tie_key(slot, unit, ru.node); mk < r.tie) r.tie = mk;
       if (gamma && frame > k.frame) {
         k.frame = frame;
         k.frame_time = j.frame_time[si];
@@ -542,6 +556,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   k.members.emplace_back(slot, unit);
   k.member_at.emplace_back(ru.height, ru.node);
   k.min_release = j.release;
+  task_rank(t) = TaskRank{tie_key(slot, unit, ru.node), j.deadline};
   k.cost = ru.estimate;
   u.task = t;
   push_ready(t);
@@ -594,9 +609,7 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
   // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
   // batching is checked against.
-  if (opt.rank == RankMode::JobDeadline ||
-      (opt.rank == RankMode::Overload && overloaded &&
-       (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || demand_overrun))) {
+  if (by_job_deadline(k)) {
     TaskView by_job = v;
     by_job.deadline = v.job_deadline;
     best.rank = s.policy_->rank(by_job, now);
@@ -604,6 +617,30 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
     best.rank = s.policy_->rank(v, now);
   }
   return best;
+}
+
+TimePoint Scheduler::Impl::task_deadline(const Task& k, TimePoint now) {
+  // key()'s deadline, with no other look: the members' caches are as key() left them.
+  TimePoint d = kNever;
+  const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
+                                       opt.deadlines == DeadlineMode::Equal);
+  for (std::size_t i = 0; i < k.members.size(); ++i) {
+    Job& j = job(k.members[i].first);
+    const int height = k.member_at[i].first;
+    if (shared) {
+      refresh(j);
+      const auto h = static_cast<std::size_t>(height);
+      if (j.running_units.empty()) {
+        d = std::min(d, from_share(j, j.frac[h], now));
+      } else {
+        eval(j, now);
+        d = std::min(d, from_share(j, j.frac_now[h], now));
+      }
+    } else {
+      d = std::min(d, height_deadline(j, height, now));
+    }
+  }
+  return d;
 }
 
 TimePoint Scheduler::Impl::predicted_member(const Task& k, TimePoint now) const {
@@ -708,6 +745,13 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
     }
     for (auto [slot, unit] : k.members) {
       Job& j = job(slot);
+      // Where ranking did not look into the jobs, the job's evaluation at `now` is taken
+      // before its unit starts, as ranking would have taken it: a later look in this round
+      // reads the values from before.
+      if (ranks_from_tasks()) {
+        refresh(j);
+        if (!j.running_units.empty()) eval(j, now);
+      }
       UnitRt& u = j.u[static_cast<std::size_t>(unit)];
       u.state = UState::Running;
       j.dirty = true;
@@ -766,13 +810,37 @@ bool Scheduler::Impl::pick(TimePoint now) {
     // waits, so it is shed first. With equal criticalities (the default) nothing changes.
     bool overload = overloaded;
     int top = std::numeric_limits<int>::min();
+    // With equal criticalities the order is the keys' alone: the least is kept as they come.
+    std::size_t least = 0;
     for (int t : ready) {
-      if (task(t).wait_until > now) continue;
-      TaskView v;
-      const Key k = key(t, now, v);
-      scanned.push_back({k, v.deadline, t, v.criticality, task(t).kind, task(t).head});
-      overload = overload || now + v.remaining > v.job_deadline;
-      top = std::max(top, v.criticality);
+      Task& tk = task(t);
+      if (tk.wait_until > now) continue;
+      if (ranks_from_tasks() && by_job_deadline(tk)) {
+        // EDF by job deadline reads only the earliest job deadline and the least member
+        // key, both kept beside the task (TaskRank): no look into the jobs. The task's own
+        // deadline is computed where it is read (task_deadline). With equal criticalities
+        // neither the remaining work nor the criticality orders anything. The jobs' caches
+        // read later give what this scan would have left, or values that decide the same:
+        // refresh() rebuilds from the job's state (of the changes made without `dirty`, a
+        // dependent's head source becoming ready changes nothing rebuild() computes, and
+        // another member joining a queued encoder run only loosens work_most, a bound the
+        // demand test backs with its exact walk), and start_dispatch takes a job's
+        // evaluation at `now` before it changes the job.
+        const TaskRank& r = task_rank(t);
+        Key k = r.tie;
+        k.rank = r.job_deadline.count();  // EdfPolicy::rank of the view by job deadline
+        // key()'s criticality with equal ones: the view's 0 or more.
+        const int crit = std::max(0, uniform_criticality);
+        scanned.push_back({k, TimePoint{0}, t, crit, tk.kind, false, tk.head});
+        top = std::max(top, crit);
+      } else {
+        TaskView v;
+        const Key k = key(t, now, v);
+        scanned.push_back({k, v.deadline, t, v.criticality, tk.kind, true, tk.head});
+        overload = overload || now + v.remaining > v.job_deadline;
+        top = std::max(top, v.criticality);
+      }
+      if (scanned.back().key < scanned[least].key) least = scanned.size() - 1;
     }
     const int shed_below = overload ? top : std::numeric_limits<int>::min();
     auto before = [shed_below](const Scan& a, const Scan& b) {
@@ -790,12 +858,18 @@ bool Scheduler::Impl::pick(TimePoint now) {
     for (;;) {
       best = -1;
       best_scan = nullptr;
-      for (const Scan& e : scanned) {
-        if (began_wait && task(e.task).wait_until > now) continue;  // began a wait this round
-        if (best_scan == nullptr || before(e, *best_scan)) {
-          best_scan = &e;
-          best = e.task;
-          best_deadline = e.deadline;
+      if (!began_wait && !mixed_criticality) {
+        if (!scanned.empty()) {
+          best_scan = &scanned[least];
+          best = best_scan->task;
+        }
+      } else {
+        for (const Scan& e : scanned) {
+          if (began_wait && task(e.task).wait_until > now) continue;  // began a wait this round
+          if (best_scan == nullptr || before(e, *best_scan)) {
+            best_scan = &e;
+            best = e.task;
+          }
         }
       }
       if (best < 0) return false;
@@ -844,19 +918,30 @@ bool Scheduler::Impl::pick(TimePoint now) {
     }
     if (rescan) continue;
     Task& k = task(best);
+    best_deadline = best_scan->deadline_known ? best_scan->deadline : task_deadline(k, now);
     batch.clear();
     batch.push_back(best);
     TimePoint deadline = best_deadline;
     if (opt.batching && (k.kind == UnitKind::Encoder || k.kind == UnitKind::Head)) {
       const int limit = batch_limit(k);
+      const Duration single =
+          k.kind == UnitKind::Encoder ? enc_single : head_single[static_cast<std::size_t>(k.head)];
+      // The first to join makes a batch of two, checked below against the best's deadline or
+      // an earlier one: where two are dearer than two runs or miss that deadline, none joins,
+      // and the candidates are not ranked.
+      const bool joinable = limit >= 2 && [&] {
+        const Duration cb = batch_estimate(k, 2);
+        return cb < single * 2 && now + rt + cb <= deadline;
+      }();
       cand.clear();
       for (const Scan& e : scanned) {
-        if (limit <= 1) break;
+        if (!joinable) break;
         if (e.task == best || e.kind != k.kind || e.head != k.head ||
             (began_wait && task(e.task).wait_until > now))
           continue;
         Key byd = e.key;
-        byd.rank = e.deadline.count();  // a batch takes its members by deadline
+        // A batch takes its members by deadline.
+        byd.rank = (e.deadline_known ? e.deadline : task_deadline(task(e.task), now)).count();
         cand.emplace_back(byd, e.task);
       }
       // Only the max_batch − 1 earliest can join: order just those.
@@ -864,8 +949,6 @@ bool Scheduler::Impl::pick(TimePoint now) {
       std::partial_sort(cand.begin(), cand.begin() + static_cast<std::ptrdiff_t>(take), cand.end(),
                         [](const auto& a, const auto& b) { return a.first < b.first; });
       cand.resize(take);
-      const Duration single =
-          k.kind == UnitKind::Encoder ? enc_single : head_single[static_cast<std::size_t>(k.head)];
       for (const auto& [kk, t] : cand) {
         const int b = static_cast<int>(batch.size()) + 1;
         if (b > limit) break;

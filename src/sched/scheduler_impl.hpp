@@ -80,6 +80,23 @@ struct Job {
   std::string reason;
 };
 
+struct Key {
+  std::int64_t rank;
+  TimePoint release;
+  int op;
+  std::uint64_t seq;
+  int node;  // scenario node order (§5 ties); a unit of no node (mono) sorts first
+  int unit;
+  bool operator<(const Key& o) const noexcept {
+    if (rank != o.rank) return rank < o.rank;
+    if (release != o.release) return release < o.release;
+    if (op != o.op) return op < o.op;
+    if (seq != o.seq) return seq < o.seq;
+    if (node != o.node) return node < o.node;
+    return unit < o.unit;
+  }
+};
+
 struct Task {
   bool live = false;
   UnitKind kind = UnitKind::Plain;
@@ -97,6 +114,15 @@ struct Task {
   bool in_waits = false;  // listed in Impl::waits (it began a merge wait)
   int ready_pos = -1;
   Duration cost{0};
+};
+
+// Over a task's members, kept as they join and leave (their jobs' fields do not change):
+// the least tie-break key (rank 0) and the earliest end-to-end deadline, what ranking by
+// job deadline reads without a look into the jobs. Beside the tasks (Impl::task_ranks), so
+// that a task stays as small as the ranking of the other presets reads it.
+struct TaskRank {
+  Key tie{};
+  TimePoint job_deadline{0};
 };
 
 struct OpState {
@@ -136,23 +162,6 @@ struct Lane {
   std::vector<std::pair<int, JobId>> run_jobs;
 };
 
-struct Key {
-  std::int64_t rank;
-  TimePoint release;
-  int op;
-  std::uint64_t seq;
-  int node;  // scenario node order (§5 ties); a unit of no node (mono) sorts first
-  int unit;
-  bool operator<(const Key& o) const noexcept {
-    if (rank != o.rank) return rank < o.rank;
-    if (release != o.release) return release < o.release;
-    if (op != o.op) return op < o.op;
-    if (seq != o.seq) return seq < o.seq;
-    if (node != o.node) return node < o.node;
-    return unit < o.unit;
-  }
-};
-
 }  // namespace sched_detail
 
 // Internal header, included only by the scheduler's own files.
@@ -172,6 +181,7 @@ struct Scheduler::Impl {
   std::vector<int> free_jobs;
   JobId next_job_id = 1;
   std::vector<Task> tasks;
+  std::vector<TaskRank> task_ranks;  // beside `tasks`
   std::vector<int> free_tasks;
   std::vector<int> ready;
   std::vector<int> waits;  // tasks that began a merge wait (a superset of those still waiting)
@@ -195,6 +205,9 @@ struct Scheduler::Impl {
   bool overloaded = false;
   bool demand_overrun = false;  // this round's demand test found more work than the lanes do
   TimePoint overload_hold{0};   // red-robust ranks by job deadline until then (§15)
+  // The policy is EdfPolicy (final): its rank is the deadline it is shown, and it reads no
+  // other field of the task's view.
+  bool edf_rank = false;
   bool mixed_criticality = false;
   int uniform_criticality = 0;       // every operation's, when not mixed
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
@@ -202,14 +215,16 @@ struct Scheduler::Impl {
   std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
   // scratch for batching
   std::vector<std::pair<Key, int>> cand;
-  struct Scan {
+  struct Scan {  // one cache line
     Key key;
-    TimePoint deadline;
+    TimePoint deadline;  // valid where deadline_known; else task_deadline() gives it
     int task;
     int criticality;
     UnitKind kind;  // the task's, for batching without another look at it
+    bool deadline_known;
     int head;
   };
+  static_assert(sizeof(Scan) <= 64);
   std::vector<Scan> scanned;
   std::vector<int> batch;
   Duration enc_single{0};
@@ -228,6 +243,7 @@ struct Scheduler::Impl {
 
   Job& job(int slot) { return jobs[static_cast<std::size_t>(slot)]; }
   Task& task(int t) { return tasks[static_cast<std::size_t>(t)]; }
+  TaskRank& task_rank(int t) { return task_ranks[static_cast<std::size_t>(t)]; }
 
   // ---- jobs ---------------------------------------------------------------------------
 
@@ -386,6 +402,32 @@ struct Scheduler::Impl {
 
   // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
   Key key(int t, TimePoint now, TaskView& v);
+
+  // True when the policy ranks the task by its jobs' end-to-end deadline this round (§15:
+  // rank=job-deadline, or rank=overload while overloaded; a ready encoder on several lanes
+  // only when the demand test overran).
+  bool by_job_deadline(const Task& k) const {
+    return opt.rank == RankMode::JobDeadline ||
+           (opt.rank == RankMode::Overload && overloaded &&
+            (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || demand_overrun));
+  }
+
+  // True when this round ranks tasks by job deadline with the EDF rank and equal
+  // criticalities (those by_job_deadline picks): pick() reads what each task keeps then,
+  // with no look into its jobs.
+  bool ranks_from_tasks() const {
+    return edf_rank && !mixed_criticality &&
+           (opt.rank == RankMode::JobDeadline || (opt.rank == RankMode::Overload && overloaded));
+  }
+
+  // The task's deadline as key() computes it (the earliest of its members' deadlines).
+  TimePoint task_deadline(const Task& k, TimePoint now);
+
+  // The member's tie-break key (rank 0): release, operation, job, node, unit.
+  Key tie_key(int slot, int unit, int node) {
+    const Job& j = job(slot);
+    return Key{0, j.release, j.op, j.seq, node, unit};
+  }
 
   // The predicted release, within γ of the task's first member, of another operation that
   // samples the same sensor (§3 rule 2); kNever if none.

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,6 +16,7 @@
 #include "red/scenario/loader.hpp"
 #include "red/sched/policy.hpp"
 #include "red/sim/run.hpp"
+#include "red/sim/simulator.hpp"
 
 namespace red {
 namespace {
@@ -442,6 +445,81 @@ TEST(Overload, ShedByRateIsAnOptionOfRedRobustOnly) {
   const std::string err = apply_options(o, "shed_rate=maybe");
   EXPECT_NE(err.find("shed_rate"), std::string::npos);
   EXPECT_TRUE(o.shed_by_rate);  // a bad value changes nothing
+}
+
+// Ranks as EdfPolicy does, but is another type: the scheduler ranks its tasks the long way
+// (every member's deadlines, through rank()), where with EdfPolicy it ranks by job deadline
+// from what each task keeps and computes a task's own deadline only where batching reads it.
+class LongWayEdf final : public Policy {
+ public:
+  explicit LongWayEdf(PolicyOptions o) : options_(o) {}
+  [[nodiscard]] std::string_view name() const noexcept override { return "long-way-edf"; }
+  [[nodiscard]] const PolicyOptions& options() const noexcept override { return options_; }
+  [[nodiscard]] std::int64_t rank(const TaskView& t, TimePoint) const noexcept override {
+    return t.deadline.count();
+  }
+
+ private:
+  PolicyOptions options_;
+};
+
+// Every unit start: when it was decided and started, lane, deadline, batch and members.
+struct StartLog : Observer {
+  std::string text;
+  std::uint64_t batched = 0;  // dispatches of more than one task
+  void on_unit_start(const Dispatch& d) override {
+    batched += d.batch > 1 ? 1 : 0;
+    text += fmt::format("{} {} {} {} {}:", d.decided_at.count(), d.start.count(), d.lane,
+                        d.deadline.count(), d.batch);
+    for (const Member& m : d.members) text += fmt::format(" {}/{}", m.job, m.unit);
+    text += '\n';
+  }
+};
+
+struct Starts {
+  std::string log;
+  std::uint64_t batched = 0;
+  SchedulerStats stats;
+};
+
+Starts starts(const Scenario& s, const Profile& p, std::unique_ptr<Policy> policy) {
+  Simulator sim(s, p, std::move(policy), SimOptions{.seed = s.seed});
+  StartLog log;
+  sim.add_observer(&log);
+  const SimResult r = sim.run();
+  return {std::move(log.text), log.batched, r.stats};
+}
+
+// red-robust's decisions do not depend on how its tasks are ranked: on overloaded grid sets
+// (plain and MIMONet, 1 to 4 lanes) and the minibenchmark past its limit, EdfPolicy and
+// LongWayEdf with red-robust's options start the same units at the same times.
+TEST(Overload, RankingByJobDeadlineFromTheTasksChangesNoDecision) {
+  const Profile p = default_profile();
+  std::vector<Scenario> cases;
+  for (const grid::SetSpec& spec : grid::grid_sets(2, 1.0))
+    for (double load : {1.5, 2.5}) cases.push_back(grid::set_scenario(spec, p, load));
+  for (const char* name : {"minibench-tight", "case-dynamic"}) {
+    auto s = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/" + name + ".yaml");
+    ASSERT_TRUE(s.has_value()) << s.error().to_string();
+    ASSERT_FALSE(apply_override(*s, "rate_scale", 2.5).has_value());
+    cases.push_back(*s);
+  }
+  std::uint64_t shed = 0, batched = 0;
+  for (const Scenario& s : cases) {
+    const auto o = policy_options(s, "red-robust");
+    ASSERT_TRUE(o.has_value());
+    const Starts fast = starts(s, p, std::make_unique<EdfPolicy>("red-robust", *o));
+    const Starts long_way = starts(s, p, std::make_unique<LongWayEdf>(*o));
+    ASSERT_FALSE(fast.log.empty()) << s.name;
+    EXPECT_EQ(fast.log, long_way.log) << s.name;
+    EXPECT_EQ(fast.stats.dispatches, long_way.stats.dispatches) << s.name;
+    shed += fast.stats.hopeless + fast.stats.rejected;
+    batched += fast.batched;
+  }
+  // The cases are past capacity (red-robust shed jobs in them) and batch tasks (whose
+  // deadlines only batching reads).
+  EXPECT_GT(shed, 0U);
+  EXPECT_GT(batched, 0U);
 }
 
 }  // namespace
