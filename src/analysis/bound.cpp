@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "red/analysis/workload.hpp"
 #include "red/graph/refine.hpp"
 #include "red/metrics/metrics.hpp"
 #include "red/sim/run.hpp"
@@ -27,29 +28,6 @@ double per_item_ms(const Profile& p, const std::string& unit, int limit) {
   return best;
 }
 
-// Every definition an operation has during the run: the initial one and those events give.
-std::vector<std::vector<const OperationSpec*>> snapshots(const Scenario& s) {
-  std::vector<std::vector<const OperationSpec*>> v(static_cast<std::size_t>(s.operation_count()));
-  for (int i = 0; i < s.operation_count(); ++i)
-    if (const auto& op = s.initial[static_cast<std::size_t>(i)])
-      v[static_cast<std::size_t>(i)].push_back(op.get());
-  for (const EventSpec& e : s.events)
-    for (const auto& [i, op] : e.changes)
-      if (op) v[static_cast<std::size_t>(i)].push_back(op.get());
-  return v;
-}
-
-// The definition of operation `i` in force at `t` (the last event at or before t wins).
-const OperationSpec* snapshot_at(const Scenario& s, int i, TimePoint t) {
-  const OperationSpec* op = s.initial[static_cast<std::size_t>(i)].get();
-  for (const EventSpec& e : s.events) {
-    if (TimePoint{e.at} > t) break;
-    for (const auto& [k, snap] : e.changes)
-      if (k == i) op = snap.get();
-  }
-  return op;
-}
-
 std::set<int> sensors_read(const OperationSpec& op) {
   std::set<int> v;
   for (const NodeSpec& n : op.nodes)
@@ -64,35 +42,41 @@ double work_bound(const Scenario& s, const Profile& p) {
   // skipped at max_inflight is counted as released): take them from a FIFO run.
   auto r = simulate_policy(s, p, "fifo", s.seed, {}, false);
   if (!r) throw std::runtime_error(r.error().to_string());
-  const auto all = snapshots(s);
   const int max_batch = std::max(1, s.scheduler.max_batch);
   const CostModel mean{&p, &s.model, EstimateKind::Mean};
+  const CostModel resolve{&p, &s.model, s.scheduler.estimate};
 
-  // Slowest period of each sensor over the run (rate changes by events included): the
-  // longest a frame stays the newest one, jitter added.
-  std::vector<double> frame_life(s.sensors.size(), 0.0);
-  for (std::size_t k = 0; k < s.sensors.size(); ++k) {
-    double hz = s.sensors[k].rate_hz;
-    for (const EventSpec& e : s.events)
-      for (const auto& [i, rate] : e.sensor_rates)
-        if (static_cast<std::size_t>(i) == k) hz = std::min(hz, rate);
-    frame_life[k] = 1000.0 / hz + to_ms(s.sensors[k].jitter);
-  }
-  // Shortest release period of an operation over its definitions (ms; +inf if none).
-  auto fastest_period = [&](int i) {
-    double t = std::numeric_limits<double>::infinity();
-    for (const OperationSpec* op : all[static_cast<std::size_t>(i)]) {
-      double hz = op->rate_hz;
-      if (op->trigger_sensor >= 0) {
-        hz = s.sensors[static_cast<std::size_t>(op->trigger_sensor)].rate_hz;
-        for (const EventSpec& e : s.events)
-          for (const auto& [k, rate] : e.sensor_rates)
-            if (k == op->trigger_sensor) hz = std::max(hz, rate);
-      }
-      if (hz > 0) t = std::min(t, 1000.0 / hz);
+  // The workload of each phase of the measured run (red/analysis/workload.hpp): every
+  // definition an operation has, and each sensor's slowest and fastest rate.
+  const auto phases = phase_workloads(s, TimePoint{s.duration});
+  const auto ops = static_cast<std::size_t>(s.operation_count());
+  std::vector<std::vector<const OperationSpec*>> all(ops);
+  std::vector<double> slowest_hz(s.sensors.size(), std::numeric_limits<double>::infinity());
+  std::vector<double> fastest_hz(s.sensors.size(), 0.0);
+  for (const PhaseWorkload& ph : phases) {
+    for (std::size_t i = 0; i < ops; ++i) {
+      const OperationSpec* op = ph.ops[i].get();
+      if (op != nullptr && std::find(all[i].begin(), all[i].end(), op) == all[i].end())
+        all[i].push_back(op);
     }
-    return t;
-  };
+    for (std::size_t k = 0; k < s.sensors.size(); ++k) {
+      slowest_hz[k] = std::min(slowest_hz[k], ph.sensor_rate[k]);
+      fastest_hz[k] = std::max(fastest_hz[k], ph.sensor_rate[k]);
+    }
+  }
+  // The longest a frame stays the newest one (ms), jitter added.
+  std::vector<double> frame_life(s.sensors.size());
+  for (std::size_t k = 0; k < s.sensors.size(); ++k)
+    frame_life[k] = 1000.0 / slowest_hz[k] + to_ms(s.sensors[k].jitter);
+  // Shortest release period of each operation over its definitions (ms; +inf if none).
+  std::vector<double> period(ops, std::numeric_limits<double>::infinity());
+  for (std::size_t i = 0; i < ops; ++i)
+    for (const OperationSpec* op : all[i]) {
+      const double hz = op->trigger_sensor >= 0
+                            ? fastest_hz[static_cast<std::size_t>(op->trigger_sensor)]
+                            : op->rate_hz;
+      if (hz > 0) period[i] = std::min(period[i], 1000.0 / hz);
+    }
 
   // How many jobs one encoder run on sensor k can serve at most (DynamicMerge, §3): one per
   // operation triggered by k's frames (the same frame); of an operation sampling k's newest
@@ -107,12 +91,11 @@ double work_bound(const Scenario& s, const Profile& p) {
   // floor((D − P(u)) / T) + 1 jobs of an operation released every T, and never more than
   // its max_inflight. Encoder runs: one per frame of a sensor for the operations it
   // triggers, one per job for the others.
-  const CostModel resolve{&p, &s.model, s.scheduler.estimate};
   const double enc_one = to_ms(mean.encoder());
   auto batchable = [&](const OperationSpec& op, double path, int i) {
     const double d = to_ms(resolve_deadline(op, resolve));
     if (path > d) return 1;
-    const double in_window = std::floor((d - path) / fastest_period(i)) + 1;
+    const double in_window = std::floor((d - path) / period[static_cast<std::size_t>(i)]) + 1;
     return static_cast<int>(std::min<double>(op.max_inflight, in_window));
   };
   int enc_queued = 0;
@@ -156,7 +139,7 @@ double work_bound(const Scenario& s, const Profile& p) {
           own[k] = std::max(own[k], w);
           const double span =
               std::max(to_ms(s.scheduler.gamma), frame_life[static_cast<std::size_t>(k)]);
-          const double per = std::floor(span / fastest_period(i)) + 1;
+          const double per = std::floor(span / period[static_cast<std::size_t>(i)]) + 1;
           c = static_cast<int>(std::min<double>(op->max_inflight, per));
         }
         count[k] = std::max(count[k], c);
@@ -185,15 +168,13 @@ double work_bound(const Scenario& s, const Profile& p) {
     for (const OperationSpec* op : defs) {
       OpCost c;
       for (const NodeSpec& n : op->nodes)
-        c.work += n.is_plain() ? to_ms(n.cost->mean) : head_cost[n.head];
+        c.work += n.is_plain() ? to_ms(n.cost->mean) : head_cost.at(n.head);
       for (int k : sensors_read(*op))
         c.work += enc / std::max(1.0, share[static_cast<std::size_t>(k)]);
       // A fine-graph critical path is at most the coarse one; exclude only what no policy
       // can meet even alone.
       const double cp = to_ms(coarse_critical_path(*op, mean));
-      const double deadline =
-          to_ms(resolve_deadline(*op, CostModel{&p, &s.model, s.scheduler.estimate}));
-      c.feasible = cp <= deadline;
+      c.feasible = cp <= to_ms(resolve_deadline(*op, resolve));
       oc[op] = c;
     }
 
@@ -201,9 +182,13 @@ double work_bound(const Scenario& s, const Profile& p) {
   std::int64_t released = 0;
   for (const JobRow& j : r->jobs) {
     ++released;
-    const OperationSpec* op = snapshot_at(s, j.operation, j.release);
+    // The definition in force at its release: that of the last phase begun by then.
+    auto ph = std::upper_bound(phases.begin(), phases.end(), j.release,
+                               [](TimePoint t, const PhaseWorkload& w) { return t < w.span.from; });
+    if (ph != phases.begin()) --ph;
+    const OperationSpec* op = ph->ops[static_cast<std::size_t>(j.operation)].get();
     if (op == nullptr) continue;
-    const OpCost& c = oc[op];
+    const OpCost& c = oc.at(op);
     if (c.feasible) costs.push_back(c.work);
   }
   if (released == 0) return 1.0;
