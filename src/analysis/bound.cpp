@@ -1,6 +1,7 @@
 #include "red/analysis/bound.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -16,17 +17,6 @@
 
 namespace red {
 namespace {
-
-// The least mean cost per item of `unit` in a batch of at most `limit` items (§3 inter-DAG
-// batching: a batch of b costs C(b), so each of its items needs C(b) / b of the lane).
-double per_item_ms(const Profile& p, const std::string& unit, int limit) {
-  const UnitProfile* u = p.find(unit);
-  if (u == nullptr || u->by_batch.empty()) return 0.0;
-  double best = std::numeric_limits<double>::infinity();
-  const int top = std::clamp(limit, 1, u->max_batch());
-  for (int b = 1; b <= top; ++b) best = std::min(best, to_ms(u->at(b).mean) / b);
-  return best;
-}
 
 std::set<int> sensors_read(const OperationSpec& op) {
   std::set<int> v;
@@ -78,33 +68,47 @@ double work_bound(const Scenario& s, const Profile& p) {
       if (hz > 0) period[i] = std::min(period[i], 1000.0 / hz);
     }
 
-  // How many jobs one encoder run on sensor k can serve at most (DynamicMerge, §3): one per
-  // operation triggered by k's frames (the same frame); of an operation sampling k's newest
-  // frame, every release within γ of the first member or while the frame stays the newest,
-  // at most max_inflight of them.
-  std::vector<double> share(s.sensors.size(), 0.0);
-  // How many runs of a unit can be batched usefully. For a batch of unit u to help a job
-  // be on time, its latest member's work before u must be done when the batch starts, and
-  // its earliest member must finish u and everything after it by its deadline D; so every
-  // member was released within D − P(u) of the earliest, P(u) the longest path through u on
-  // mean costs (the encoder first for an inference node). That is at most
-  // floor((D − P(u)) / T) + 1 jobs of an operation released every T, and never more than
-  // its max_inflight. Encoder runs: one per frame of a sensor for the operations it
-  // triggers, one per job for the others.
+  // How many jobs of an own-rate operation one encoder run may serve (DynamicMerge, §3):
+  // its releases within γ of the first member or while the frame stays the newest, at most
+  // max_inflight. A run on a frame serves one job of each operation the frame triggers.
+  //
+  // Batches (§3 inter-DAG batching). Each batch's lane time is split evenly among the
+  // on-time jobs it serves; a job's share is then at least C(b) / J(b), J(b) the most
+  // on-time jobs a batch of b can serve, and the least of it over b is what the bound
+  // charges. For a batch of unit u to help a job be on time, its latest member's work
+  // before u must be done when the batch starts, and its earliest member must finish u (the
+  // whole batch, C(b)) and everything after it by its deadline D; so every member was
+  // released within D − P_b(u) of the earliest, P_b(u) the longest path through u on mean
+  // costs with u at C(b). That is at most floor((D − P_b(u)) / T) + 1 jobs of an operation
+  // released every T, none if P_b(u) > D, and never more than its max_inflight.
   const double enc_one = to_ms(mean.encoder());
-  auto batchable = [&](const OperationSpec& op, double path, int i) {
+  auto window = [&](const OperationSpec& op, double path, int i) {
     const double d = to_ms(resolve_deadline(op, resolve));
-    if (path > d) return 1;
+    if (path > d) return 0;
     const double in_window = std::floor((d - path) / period[static_cast<std::size_t>(i)]) + 1;
     return static_cast<int>(std::min<double>(op.max_inflight, in_window));
   };
+  const UnitProfile* enc_prof = p.find("encoder");
+  const int enc_top = enc_prof == nullptr ? 0 : std::min(max_batch, enc_prof->max_batch());
+  auto mean_ms = [](const UnitProfile* u, int b) { return to_ms(u->at(b).mean); };
+  // serve[b][k][n]: the most on-time jobs n frames of sensor k in an encoder batch of b serve.
+  std::vector<std::vector<std::vector<int>>> serve(
+      static_cast<std::size_t>(enc_top) + 1,
+      std::vector<std::vector<int>>(s.sensors.size(),
+                                    std::vector<int>(static_cast<std::size_t>(enc_top) + 1, 0)));
+  // The jobs one run on sensor k serves on time at most (any batch), and the most runs that
+  // may batch usefully (one per frame of a sensor for the operations it triggers, as many
+  // as their window holds; the windows of the others).
+  std::vector<int> share(s.sensors.size(), 0);
+  std::map<int, int> frames_queued;
   int enc_queued = 0;
-  std::map<int, int> head_queued;
-  std::map<int, int> frames_queued;  // sensor -> frames whose triggered jobs may batch
+  // on_time[h][b]: the most on-time runs of head h a batch of b holds.
+  std::map<int, std::vector<int>> head_on_time;
   for (int i = 0; i < s.operation_count(); ++i) {
-    std::map<int, int> count;  // sensor -> jobs of this operation one run may serve
-    std::map<int, int> heads;  // head -> its runs of this operation that may batch
-    std::map<int, int> own;    // sensor read, not triggering it -> encoder runs that may batch
+    std::map<std::pair<int, int>, std::vector<int>> op_serve;  // (b, sensor) -> by n, max over defs
+    std::map<int, std::vector<int>> op_heads;                  // head -> by b, max over defs
+    std::map<int, int> op_share;  // sensor -> jobs of this operation one run serves
+    std::map<int, int> op_own;    // sensor read, not triggering it -> runs that may batch
     for (const OperationSpec* op : all[static_cast<std::size_t>(i)]) {
       // Longest paths on mean costs into (up) and out of (down) each node, itself included.
       const std::size_t n = op->nodes.size();
@@ -121,56 +125,132 @@ double work_bound(const Scenario& s, const Profile& p) {
           up[to] = std::max(up[to], up[from] + cost[to]);
           down[from] = std::max(down[from], cost[from] + down[to]);
         }
-      std::map<int, int> h;
+      std::map<int, std::vector<int>> h;    // head -> by b
       std::map<int, double> after_encoder;  // sensor -> longest path from a node reading it
       for (std::size_t v = 0; v < n; ++v) {
         const NodeSpec& node = op->nodes[v];
         if (node.is_plain()) continue;
-        h[node.head] += batchable(*op, up[v] + down[v] - cost[v], i);
         after_encoder[node.sensor] = std::max(after_encoder[node.sensor], down[v]);
+        const UnitProfile* hp =
+            p.find("head/" + s.model.heads[static_cast<std::size_t>(node.head)]);
+        if (hp == nullptr || hp->by_batch.empty()) continue;
+        const int top = std::min(max_batch, hp->max_batch());
+        auto& by_b = h[node.head];
+        by_b.resize(static_cast<std::size_t>(top) + 1, 0);
+        for (int b = 1; b <= top; ++b)
+          by_b[static_cast<std::size_t>(b)] +=
+              window(*op, up[v] + down[v] - 2 * cost[v] + mean_ms(hp, b), i);
       }
-      for (auto [head, c] : h) heads[head] = std::max(heads[head], c);
+      for (auto& [head, by_b] : h) {
+        auto& best = op_heads[head];
+        best.resize(std::max(best.size(), by_b.size()), 0);
+        for (std::size_t b = 0; b < by_b.size(); ++b) best[b] = std::max(best[b], by_b[b]);
+      }
       for (int k : sensors_read(*op)) {
-        const int w = batchable(*op, enc_one + after_encoder[k], i);
-        int c = 1;
-        if (op->trigger_sensor == k) {
-          frames_queued[k] = std::max(frames_queued[k], w);
-        } else {
-          own[k] = std::max(own[k], w);
-          const double span =
-              std::max(to_ms(s.scheduler.gamma), frame_life[static_cast<std::size_t>(k)]);
+        const auto ku = static_cast<std::size_t>(k);
+        // Jobs of this operation one run serves: one (a frame's), or own-rate merges.
+        int per_run = 1;
+        if (op->trigger_sensor != k) {
+          const double span = std::max(to_ms(s.scheduler.gamma), frame_life[ku]);
           const double per = std::floor(span / period[static_cast<std::size_t>(i)]) + 1;
-          c = static_cast<int>(std::min<double>(op->max_inflight, per));
+          per_run = static_cast<int>(std::min<double>(op->max_inflight, per));
         }
-        count[k] = std::max(count[k], c);
+        op_share[k] = std::max(op_share[k], per_run);
+        const int w1 = window(*op, enc_one + after_encoder[k], i);
+        if (op->trigger_sensor == k)
+          frames_queued[k] = std::max(frames_queued[k], w1);
+        else
+          op_own[k] = std::max(op_own[k], w1);
+        for (int b = 1; b <= enc_top; ++b) {
+          const int w = window(*op, mean_ms(enc_prof, b) + after_encoder[k], i);
+          auto& by_n = op_serve[{b, k}];
+          by_n.resize(static_cast<std::size_t>(enc_top) + 1, 0);
+          for (int m = 0; m <= b; ++m)
+            by_n[static_cast<std::size_t>(m)] =
+                std::max(by_n[static_cast<std::size_t>(m)], std::min(m * per_run, w));
+        }
       }
     }
-    for (auto [k, c] : count) share[static_cast<std::size_t>(k)] += c;
-    for (auto [k, w] : own) enc_queued += w;
-    for (auto [head, c] : heads) head_queued[head] += c;
+    for (const auto& [bk, by_n] : op_serve)
+      for (std::size_t m = 0; m < by_n.size(); ++m)
+        serve[static_cast<std::size_t>(bk.first)][static_cast<std::size_t>(bk.second)][m] +=
+            by_n[m];
+    for (auto [k, c] : op_share) share[static_cast<std::size_t>(k)] += c;
+    for (auto [k, w] : op_own) enc_queued += w;
+    for (const auto& [head, by_b] : op_heads) {
+      auto& total = head_on_time[head];
+      total.resize(std::max(total.size(), by_b.size()), 0);
+      for (std::size_t b = 0; b < by_b.size(); ++b) total[b] += by_b[b];
+    }
   }
+  // Two ways to split a batch's time, each giving every on-time job at least the charge
+  // below; each gives an upper bound, and the bound is the lower of the two.
+  //  - Among its on-time jobs: a job's share is at least C(b) / J(b), J(b) the most on-time
+  //    jobs a batch of b serves (the best split of b frames among the sensors, a knapsack).
+  //    The same charge per sensor read, whatever the sensor.
+  //  - Among its runs, C(b) / b each, and a run's among the at most share_k jobs it serves:
+  //    per read of sensor k, the least C(b) / b over the useful batch sizes, / share_k.
+  //    Lower where frames of a sensor feeding few operations batch with those of another.
   for (auto [k, f] : frames_queued) enc_queued += f;
-  const double enc = per_item_ms(p, "encoder", std::min(max_batch, enc_queued));
-  std::map<int, double> head_cost;
-  for (auto [head, q] : head_queued)
-    head_cost[head] = per_item_ms(p, "head/" + s.model.heads[static_cast<std::size_t>(head)],
-                                  std::min(max_batch, q));
+  double by_jobs = enc_one;
+  for (int b = 1; b <= enc_top; ++b) {
+    std::vector<int> most(static_cast<std::size_t>(b) + 1, 0);  // items used -> jobs served
+    for (std::size_t k = 0; k < s.sensors.size(); ++k) {
+      std::vector<int> next = most;
+      for (int used = 0; used <= b; ++used)
+        for (int m = 1; used + m <= b; ++m)
+          next[static_cast<std::size_t>(used + m)] =
+              std::max(next[static_cast<std::size_t>(used + m)],
+                       most[static_cast<std::size_t>(used)] +
+                           serve[static_cast<std::size_t>(b)][k][static_cast<std::size_t>(m)]);
+      most = std::move(next);
+    }
+    const int jobs = *std::max_element(most.begin(), most.end());
+    if (jobs > 0) by_jobs = std::min(by_jobs, mean_ms(enc_prof, b) / jobs);
+  }
+  double per_run = enc_one;
+  for (int b = 1; b <= std::min(enc_top, std::max(1, enc_queued)); ++b)
+    per_run = std::min(per_run, mean_ms(enc_prof, b) / b);
+  std::vector<std::vector<double>> enc_charge(2, std::vector<double>(s.sensors.size(), by_jobs));
+  for (std::size_t k = 0; k < s.sensors.size(); ++k)
+    enc_charge[1][k] = per_run / std::max(1, share[k]);
 
-  // Per definition: the least lane time a job needs (plain costs, heads at their cheapest
-  // batch, an encoder run per sensor read at its cheapest batch and shared as widely as
-  // merging allows), and whether its coarse critical path fits its deadline at all.
+  // A head's charge per run: least over b of C(b) / (on-time runs in a batch of b).
+  std::map<int, double> head_cost;
+  for (int head = 0; head < static_cast<int>(s.model.heads.size()); ++head) {
+    const UnitProfile* hp = p.find("head/" + s.model.heads[static_cast<std::size_t>(head)]);
+    if (hp == nullptr || hp->by_batch.empty()) {
+      head_cost[head] = 0.0;
+      continue;
+    }
+    double best = mean_ms(hp, 1);
+    const auto it = head_on_time.find(head);
+    if (it != head_on_time.end())
+      for (std::size_t b = 1; b < it->second.size(); ++b) {
+        const int on_time = std::min(static_cast<int>(b), it->second[b]);
+        if (on_time > 0) best = std::min(best, mean_ms(hp, static_cast<int>(b)) / on_time);
+      }
+    head_cost[head] = best;
+  }
+
+  // Per definition, under each way of splitting: the least lane time a job needs (plain
+  // costs, heads and encoder runs as charged above), and whether its coarse critical path
+  // fits its deadline at all.
   struct OpCost {
-    double work = 0;
+    std::array<double, 2> work{};
     bool feasible = true;
   };
   std::map<const OperationSpec*, OpCost> oc;
   for (const auto& defs : all)
     for (const OperationSpec* op : defs) {
       OpCost c;
+      double own = 0;
       for (const NodeSpec& n : op->nodes)
-        c.work += n.is_plain() ? to_ms(n.cost->mean) : head_cost.at(n.head);
-      for (int k : sensors_read(*op))
-        c.work += enc / std::max(1.0, share[static_cast<std::size_t>(k)]);
+        own += n.is_plain() ? to_ms(n.cost->mean) : head_cost.at(n.head);
+      for (std::size_t w = 0; w < 2; ++w) {
+        c.work[w] = own;
+        for (int k : sensors_read(*op)) c.work[w] += enc_charge[w][static_cast<std::size_t>(k)];
+      }
       // A fine-graph critical path is at most the coarse one; exclude only what no policy
       // can meet even alone.
       const double cp = to_ms(coarse_critical_path(*op, mean));
@@ -178,7 +258,7 @@ double work_bound(const Scenario& s, const Profile& p) {
       oc[op] = c;
     }
 
-  std::vector<double> costs;
+  std::array<std::vector<double>, 2> costs;
   std::int64_t released = 0;
   for (const JobRow& j : r->jobs) {
     ++released;
@@ -189,17 +269,22 @@ double work_bound(const Scenario& s, const Profile& p) {
     const OperationSpec* op = ph->ops[static_cast<std::size_t>(j.operation)].get();
     if (op == nullptr) continue;
     const OpCost& c = oc.at(op);
-    if (c.feasible) costs.push_back(c.work);
+    if (!c.feasible) continue;
+    for (std::size_t w = 0; w < 2; ++w) costs[w].push_back(c.work[w]);
   }
   if (released == 0) return 1.0;
-  std::sort(costs.begin(), costs.end());
   const double capacity = s.device.lanes * to_ms(s.duration - s.warmup);
-  double used = 0;
-  std::int64_t fit = 0;
-  for (double c : costs) {
-    if (used + c > capacity) break;
-    used += c;
-    ++fit;
+  std::int64_t fit = std::numeric_limits<std::int64_t>::max();
+  for (std::vector<double>& v : costs) {
+    std::sort(v.begin(), v.end());
+    double used = 0;
+    std::int64_t n = 0;
+    for (double c : v) {
+      if (used + c > capacity) break;
+      used += c;
+      ++n;
+    }
+    fit = std::min(fit, n);
   }
   return static_cast<double>(fit) / static_cast<double>(released);
 }

@@ -111,5 +111,43 @@ TEST(WorkBound, SharesAnEncoderRunBetweenOperationsThatMayMerge) {
   EXPECT_LT(apart, 0.80);  // 1.5 / 2 of the jobs fit
 }
 
+// One camera at 100 Hz triggers two operations that read it through the steer head: one
+// with a 500 ms deadline, one with 14 ms. A merged encoder run of a frame serves both
+// (12 ms for 2 jobs: 6 ms a job). Batching two frames' encoder runs (18.6 ms) would be
+// 4.65 ms a job if it served four jobs, but it ends 18.6 ms after the later frame at the
+// earliest, too late for the tight operation's jobs (18.6 + 0.6 > 14): it serves two on
+// time, 9.3 ms a job. So each job is charged 6 ms of encoder, and 0.93 / 2 ms of steer (two
+// of them, from one frame, fit a batch of two). 10 ms of lane a frame holds 10 / 12.93 of
+// its two jobs.
+TEST(WorkBound, ChargesAnEncoderBatchOnlyToTheJobsItCanServeOnTime) {
+  const Profile p = default_profile();
+  const double enc1 = to_ms(p.find("encoder")->at(1).mean);
+  const double enc2 = to_ms(p.find("encoder")->at(2).mean);
+  const double steer1 = to_ms(p.find("head/steer")->at(1).mean);
+  const double steer2 = to_ms(p.find("head/steer")->at(2).mean);
+  ASSERT_GT(enc2 + steer1, 14.0);  // a two-frame encoder batch is too late for "tight"
+  ASSERT_LE(enc1 + steer2, 14.0);  // one frame's encoder, then both steer heads, is not
+  ScenarioBuilder b("windows");
+  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
+  b.heads({"lane", "seg", "steer", "det"}).max_batch(2);
+  b.sensor("cam", 100);
+  b.operation("loose")
+      .trigger("cam")
+      .deadline(milliseconds{500})
+      .max_inflight(4)
+      .inference("A", "steer", "cam");
+  b.operation("tight")
+      .trigger("cam")
+      .deadline(milliseconds{14})
+      .max_inflight(4)
+      .inference("B", "steer", "cam");
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  const double per_job = std::min(enc1 / 2, enc2 / 2) + steer2 / 2;
+  EXPECT_DOUBLE_EQ(per_job, enc1 / 2 + steer2 / 2);
+  EXPECT_NEAR(work_bound(*s, p), 10.0 / (2 * per_job), 0.01);
+  expect_above_every_policy(*s, p, "two operations on one camera, 14 and 500 ms");
+}
+
 }  // namespace
 }  // namespace red
