@@ -51,8 +51,65 @@ Duration Scheduler::Impl::work_left(Job& j, TimePoint now, std::size_t k) {
   return w;
 }
 
+bool Scheduler::Impl::looking_ahead() const {
+  return opt.lookahead &&
+         offered > kLookaheadAt * kOfferedWindow * static_cast<double>(s.config_.lanes);
+}
+
+Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k,
+                                       Duration* largest) {
+  if (expected_stale) {
+    expected_stale = false;
+    std::vector<int> sharing(sensors.size(), 0);
+    for (const OpState& o : ops)
+      if (o.g != nullptr && o.remaining != 0 && o.trigger >= 0)
+        ++sharing[static_cast<std::size_t>(o.trigger)];
+    expected_work.assign(ops.size(), {});
+    for (std::size_t i = 0; i < ops.size(); ++i) {
+      const OpState& o = ops[i];
+      if (o.g == nullptr) continue;
+      for (const RefinedUnit& ru : o.g->units)
+        for (std::size_t e = 0; e < kEstimates; ++e)
+          expected_work[i][e] +=
+              ru.kind == UnitKind::Encoder && o.trigger >= 0
+                  ? ru.costs[e] / std::max(1, sharing[static_cast<std::size_t>(o.trigger)])
+                  : ru.costs[e];
+    }
+  }
+  Duration due{0};
+  for (std::size_t i = 0; i < ops.size(); ++i) {
+    const OpState& o = ops[i];
+    if (o.g == nullptr || o.remaining == 0) continue;
+    // The next release: the own-rate tick, or the triggering sensor's next frame.
+    double hz = 0;
+    TimePoint next = kNever;
+    if (o.own_rate) {
+      hz = o.rate_hz;
+      next = o.next_tick;
+    } else if (o.trigger >= 0) {
+      const SensorState& sn = sensors[static_cast<std::size_t>(o.trigger)];
+      hz = sn.rate_hz;
+      if (sn.has_frame && hz > 0) next = sn.time + from_s(1.0 / hz);
+    }
+    if (hz <= 0 || next == kNever) continue;
+    if (next <= now)
+      next += from_s(std::ceil(std::chrono::duration<double>(now - next).count() * hz + 1e-9) / hz);
+    const TimePoint first_deadline = next + o.g->deadline;
+    if (first_deadline > t) continue;
+    const auto count = 1 + static_cast<std::int64_t>(
+                              std::chrono::duration<double>(t - first_deadline).count() * hz);
+    const Duration w = expected_work[i][k];
+    due += w * count;
+    if (largest != nullptr) *largest = std::max(*largest, w);
+  }
+  return due;
+}
+
 int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, int margin,
                                    std::size_t from, bool skip_doomed) {
+  // Admission (skip_doomed) looking ahead counts, by each job's deadline, the work of the
+  // jobs still to come that are due by then too.
+  const bool ahead = skip_doomed && looking_ahead();
   const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
   if (lane_count > 1 && schedule) return first_overrun_lanes(now, k, margin, from, skip_doomed);
   // Admission on one lane counts the unit running there first, whatever its job's deadline
@@ -74,6 +131,7 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
     if (skip_doomed && doomed(j, now, k)) continue;
     const Duration w = work_left(j, now, k);
     due += w;
+    const Duration coming = ahead ? expected_due(now, j.deadline, k) : Duration{0};
     if (blocking)
       for (int r : j.running_units) {
         const auto u = static_cast<std::size_t>(r);
@@ -81,10 +139,10 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
       }
     if (i < from) continue;
     if (lane_count == 1) {
-      if (now + padded(due, margin) > j.deadline) return static_cast<int>(i);
+      if (now + padded(due + coming, margin) > j.deadline) return static_cast<int>(i);
       continue;
     }
-    if (now + padded(due, margin) / lane_count > j.deadline) return static_cast<int>(i);
+    if (now + padded(due + coming, margin) / lane_count > j.deadline) return static_cast<int>(i);
     // The job's critical path is at most its own work: only a job whose work alone does not
     // fit needs the longer walk.
     if (now + padded(w, margin) > j.deadline &&
@@ -276,6 +334,7 @@ void Scheduler::Impl::admit(TimePoint now) {
   // goes and the test starts again; a window with nothing to shed is passed over. A job that
   // cannot make it even alone (on the estimate, from now) counts for nothing: the hopeless
   // check ends it, and its work would make every later window overrun.
+  const bool ahead = looking_ahead();
   std::size_t from = 0;
   for (;;) {
     const int over = first_overrun(now, k, schedule, margin, from, true);
@@ -283,8 +342,9 @@ void Scheduler::Impl::admit(TimePoint now) {
     from = static_cast<std::size_t>(over) + 1;
     // The first job alone overrunning its deadline on the estimate: rejecting it frees the
     // lanes for nobody now, and the estimate may be pessimistic (a profile taken under
-    // load); the hopeless check decides on its progress instead.
-    if (over == 0) continue;
+    // load); the hopeless check decides on its progress instead. Not alone when looking
+    // ahead: the jobs to come before its deadline are what it would take the lane from.
+    if (over == 0 && !ahead) continue;
     int victim = -1;
     Duration victim_work{0};
     int victim_crit = 0;
@@ -305,6 +365,13 @@ void Scheduler::Impl::admit(TimePoint now) {
       }
     }
     if (victim < 0) continue;  // only started jobs are due by then: hopeless checks decide
+    if (ahead) {
+      // Moore and Hodgson over the jobs to come as well: where one of them has more work due
+      // by then than the victim, it is that job that goes, at its release.
+      Duration largest{0};
+      expected_due(now, job(by_deadline[static_cast<std::size_t>(over)]).deadline, k, &largest);
+      if (largest > victim_work) continue;
+    }
     from = 0;
     job(victim).reason = "rejected at release";
     ++s.stats_.rejected;

@@ -125,6 +125,7 @@ std::string set_option(PolicyOptions& o, std::string_view key, std::string_view 
     return {};
   }
   if (key == "shed_rate") return choose(o.shed_by_rate, key, value, kBool);
+  if (key == "lookahead") return choose(o.lookahead, key, value, kBool);
   if (key == "rank")
     return choose(
         o.rank, key, value,
@@ -154,9 +155,9 @@ std::string apply_options(PolicyOptions& o, std::string_view list) {
 }
 
 const std::vector<std::string>& option_keys() {
-  static const std::vector<std::string> v{"graph",     "deadlines",    "reassign", "merge",
-                                          "batching",  "sync",         "drop",     "drop_estimate",
-                                          "admission", "admit_margin", "rank",     "shed_rate"};
+  static const std::vector<std::string> v{
+      "graph",         "deadlines", "reassign",     "merge", "batching",  "sync",     "drop",
+      "drop_estimate", "admission", "admit_margin", "rank",  "shed_rate", "lookahead"};
   return v;
 }
 
@@ -168,7 +169,7 @@ std::string describe(const PolicyOptions& o) {
          ",drop_estimate=" + estimate_name(o.drop_estimate) +
          ",admission=" + to_string(o.admission) +
          ",admit_margin=" + std::to_string(o.admit_margin) + ",rank=" + to_string(o.rank) +
-         ",shed_rate=" + yn(o.shed_by_rate);
+         ",shed_rate=" + yn(o.shed_by_rate) + ",lookahead=" + yn(o.lookahead);
 }
 
 std::optional<PolicyOptions> preset_options(std::string_view name) {
@@ -210,6 +211,7 @@ std::optional<PolicyOptions> preset_options(std::string_view name) {
       o.admit_margin = 5;  // the least of 0, 5, 10, 20 % with the most points near the bound
       o.rank = RankMode::Overload;
       o.shed_by_rate = true;
+      o.lookahead = true;
     }
   } else {
     return std::nullopt;

@@ -174,7 +174,10 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   // §3: a job computes on frames its sensors produced. Before a sensor's first frame there
   // is nothing to read, so this tick or trigger frame releases no job.
   if (!inputs_ready(*o.g, trigger_sensor)) return;
-  if (o.remaining > 0 && --o.remaining == 0) rates_changed = true;
+  if (o.remaining > 0 && --o.remaining == 0) {
+    rates_changed = true;
+    expected_stale = true;
+  }
   const std::uint64_t seq = o.released++;
   ++s.stats_.releases;
   const RefinedGraph& g = *o.g;
@@ -989,6 +992,7 @@ void Scheduler::apply_events(TimePoint now) {
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
     m.rates_changed = true;
+    m.expected_stale = true;
     for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
     ++m.next_event;
   }

@@ -200,6 +200,9 @@ struct Scheduler::Impl {
   bool released_since_admission = false;
   // The offered load: work released (drop estimate, seconds), decayed over kOfferedWindow.
   static constexpr double kOfferedWindow = 0.25;  // seconds
+  // Offered load (× the lanes) past which admission looks ahead (opt.lookahead): with less,
+  // a momentary burst would reject jobs the idle time absorbs.
+  static constexpr double kLookaheadAt = 1.1;
   double offered = 0.0;
   TimePoint offered_at{0};
   bool overloaded = false;
@@ -317,6 +320,16 @@ struct Scheduler::Impl {
   // is shared by the members of its task and a running unit by the members of its dispatch,
   // so shared encoder runs are counted once.
   Duration work_left(Job& j, TimePoint now, std::size_t k);
+  // Lookahead (§15, opt.lookahead): true while admission also counts the jobs periodic
+  // operations will release, i.e. once the offered load passes kLookaheadAt × the lanes.
+  bool looking_ahead() const;
+  // The work of the jobs periodic operations (own rate or triggered by a sensor) will release
+  // after `now` with deadlines by `t`, at their current rates, on estimate kind k: a job its
+  // units' cost, a frame's encoder run divided among the operations it triggers. `largest`,
+  // when given, is raised to the largest one such job needs.
+  Duration expected_due(TimePoint now, TimePoint t, std::size_t k, Duration* largest = nullptr);
+  std::vector<std::array<Duration, kEstimates>> expected_work;  // per operation: a job's work
+  bool expected_stale = true;  // graphs or rates changed since expected_work was computed
 
   // The demand test (§15): taking live jobs by deadline, the first that the lanes cannot
   // finish by its deadline under estimate kind k; -1 when all of it fits. A position in

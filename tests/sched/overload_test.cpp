@@ -425,14 +425,41 @@ operations:
     }
     return c;
   };
-  const Count with = run(2.0, "");
-  const Count without = run(2.0, "shed_rate=no");
+  const Count with = run(2.0, "lookahead=no");
+  const Count without = run(2.0, "shed_rate=no,lookahead=no");
   ASSERT_GT(with.expensive, 100);
   EXPECT_EQ(without.expensive_rejected, 0);
   EXPECT_GT(with.expensive_rejected, with.expensive * 9 / 10);
   EXPECT_GT(with.met, without.met * 13 / 10) << with.met << " vs " << without.met;
   // At 1.0 the cheap operation asks for 0.67 of the lane: nothing is outranked.
-  EXPECT_EQ(run(1.0, "").expensive_rejected, 0);
+  EXPECT_EQ(run(1.0, "lookahead=no").expensive_rejected, 0);
+
+  // Lookahead alone finds the same: by each expensive job's deadline, the cheap jobs to
+  // come (about eleven of 6.3 ms in its 85.8 ms) leave no room for its 20.7 ms, and it
+  // has more work than any of them, so it is rejected at release. At 1.0 the offered load
+  // stays below 1.1 × the lane and admission does not look ahead.
+  const Count ahead = run(2.0, "shed_rate=no");
+  EXPECT_GT(ahead.expensive_rejected, ahead.expensive * 9 / 10);
+  EXPECT_GT(ahead.met, without.met * 13 / 10) << ahead.met << " vs " << without.met;
+  EXPECT_EQ(run(1.0, "shed_rate=no").expensive_rejected, 0);
+  // At 1.3 no operation is outranked (the cheap one asks for 0.87 of the lane), yet the
+  // expensive one's units, longer than the cheap jobs' 1.9 ms of slack, make them miss:
+  // looking ahead sheds it and meets nearly every cheap job.
+  const Count plain = run(1.3, "lookahead=no");
+  const Count looked = run(1.3, "");
+  EXPECT_GT(looked.met, plain.met * 12 / 10) << looked.met << " vs " << plain.met;
+}
+
+TEST(Overload, LookaheadIsAnOptionOfRedRobustOnly) {
+  for (const std::string& p : known_policies())
+    EXPECT_EQ(preset_options(p)->lookahead, p == "red-robust") << p;
+  PolicyOptions o = *preset_options("red");
+  EXPECT_EQ(apply_options(o, "admission=shed,lookahead=yes"), "");
+  EXPECT_TRUE(o.lookahead);
+  EXPECT_NE(describe(o).find("lookahead=yes"), std::string::npos);
+  const std::string err = apply_options(o, "lookahead=sometimes");
+  EXPECT_NE(err.find("lookahead"), std::string::npos);
+  EXPECT_TRUE(o.lookahead);  // a bad value changes nothing
 }
 
 TEST(Overload, ShedByRateIsAnOptionOfRedRobustOnly) {

@@ -72,6 +72,11 @@ struct PolicyOptions {
   /// that operations with cheaper jobs (at equal criticality) fill the lanes without, while
   /// one of those sheds jobs itself — the work bound's rule, cheapest jobs first.
   bool shed_by_rate = false;
+  /// With admission=shed, once the offered load passes 1.1 × the lanes (§15): admission
+  /// also counts the work of the jobs periodic operations will release with deadlines by
+  /// each pending one, at their current rates, and rejects a pending job only when none of
+  /// those jobs to come needs more work.
+  bool lookahead = false;
 
   bool operator==(const PolicyOptions&) const = default;
 };
