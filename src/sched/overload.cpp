@@ -97,7 +97,7 @@ Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k
     const TimePoint first_deadline = next + o.g->deadline;
     if (first_deadline > t) continue;
     const auto count = 1 + static_cast<std::int64_t>(
-                              std::chrono::duration<double>(t - first_deadline).count() * hz);
+                               std::chrono::duration<double>(t - first_deadline).count() * hz);
     const Duration w = expected_work[i][k];
     due += w * count;
     if (largest != nullptr) *largest = std::max(*largest, w);
