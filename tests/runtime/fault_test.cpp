@@ -129,6 +129,15 @@ struct HangOnce {
   }
 };
 
+// The watchdog of the hang tests: no limit under 150 ms. The injected hang (400 ms) is far
+// past it, while an ordinary unit slowed by a loaded machine (a sanitizer build beside
+// other tests) is not: with the default 50 ms a second, spurious timeout was seen in CI.
+RuntimeOptions hang_watchdog() {
+  RuntimeOptions ro;
+  ro.watchdog_min = std::chrono::milliseconds{150};
+  return ro;
+}
+
 void expect_every_job_once(const FaultRun& r) {
   ASSERT_FALSE(r.watch.released.empty());
   EXPECT_EQ(r.watch.duplicate_ends, 0);
@@ -139,8 +148,9 @@ void expect_every_job_once(const FaultRun& r) {
 TEST(RuntimeFaults, HungUnitTimesOutAndTheOtherLaneGoesOn) {
   const Scenario s = scenario(2);
   HangOnce hang;
-  // The hang lasts far past the watchdog's limit (10 x the encoder's p99, at least 50 ms).
-  FaultRun r = run_with(s, "red", hang.options(std::chrono::milliseconds{400}, 0.3));
+  // The hang lasts far past the watchdog's limit (10 x the encoder's p99, at least 150 ms).
+  FaultRun r =
+      run_with(s, "red", hang.options(std::chrono::milliseconds{400}, 0.3), hang_watchdog());
   expect_every_job_once(r);
   ASSERT_GE(hang.lane.load(), 0);
   EXPECT_EQ(r.report.timeouts, 1U);
@@ -167,7 +177,8 @@ TEST(RuntimeFaults, HungUnitTimesOutAndTheOtherLaneGoesOn) {
 TEST(RuntimeFaults, OneLaneHangDropsJobsAtTheirDeadlinesAndLosesNone) {
   const Scenario s = scenario(1);
   HangOnce hang;
-  FaultRun r = run_with(s, "red", hang.options(std::chrono::milliseconds{400}, 0.2));
+  FaultRun r =
+      run_with(s, "red", hang.options(std::chrono::milliseconds{400}, 0.2), hang_watchdog());
   expect_every_job_once(r);
   EXPECT_EQ(r.report.timeouts, 1U);
   EXPECT_EQ(r.report.late_returns, 1U);
@@ -190,7 +201,8 @@ TEST(RuntimeFaults, OneLaneHangDropsJobsAtTheirDeadlinesAndLosesNone) {
 TEST(RuntimeFaults, PerEdgeSynchronizationHandlesATimeoutToo) {
   const Scenario s = scenario(2);
   HangOnce hang;
-  FaultRun r = run_with(s, "red-ida", hang.options(std::chrono::milliseconds{400}, 0.3));
+  FaultRun r =
+      run_with(s, "red-ida", hang.options(std::chrono::milliseconds{400}, 0.3), hang_watchdog());
   expect_every_job_once(r);
   EXPECT_EQ(r.report.timeouts, 1U);
   EXPECT_EQ(r.report.late_returns, 1U);
