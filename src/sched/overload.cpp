@@ -56,8 +56,8 @@ bool Scheduler::Impl::looking_ahead() const {
          offered > kLookaheadAt * kOfferedWindow * static_cast<double>(s.config_.lanes);
 }
 
-Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k,
-                                       Duration* largest) {
+Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k, Duration* largest,
+                                       int criticality) {
   if (expected_stale) {
     expected_stale = false;
     std::vector<int> sharing(sensors.size(), 0);
@@ -100,7 +100,7 @@ Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k
                                std::chrono::duration<double>(t - first_deadline).count() * hz);
     const Duration w = expected_work[i][k];
     due += w * count;
-    if (largest != nullptr) *largest = std::max(*largest, w);
+    if (largest != nullptr && o.criticality <= criticality) *largest = std::max(*largest, w);
   }
   return due;
 }
@@ -366,10 +366,11 @@ void Scheduler::Impl::admit(TimePoint now) {
     }
     if (victim < 0) continue;  // only started jobs are due by then: hopeless checks decide
     if (ahead) {
-      // Moore and Hodgson over the jobs to come as well: where one of them has more work due
-      // by then than the victim, it is that job that goes, at its release.
+      // Moore and Hodgson over the jobs to come as well: where one of them, no more critical,
+      // has more work due by then than the victim, it is that job that goes, at its release.
       Duration largest{0};
-      expected_due(now, job(by_deadline[static_cast<std::size_t>(over)]).deadline, k, &largest);
+      expected_due(now, job(by_deadline[static_cast<std::size_t>(over)]).deadline, k, &largest,
+                   victim_crit);
       if (largest > victim_work) continue;
     }
     from = 0;

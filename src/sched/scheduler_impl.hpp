@@ -326,8 +326,10 @@ struct Scheduler::Impl {
   // The work of the jobs periodic operations (own rate or triggered by a sensor) will release
   // after `now` with deadlines by `t`, at their current rates, on estimate kind k: a job its
   // units' cost, a frame's encoder run divided among the operations it triggers. `largest`,
-  // when given, is raised to the largest one such job needs.
-  Duration expected_due(TimePoint now, TimePoint t, std::size_t k, Duration* largest = nullptr);
+  // when given, is raised to the largest one such job of criticality at most `criticality`
+  // needs.
+  Duration expected_due(TimePoint now, TimePoint t, std::size_t k, Duration* largest = nullptr,
+                        int criticality = 0);
   std::vector<std::array<Duration, kEstimates>> expected_work;  // per operation: a job's work
   bool expected_stale = true;  // graphs or rates changed since expected_work was computed
 
