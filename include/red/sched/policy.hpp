@@ -75,8 +75,9 @@ struct PolicyOptions {
   /// With admission=shed, once the offered load passes 1.1 × the lanes (§15): admission
   /// also counts the work of the jobs periodic operations will release with deadlines by
   /// each pending one, at their current rates, and rejects a pending job only when none of
-  /// those jobs to come needs more work. On several lanes past capacity admission runs a list
-  /// schedule, which does not place the jobs to come; there only the last part applies.
+  /// those jobs to come, no more critical than it, needs more work. On several lanes past
+  /// capacity admission runs a list schedule, which does not place the jobs to come; there
+  /// only the last part applies.
   bool lookahead = false;
 
   bool operator==(const PolicyOptions&) const = default;
