@@ -18,6 +18,17 @@
 namespace red {
 namespace {
 
+// Element by element: `to` raised to `from` (the most over an operation's definitions), or
+// `from` added to it (the operations together); `to` grows to `from`'s length.
+void raise_to(std::vector<int>& to, const std::vector<int>& from) {
+  to.resize(std::max(to.size(), from.size()), 0);
+  for (std::size_t i = 0; i < from.size(); ++i) to[i] = std::max(to[i], from[i]);
+}
+void add_to(std::vector<int>& to, const std::vector<int>& from) {
+  to.resize(std::max(to.size(), from.size()), 0);
+  for (std::size_t i = 0; i < from.size(); ++i) to[i] += from[i];
+}
+
 std::set<int> sensors_read(const OperationSpec& op) {
   std::set<int> v;
   for (const NodeSpec& n : op.nodes)
@@ -141,11 +152,7 @@ double work_bound(const Scenario& s, const Profile& p) {
           by_b[static_cast<std::size_t>(b)] +=
               window(*op, up[v] + down[v] - 2 * cost[v] + mean_ms(hp, b), i);
       }
-      for (auto& [head, by_b] : h) {
-        auto& best = op_heads[head];
-        best.resize(std::max(best.size(), by_b.size()), 0);
-        for (std::size_t b = 0; b < by_b.size(); ++b) best[b] = std::max(best[b], by_b[b]);
-      }
+      for (const auto& [head, by_b] : h) raise_to(op_heads[head], by_b);
       for (int k : sensors_read(*op)) {
         const auto ku = static_cast<std::size_t>(k);
         // Jobs of this operation one run serves: one (a frame's), or own-rate merges.
@@ -163,25 +170,17 @@ double work_bound(const Scenario& s, const Profile& p) {
           op_own[k] = std::max(op_own[k], w1);
         for (int b = 1; b <= enc_top; ++b) {
           const int w = window(*op, mean_ms(enc_prof, b) + after_encoder[k], i);
-          auto& by_n = op_serve[{b, k}];
-          by_n.resize(static_cast<std::size_t>(enc_top) + 1, 0);
-          for (int m = 0; m <= b; ++m)
-            by_n[static_cast<std::size_t>(m)] =
-                std::max(by_n[static_cast<std::size_t>(m)], std::min(m * per_run, w));
+          std::vector<int> by_n(static_cast<std::size_t>(b) + 1);
+          for (int m = 0; m <= b; ++m) by_n[static_cast<std::size_t>(m)] = std::min(m * per_run, w);
+          raise_to(op_serve[{b, k}], by_n);
         }
       }
     }
     for (const auto& [bk, by_n] : op_serve)
-      for (std::size_t m = 0; m < by_n.size(); ++m)
-        serve[static_cast<std::size_t>(bk.first)][static_cast<std::size_t>(bk.second)][m] +=
-            by_n[m];
+      add_to(serve[static_cast<std::size_t>(bk.first)][static_cast<std::size_t>(bk.second)], by_n);
     for (auto [k, c] : op_share) share[static_cast<std::size_t>(k)] += c;
     for (auto [k, w] : op_own) enc_queued += w;
-    for (const auto& [head, by_b] : op_heads) {
-      auto& total = head_on_time[head];
-      total.resize(std::max(total.size(), by_b.size()), 0);
-      for (std::size_t b = 0; b < by_b.size(); ++b) total[b] += by_b[b];
-    }
+    for (const auto& [head, by_b] : op_heads) add_to(head_on_time[head], by_b);
   }
   // Two ways to split a batch's time, each giving every on-time job at least the charge
   // below; each gives an upper bound, and the bound is the lower of the two.
@@ -211,7 +210,8 @@ double work_bound(const Scenario& s, const Profile& p) {
   double per_run = enc_one;
   for (int b = 1; b <= std::min(enc_top, std::max(1, enc_queued)); ++b)
     per_run = std::min(per_run, mean_ms(enc_prof, b) / b);
-  std::vector<std::vector<double>> enc_charge(2, std::vector<double>(s.sensors.size(), by_jobs));
+  std::array<std::vector<double>, 2> enc_charge{std::vector<double>(s.sensors.size(), by_jobs),
+                                                std::vector<double>(s.sensors.size())};
   for (std::size_t k = 0; k < s.sensors.size(); ++k)
     enc_charge[1][k] = per_run / std::max(1, share[k]);
 
@@ -247,9 +247,10 @@ double work_bound(const Scenario& s, const Profile& p) {
       double own = 0;
       for (const NodeSpec& n : op->nodes)
         own += n.is_plain() ? to_ms(n.cost->mean) : head_cost.at(n.head);
+      const std::set<int> read = sensors_read(*op);
       for (std::size_t w = 0; w < 2; ++w) {
         c.work[w] = own;
-        for (int k : sensors_read(*op)) c.work[w] += enc_charge[w][static_cast<std::size_t>(k)];
+        for (int k : read) c.work[w] += enc_charge[w][static_cast<std::size_t>(k)];
       }
       // A fine-graph critical path is at most the coarse one; exclude only what no policy
       // can meet even alone.

@@ -131,13 +131,13 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
     if (skip_doomed && doomed(j, now, k)) continue;
     const Duration w = work_left(j, now, k);
     due += w;
-    const Duration coming = ahead ? expected_due(now, j.deadline, k) : Duration{0};
     if (blocking)
       for (int r : j.running_units) {
         const auto u = static_cast<std::size_t>(r);
         due -= residual(j, u, now, k) / std::max(1, j.u[u].share);
       }
     if (i < from) continue;
+    const Duration coming = ahead ? expected_due(now, j.deadline, k) : Duration{0};
     if (lane_count == 1) {
       if (now + padded(due + coming, margin) > j.deadline) return static_cast<int>(i);
       continue;

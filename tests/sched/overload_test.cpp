@@ -450,28 +450,25 @@ operations:
   EXPECT_GT(looked.met, plain.met * 12 / 10) << looked.met << " vs " << plain.met;
 }
 
-TEST(Overload, LookaheadIsAnOptionOfRedRobustOnly) {
+// A boolean §15 option that only red-robust's preset sets, reachable from --with.
+void expect_option_of_red_robust_only(const std::string& key, bool PolicyOptions::*field) {
   for (const std::string& p : known_policies())
-    EXPECT_EQ(preset_options(p)->lookahead, p == "red-robust") << p;
+    EXPECT_EQ((*preset_options(p)).*field, p == "red-robust") << key << ", " << p;
   PolicyOptions o = *preset_options("red");
-  EXPECT_EQ(apply_options(o, "admission=shed,lookahead=yes"), "");
-  EXPECT_TRUE(o.lookahead);
-  EXPECT_NE(describe(o).find("lookahead=yes"), std::string::npos);
-  const std::string err = apply_options(o, "lookahead=sometimes");
-  EXPECT_NE(err.find("lookahead"), std::string::npos);
-  EXPECT_TRUE(o.lookahead);  // a bad value changes nothing
+  EXPECT_EQ(apply_options(o, "admission=shed," + key + "=yes"), "");
+  EXPECT_TRUE(o.*field);
+  EXPECT_NE(describe(o).find(key + "=yes"), std::string::npos);
+  const std::string err = apply_options(o, key + "=maybe");
+  EXPECT_NE(err.find(key), std::string::npos);
+  EXPECT_TRUE(o.*field) << key;  // a bad value changes nothing
+}
+
+TEST(Overload, LookaheadIsAnOptionOfRedRobustOnly) {
+  expect_option_of_red_robust_only("lookahead", &PolicyOptions::lookahead);
 }
 
 TEST(Overload, ShedByRateIsAnOptionOfRedRobustOnly) {
-  for (const std::string& p : known_policies())
-    EXPECT_EQ(preset_options(p)->shed_by_rate, p == "red-robust") << p;
-  PolicyOptions o = *preset_options("red");
-  EXPECT_EQ(apply_options(o, "admission=shed,shed_rate=yes"), "");
-  EXPECT_TRUE(o.shed_by_rate);
-  EXPECT_NE(describe(o).find("shed_rate=yes"), std::string::npos);
-  const std::string err = apply_options(o, "shed_rate=maybe");
-  EXPECT_NE(err.find("shed_rate"), std::string::npos);
-  EXPECT_TRUE(o.shed_by_rate);  // a bad value changes nothing
+  expect_option_of_red_robust_only("shed_rate", &PolicyOptions::shed_by_rate);
 }
 
 // Ranks as EdfPolicy does, but is another type: the scheduler ranks its tasks the long way
