@@ -259,7 +259,12 @@ double work_bound(const Scenario& s, const Profile& p) {
       oc[op] = c;
     }
 
-  std::array<std::vector<double>, 2> costs;
+  // The jobs that count, by deadline, with their least lane time under each way of splitting.
+  struct Due {
+    TimePoint deadline;
+    std::array<double, 2> work;
+  };
+  std::vector<Due> due;
   std::int64_t released = 0;
   for (const JobRow& j : r->jobs) {
     ++released;
@@ -270,24 +275,62 @@ double work_bound(const Scenario& s, const Profile& p) {
     const OperationSpec* op = ph->ops[static_cast<std::size_t>(j.operation)].get();
     if (op == nullptr) continue;
     const OpCost& c = oc.at(op);
-    if (!c.feasible) continue;
-    for (std::size_t w = 0; w < 2; ++w) costs[w].push_back(c.work[w]);
+    if (c.feasible) due.push_back({j.deadline, c.work});
   }
   if (released == 0) return 1.0;
-  const double capacity = s.device.lanes * to_ms(s.duration - s.warmup);
-  std::int64_t fit = std::numeric_limits<std::int64_t>::max();
-  for (std::vector<double>& v : costs) {
-    std::sort(v.begin(), v.end());
-    double used = 0;
-    std::int64_t n = 0;
-    for (double c : v) {
-      if (used + c > capacity) break;
-      used += c;
-      ++n;
-    }
-    fit = std::min(fit, n);
+  std::sort(due.begin(), due.end(),
+            [](const Due& a, const Due& b) { return a.deadline < b.deadline; });
+  // Releases stop at the run's end, so the jobs on time that finish after it were in flight
+  // then: at most max_inflight of each operation.
+  std::int64_t in_flight_at_end = 0;
+  for (const auto& defs : all) {
+    int most = 0;
+    for (const OperationSpec* op : defs) most = std::max(most, op->max_inflight);
+    in_flight_at_end += most;
   }
-  return static_cast<double>(fit) / static_cast<double>(released);
+  const double lanes = s.device.lanes;
+  const TimePoint from = s.warmup;
+  std::int64_t fit = std::numeric_limits<std::int64_t>::max();
+  for (std::size_t w = 0; w < 2; ++w) {
+    // The least-cost jobs first: how many of those counted in `count` fit `capacity` ms.
+    std::map<double, std::int64_t> count;
+    auto most_that_fit = [&count](double capacity) {
+      double used = 0;
+      std::int64_t n = 0;
+      for (const auto& [c, k] : count) {
+        const double room = std::max(0.0, capacity - used);
+        std::int64_t take =
+            c * static_cast<double>(k) <= room
+                ? k
+                : std::min<std::int64_t>(k, static_cast<std::int64_t>(std::floor(room / c)) + 1);
+        while (take > 0 && used + static_cast<double>(take) * c > capacity) --take;
+        used += static_cast<double>(take) * c;
+        n += take;
+        if (take < k) break;
+      }
+      return n;
+    };
+    // Every job counted in lane time is released after `from`: those due by t did all their
+    // work in [from, t], and the jobs due later are counted as on time (a demand bound at
+    // every deadline).
+    const auto total = static_cast<std::int64_t>(due.size());
+    for (std::size_t i = 0; i < due.size();) {
+      const TimePoint t = due[i].deadline;
+      for (; i < due.size() && due[i].deadline == t; ++i) ++count[due[i].work[w]];
+      const std::int64_t n = most_that_fit(lanes * to_ms(std::max(t - from, Duration{0})));
+      fit = std::min(fit, n + (total - static_cast<std::int64_t>(i)));
+    }
+    // And at the run's end: those that finish by then fit its lane time, at most the jobs in
+    // flight then finish later.
+    const std::int64_t by_end = most_that_fit(lanes * to_ms(s.duration - from));
+    const std::int64_t due_later =
+        total - (std::upper_bound(due.begin(), due.end(), s.duration,
+                                  [](TimePoint t, const Due& d) { return t < d.deadline; }) -
+                 due.begin());
+    fit = std::min(fit, std::min(by_end, total) + std::min(in_flight_at_end, due_later));
+  }
+  if (due.empty()) fit = 0;
+  return static_cast<double>(std::min<std::int64_t>(fit, released)) / static_cast<double>(released);
 }
 
 }  // namespace red

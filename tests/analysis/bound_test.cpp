@@ -143,9 +143,40 @@ TEST(WorkBound, ChargesAnEncoderBatchOnlyToTheJobsItCanServeOnTime) {
       .inference("B", "steer", "cam");
   auto s = b.build();
   ASSERT_TRUE(s) << s.error().to_string();
+  // 2000 ms of lane fit 2000 / per_job of the 400 jobs; releases stop at 2 s, and of the
+  // jobs due after it, the 4 + 4 in flight then may still finish on time.
   const double per_job = enc1 / 2 + steer2 / 2;
-  EXPECT_NEAR(work_bound(*s, p), 10.0 / (2 * per_job), 0.01);
+  EXPECT_NEAR(work_bound(*s, p), (2000.0 / per_job + 8) / 400, 0.01);
   expect_above_every_policy(*s, p, "two operations on one camera, 14 and 500 ms");
+}
+
+// One operation at 100 Hz for 1 s, 10.1 ms of work a job, 50 ms deadline: the work of the
+// 100 jobs is 1010 ms, more than the run's 1000 ms, yet every job can be on time, the last
+// ones finishing after releases stop (EDF does it). The bound counts the lane time up to each
+// deadline, and the jobs in flight when releases stop, so it is 1 here, not 99 / 100.
+TEST(WorkBound, CountsTheJobsThatFinishAfterReleasesStop) {
+  const Profile p = default_profile();
+  ScenarioBuilder b("past the end");
+  b.duration(std::chrono::seconds{1}).warmup(milliseconds{0}).seed(1).lanes(1);
+  b.sync_cost(Duration{0});
+  b.operation("a")
+      .rate(100)
+      .deadline(milliseconds{50})
+      .plain("P", std::chrono::microseconds{10100});
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  EXPECT_DOUBLE_EQ(work_bound(*s, p), 1.0);
+  EXPECT_DOUBLE_EQ(grid::evaluate(*s, p, "edf").on_time, 1.0);
+  // At 11 ms a job, 1000 ms hold 90 jobs; of the 100 released, the 2 in flight when releases
+  // stop (max_inflight) may also be on time, and at the last deadline (1040 ms) 94 fit.
+  ScenarioBuilder c("past the end, overloaded");
+  c.duration(std::chrono::seconds{1}).warmup(milliseconds{0}).seed(1).lanes(1);
+  c.sync_cost(Duration{0});
+  c.operation("a").rate(100).deadline(milliseconds{50}).plain("P", milliseconds{11});
+  auto t = c.build();
+  ASSERT_TRUE(t) << t.error().to_string();
+  EXPECT_DOUBLE_EQ(work_bound(*t, p), 92.0 / 100);
+  expect_above_every_policy(*t, p, "11 ms jobs every 10 ms");
 }
 
 }  // namespace

@@ -21,7 +21,10 @@ namespace red {
 /// max_inflight of them; an encoder run on a frame serves one job of each operation the
 /// frame triggers, and of an operation sampling the newest frame its releases within γ or
 /// while the frame stays the newest (DynamicMerge, §3); a batch of frames of several
-/// sensors is split among them as serves the most jobs. In [0, 1]; 1 when nothing is
+/// sensors is split among them as serves the most jobs. The lane time is counted up to each
+/// job deadline t (the jobs due by t fit lanes × (t − warm-up), those due later count as on
+/// time), and at the run's end (releases stop then: the jobs that finish later were in flight,
+/// at most max_inflight per operation); the least of these counts. In [0, 1]; 1 when nothing is
 /// released. Throws std::runtime_error only if the simulation of the releases fails (it
 /// cannot for a validated scenario and covering profile).
 double work_bound(const Scenario& s, const Profile& p);
