@@ -298,11 +298,10 @@ double work_bound(const Scenario& s, const Profile& p) {
       double used = 0;
       std::int64_t n = 0;
       for (const auto& [c, k] : count) {
-        const double room = std::max(0.0, capacity - used);
+        // As many as fit (room / c, rounded either way, then checked), at most all k.
         std::int64_t take =
-            c * static_cast<double>(k) <= room
-                ? k
-                : std::min<std::int64_t>(k, static_cast<std::int64_t>(std::floor(room / c)) + 1);
+            c > 0 ? std::min<std::int64_t>(k, static_cast<std::int64_t>((capacity - used) / c) + 1)
+                  : k;
         while (take > 0 && used + static_cast<double>(take) * c > capacity) --take;
         used += static_cast<double>(take) * c;
         n += take;
@@ -327,10 +326,11 @@ double work_bound(const Scenario& s, const Profile& p) {
         total - (std::upper_bound(due.begin(), due.end(), s.duration,
                                   [](TimePoint t, const Due& d) { return t < d.deadline; }) -
                  due.begin());
-    fit = std::min(fit, std::min(by_end, total) + std::min(in_flight_at_end, due_later));
+    fit = std::min(fit, by_end + std::min(in_flight_at_end, due_later));
   }
-  if (due.empty()) fit = 0;
-  return static_cast<double>(std::min<std::int64_t>(fit, released)) / static_cast<double>(released);
+  // The last deadline's count is at most every job that counts: fit <= due.size() <= released
+  // (0 when none counts).
+  return static_cast<double>(fit) / static_cast<double>(released);
 }
 
 }  // namespace red
