@@ -335,6 +335,7 @@ void Scheduler::Impl::admit(TimePoint now) {
   // cannot make it even alone (on the estimate, from now) counts for nothing: the hopeless
   // check ends it, and its work would make every later window overrun.
   const bool ahead = looking_ahead();
+  if (opt.shed_lone && schedule) shed_lone_jobs(now);
   std::size_t from = 0;
   for (;;) {
     const int over = first_overrun(now, k, schedule, margin, from, true);
@@ -377,6 +378,46 @@ void Scheduler::Impl::admit(TimePoint now) {
     job(victim).reason = "rejected at release";
     ++s.stats_.rejected;
     end_job(victim, JobOutcome::Dropped, now);
+  }
+}
+
+void Scheduler::Impl::shed_lone_jobs(TimePoint now) {
+  // With max_inflight, an operation's throughput is its slots over its jobs' response time.
+  // Past capacity every operation of a MIMONet set fills its slots, each skips the frames
+  // that come while it is full, and the frames each one takes drift apart: an encoder run
+  // then serves one or two jobs, not one per operation. Rejecting a job that would run its
+  // frame's encoder alone, when it would take the last of its operation's slots, keeps the
+  // slot for a frame the operations share (docs/BENCHMARKS.md round 7).
+  auto reads = [](const OpState& o, int sensor) {
+    return std::find(o.sensors_read.begin(), o.sensors_read.end(), sensor) != o.sensors_read.end();
+  };
+  lone.clear();
+  for (const int slot : by_deadline) {
+    const Job& j = job(slot);
+    const OpState& o = ops[static_cast<std::size_t>(j.op)];
+    if (j.release != now || j.started || o.own_rate || o.trigger < 0) continue;
+    if (2 * o.inflight <= o.max_inflight) continue;  // half its slots or more still free
+    const int t = o.trigger;
+    const auto tu = static_cast<std::size_t>(t);
+    bool others = false;  // another operation reads the sensor: the frame could be shared
+    for (const OpState& p : ops)
+      others = others || (&p != &o && p.g != nullptr && p.remaining != 0 && reads(p, t));
+    if (!others) continue;
+    bool shared = false;
+    for (const int other : by_deadline) {
+      if (other == slot) continue;
+      const Job& k = job(other);
+      if (k.frame[tu] == j.frame[tu] && reads(ops[static_cast<std::size_t>(k.op)], t)) {
+        shared = true;
+        break;
+      }
+    }
+    if (!shared) lone.push_back(slot);
+  }
+  for (const int slot : lone) {
+    job(slot).reason = "rejected at release";
+    ++s.stats_.rejected;
+    end_job(slot, JobOutcome::Dropped, now);
   }
 }
 

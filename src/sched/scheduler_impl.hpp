@@ -378,6 +378,13 @@ struct Scheduler::Impl {
   // job when a deadline is overrun), which minimizes the number of late jobs.
   void admit(TimePoint now);
 
+  // §15 "shed early", by frame (opt.shed_lone, past capacity): rejects the jobs released
+  // now that no other job in flight shares a frame with (other operations read the sensor,
+  // but skipped or rejected this frame) and that leave their operation fewer than half its
+  // max_inflight slots free. Called by admit() before Moore and Hodgson.
+  void shed_lone_jobs(TimePoint now);
+  std::vector<int> lone;  // shed_lone_jobs' victims, reused
+
   // True when the offered load exceeds what the lanes can do (§15 detect from demand).
   bool past_capacity() const;
 

@@ -79,6 +79,12 @@ struct PolicyOptions {
   /// capacity admission runs a list schedule, which does not place the jobs to come; there
   /// only the last part applies.
   bool lookahead = false;
+  /// With admission=shed, past capacity (§15): reject at release a job that is alone on
+  /// its trigger frame (no other job in flight reads that frame, though other operations
+  /// read the sensor) and leaves its operation fewer than half its max_inflight slots: it
+  /// would pay a whole encoder run for one job and hold a slot that a frame shared with the
+  /// other operations could use.
+  bool shed_lone = false;
 
   bool operator==(const PolicyOptions&) const = default;
 };
