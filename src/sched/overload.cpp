@@ -386,8 +386,8 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now) {
   // Past capacity every operation of a MIMONet set fills its slots, each skips the frames
   // that come while it is full, and the frames each one takes drift apart: an encoder run
   // then serves one or two jobs, not one per operation. Rejecting a job that would run its
-  // frame's encoder alone, when it would take the last of its operation's slots, keeps the
-  // slot for a frame the operations share (docs/BENCHMARKS.md round 7).
+  // frame's encoder alone, when it would leave its operation fewer than half its slots,
+  // keeps the slot for a frame the operations share (docs/BENCHMARKS.md round 7).
   auto reads = [](const OpState& o, int sensor) {
     return std::find(o.sensors_read.begin(), o.sensors_read.end(), sensor) != o.sensors_read.end();
   };
