@@ -698,6 +698,22 @@ bool Scheduler::Impl::on_demand_continuation(const Lane& lane, const Task& k, Ti
   return false;
 }
 
+TimePoint Scheduler::Impl::latest_batch_end(const Task& k) const {
+  // The scheduler's estimate (p99, by default) of the path after the unit: on the mean,
+  // batches formed that their members' later units then missed (docs/BENCHMARKS.md
+  // round 7).
+  const std::size_t e = idx(s.config_.estimate);
+  TimePoint d = kNever;
+  for (const auto& [slot, unit] : k.members) {
+    const Job& j = jobs[static_cast<std::size_t>(slot)];
+    Duration after{0};
+    for (const int sx : j.g->units[static_cast<std::size_t>(unit)].succs)
+      after = std::max(after, j.g->units[static_cast<std::size_t>(sx)].tail[e]);
+    d = std::min(d, j.deadline - after);
+  }
+  return d;
+}
+
 int Scheduler::Impl::choose_lane(const Task& k, TimePoint now) const {
   int fallback = -1;
   bool fallback_open = true;
@@ -925,6 +941,11 @@ bool Scheduler::Impl::pick(TimePoint now) {
     batch.clear();
     batch.push_back(best);
     TimePoint deadline = best_deadline;
+    // §15 batch_by_job: while ranked by job deadline, a head batch is checked against what
+    // each member's job still needs after the head, not the task's intermediate deadline
+    // (past due under overload, it let no batch form).
+    const bool by_job = opt.batch_by_job && k.kind == UnitKind::Head && by_job_deadline(k);
+    if (by_job) deadline = std::max(deadline, latest_batch_end(k));
     if (opt.batching && (k.kind == UnitKind::Encoder || k.kind == UnitKind::Head)) {
       const int limit = batch_limit(k);
       const Duration single =
@@ -945,6 +966,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
         Key byd = e.key;
         // A batch takes its members by deadline.
         byd.rank = (e.deadline_known ? e.deadline : task_deadline(task(e.task), now)).count();
+        if (by_job) byd.rank = std::max(byd.rank, latest_batch_end(task(e.task)).count());
         cand.emplace_back(byd, e.task);
       }
       // Only the max_batch − 1 earliest can join: order just those.

@@ -385,6 +385,11 @@ struct Scheduler::Impl {
   void shed_lone_jobs(TimePoint now);
   std::vector<int> lone;  // shed_lone_jobs' victims, reused
 
+  // The latest a batch may end for every member of task k to finish its job by the job's
+  // deadline: the earliest over the members of the job deadline less the longest path
+  // after the member's unit (scheduler estimate). §15 batch_by_job.
+  TimePoint latest_batch_end(const Task& k) const;
+
   // True when the offered load exceeds what the lanes can do (§15 detect from demand).
   bool past_capacity() const;
 

@@ -475,15 +475,9 @@ TEST(Overload, ShedLoneIsAnOptionOfRedRobustOnly) {
   expect_option_of_red_robust_only("shed_lone", &PolicyOptions::shed_lone);
 }
 
-// shed_lone (§15, docs/BENCHMARKS.md round 7), on grid set MIMONet chain seed 41 on 4 lanes:
-// four operations on one camera, 213 frames a second at 2.5x, max_inflight 4 each. Every
-// operation fills its slots and skips the frames that come meanwhile, so the frames each one
-// takes drift apart and an encoder run (12 ms, as long as the heads of a whole job) serves
-// 1.9 jobs on average. Rejecting the jobs that would run their frame's encoder alone and take
-// their operation's last slots keeps those slots for frames the operations share: more jobs
-// per encoder run, more jobs met. Below capacity it rejects nothing.
-TEST(Overload, ShedLoneKeepsTheOperationsOnSharedFrames) {
-  auto base = parse_scenario(R"(
+// MIMONet chain seed 41 on 4 lanes of the load grid: four operations on one camera.
+Expected<Scenario> shared_frames_scenario() {
+  return parse_scenario(R"(
 name: grid-mimonet-chain-41-l4
 duration_s: 4
 warmup_s: 0.5
@@ -530,7 +524,18 @@ operations:
       N1: {head: steer, sensor: cam0}
     edges: [[N0, N1]]
 )",
-                             "shared-frames.yaml");
+                        "shared-frames.yaml");
+}
+
+// shed_lone (§15, docs/BENCHMARKS.md round 7), on grid set MIMONet chain seed 41 on 4 lanes:
+// four operations on one camera, 213 frames a second at 2.5x, max_inflight 4 each. Every
+// operation fills its slots and skips the frames that come meanwhile, so the frames each one
+// takes drift apart and an encoder run (12 ms, as long as the heads of a whole job) serves
+// 1.9 jobs on average. Rejecting the jobs that would run their frame's encoder alone and take
+// their operation's last slots keeps those slots for frames the operations share: more jobs
+// per encoder run, more jobs met. Below capacity it rejects nothing.
+TEST(Overload, ShedLoneKeepsTheOperationsOnSharedFrames) {
+  auto base = shared_frames_scenario();
   ASSERT_TRUE(base.has_value()) << base.error().to_string();
   auto run = [&](double load, const char* with) {
     Scenario s = *base;
@@ -563,6 +568,52 @@ operations:
   EXPECT_EQ(with.missed, 0);
   EXPECT_EQ(with.met, without.met);
   EXPECT_EQ(with.encoder_runs, without.encoder_runs);
+}
+
+TEST(Overload, BatchByJobIsAnOptionOfRedRobustOnly) {
+  expect_option_of_red_robust_only("batch_by_job", &PolicyOptions::batch_by_job);
+}
+
+// batch_by_job (§15, docs/BENCHMARKS.md round 7), on the same set: while ranked by job
+// deadline, a head batch was checked against the task's intermediate deadline, which is past
+// due under overload, so heads of different frames seldom ran together. Checked against
+// each member's job deadline less the path after the head, they do: more batched head
+// dispatches, fewer head runs in all, more jobs met. Below capacity nothing changes.
+TEST(Overload, BatchByJobBatchesHeadsAcrossFramesUnderOverload) {
+  auto base = shared_frames_scenario();
+  ASSERT_TRUE(base.has_value()) << base.error().to_string();
+  struct Heads {
+    PolicyMetrics m;
+    int runs = 0, batched = 0;
+  };
+  auto run = [&](double load, const char* with) {
+    Scenario s = *base;
+    EXPECT_FALSE(apply_override(s, "rate_scale", load).has_value());
+    s.scheduler.policy_with = with;
+    auto r = simulate_policy(s, default_profile(), "red-robust", 41, {}, true);
+    EXPECT_TRUE(r.has_value());
+    Heads h;
+    h.m = r->metrics;
+    for (const UnitRow& u : r->units) {
+      if (u.kind != UnitKind::Head) continue;
+      ++h.runs;
+      h.batched += u.batch > 1 ? 1 : 0;
+    }
+    return h;
+  };
+  for (const double load : {2.0, 2.5}) {
+    const Heads with = run(load, "");
+    const Heads without = run(load, "batch_by_job=no");
+    EXPECT_GT(with.batched, without.batched * 3 / 2) << load;
+    EXPECT_LT(with.runs, without.runs) << load;
+    EXPECT_GT(with.m.met, without.m.met * 21 / 20)
+        << load << ": " << with.m.met << " vs " << without.m.met;
+  }
+  const Heads with = run(0.8, "");
+  const Heads without = run(0.8, "batch_by_job=no");
+  EXPECT_EQ(with.m.missed, 0);
+  EXPECT_EQ(with.m.met, without.m.met);
+  EXPECT_EQ(with.batched, without.batched);
 }
 
 // Ranks as EdfPolicy does, but is another type: the scheduler ranks its tasks the long way

@@ -85,6 +85,10 @@ struct PolicyOptions {
   /// would pay a whole encoder run for one job and hold a slot that a frame shared with the
   /// other operations could use.
   bool shed_lone = false;
+  /// While ranked by job deadline (§15): a head batch is checked against each member's job
+  /// deadline less the path after the head, not the task's intermediate deadline, which is
+  /// past due under overload and let no batch form.
+  bool batch_by_job = false;
 
   bool operator==(const PolicyOptions&) const = default;
 };
