@@ -941,12 +941,12 @@ bool Scheduler::Impl::pick(TimePoint now) {
     batch.clear();
     batch.push_back(best);
     TimePoint deadline = best_deadline;
-    // §15 batch_by_job: while ranked by job deadline, a head batch is checked against what
-    // each member's job still needs after the head, not the task's intermediate deadline
-    // (past due under overload, it let no batch form).
-    const bool by_job = opt.batch_by_job && k.kind == UnitKind::Head && by_job_deadline(k);
-    if (by_job) deadline = std::max(deadline, latest_batch_end(k));
     if (opt.batching && (k.kind == UnitKind::Encoder || k.kind == UnitKind::Head)) {
+      // §15 batch_by_job: while ranked by job deadline, a head batch is checked against what
+      // each member's job still needs after the head, not the task's intermediate deadline
+      // (past due under overload, it let no batch form).
+      const bool by_job = opt.batch_by_job && k.kind == UnitKind::Head && by_job_deadline(k);
+      if (by_job) deadline = std::max(deadline, latest_batch_end(k));
       const int limit = batch_limit(k);
       const Duration single =
           k.kind == UnitKind::Encoder ? enc_single : head_single[static_cast<std::size_t>(k.head)];

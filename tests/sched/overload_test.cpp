@@ -369,6 +369,16 @@ TEST(Overload, AdmissionMarginIsAWholePercent) {
   EXPECT_NE(describe(o).find("admit_margin=15"), std::string::npos);
 }
 
+// red-robust on `base` at rate_scale `load`, with the policy options `with` (--with's).
+PolicyRun robust_at(const Scenario& base, double load, const char* with, bool keep_units = false) {
+  Scenario s = base;
+  EXPECT_FALSE(apply_override(s, "rate_scale", load).has_value());
+  s.scheduler.policy_with = with;
+  auto r = simulate_policy(s, default_profile(), "red-robust", s.seed, {}, keep_units);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+  return r ? std::move(*r) : PolicyRun{};
+}
+
 // The work bound admits the cheapest jobs first. One cheap operation (a 6.3 ms chain, 8.2 ms
 // deadline) alone asks for 1.35 lanes at 2x; an expensive one (a 20.7 ms chain) asks for
 // 0.65 more. Admission by deadline windows admits the expensive jobs (the cheap ones due
@@ -411,15 +421,11 @@ operations:
     int met = 0, expensive = 0, expensive_rejected = 0;
   };
   auto run = [&](double load, const char* with) {
-    Scenario s = *base;
-    EXPECT_FALSE(apply_override(s, "rate_scale", load).has_value());
-    s.scheduler.policy_with = with;
-    auto r = simulate_policy(s, default_profile(), "red-robust", 2, {}, false);
-    EXPECT_TRUE(r.has_value());
+    const PolicyRun r = robust_at(*base, load, with);
     Count c;
-    for (const JobRow& j : r->jobs) {
+    for (const JobRow& j : r.jobs) {
       c.met += j.outcome == JobOutcome::Met ? 1 : 0;
-      if (s.operation_name(j.operation) != "expensive") continue;
+      if (base->operation_name(j.operation) != "expensive") continue;
       ++c.expensive;
       c.expensive_rejected += j.reason == "rejected at release" ? 1 : 0;
     }
@@ -531,20 +537,13 @@ operations:
 // four operations on one camera, 213 frames a second at 2.5x, max_inflight 4 each. Every
 // operation fills its slots and skips the frames that come meanwhile, so the frames each one
 // takes drift apart and an encoder run (12 ms, as long as the heads of a whole job) serves
-// 1.9 jobs on average. Rejecting the jobs that would run their frame's encoder alone and take
-// their operation's last slots keeps those slots for frames the operations share: more jobs
+// 1.9 jobs on average. Rejecting the jobs that would run their frame's encoder alone and leave
+// their operation fewer than half its slots keeps those for frames the operations share: more jobs
 // per encoder run, more jobs met. Below capacity it rejects nothing.
 TEST(Overload, ShedLoneKeepsTheOperationsOnSharedFrames) {
   auto base = shared_frames_scenario();
   ASSERT_TRUE(base.has_value()) << base.error().to_string();
-  auto run = [&](double load, const char* with) {
-    Scenario s = *base;
-    EXPECT_FALSE(apply_override(s, "rate_scale", load).has_value());
-    s.scheduler.policy_with = with;
-    auto r = simulate_policy(s, default_profile(), "red-robust", 41, {}, false);
-    EXPECT_TRUE(r.has_value());
-    return r->metrics;
-  };
+  auto run = [&](double load, const char* with) { return robust_at(*base, load, with).metrics; };
   for (const double load : {2.0, 2.5}) {
     const PolicyMetrics with = run(load, "");
     const PolicyMetrics without = run(load, "shed_lone=no");
@@ -587,14 +586,10 @@ TEST(Overload, BatchByJobBatchesHeadsAcrossFramesUnderOverload) {
     int runs = 0, batched = 0;
   };
   auto run = [&](double load, const char* with) {
-    Scenario s = *base;
-    EXPECT_FALSE(apply_override(s, "rate_scale", load).has_value());
-    s.scheduler.policy_with = with;
-    auto r = simulate_policy(s, default_profile(), "red-robust", 41, {}, true);
-    EXPECT_TRUE(r.has_value());
+    const PolicyRun r = robust_at(*base, load, with, true);
     Heads h;
-    h.m = r->metrics;
-    for (const UnitRow& u : r->units) {
+    h.m = r.metrics;
+    for (const UnitRow& u : r.units) {
       if (u.kind != UnitKind::Head) continue;
       ++h.runs;
       h.batched += u.batch > 1 ? 1 : 0;
