@@ -113,11 +113,12 @@ int main(int argc, char** argv) {
       std::vector<std::thread> feeders;
       for (std::size_t i = 0; external && i < s->sensors.size(); ++i)
         feeders.emplace_back([&rt, &feeding, &s, i, &ro] {
-          // With RED_REALTIME=1 the feeders run at the runtime's SCHED_FIFO priority (a
-          // real-time camera driver) unless RED_FEEDER_OTHER=1 (an ordinary thread).
+          // With RED_REALTIME=1 the feeders run at the priority of the runtime's own camera,
+          // one above the handlers (a real-time camera driver), unless RED_FEEDER_OTHER=1 (an
+          // ordinary thread).
           if (ro.realtime && std::getenv("RED_FEEDER_OTHER") == nullptr) {
             sched_param sp{};
-            sp.sched_priority = ro.rt_priority;
+            sp.sched_priority = ro.rt_priority + 1;
             pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
           }
           const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(

@@ -482,6 +482,12 @@ struct Runtime::Impl {
     return set;
   }
 
+  // The SCHED_FIFO priority of the threads that decide and release (synchronizer, camera):
+  // one above the handlers', within what the kernel allows.
+  int control_priority() const {
+    return std::min(options.rt_priority + 1, sched_get_priority_max(SCHED_FIFO));
+  }
+
   void handler_main(int lane) {
     Handler& h = *handlers[static_cast<std::size_t>(lane)];
     // The real-time class and the lane's cores go on before the backend's first call:
@@ -664,10 +670,16 @@ struct Runtime::Impl {
       report.realtime.push_back(std::string("mlockall: not applied (") + std::strerror(errno) +
                                 ")");
     }
+    // The synchronizer one above the handlers: at the same priority it could not preempt a
+    // unit's compute threads (SCHED_FIFO runs equal priorities to completion), so a deadline
+    // that fell while both cores computed was acted on only when a worker yielded, up to
+    // milliseconds late, and the next frame found the job still in flight.
+    sched_param top{};
+    top.sched_priority = control_priority();
+    int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &top);
+    int applied = err == 0 ? 1 : 0;
     sched_param sp{};
     sp.sched_priority = options.rt_priority;
-    int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
-    int applied = err == 0 ? 1 : 0;
     for (auto& h : handlers) {
       if (pthread_setschedparam(h->thread.native_handle(), SCHED_FIFO, &sp) == 0)
         ++applied;
@@ -677,7 +689,8 @@ struct Runtime::Impl {
     realtime_on.store(applied == static_cast<int>(handlers.size()) + 1, std::memory_order_release);
     report.realtime.push_back(applied == static_cast<int>(handlers.size()) + 1
                                   ? "SCHED_FIFO priority " + std::to_string(options.rt_priority) +
-                                        ": applied"
+                                        " (synchronizer " + std::to_string(control_priority()) +
+                                        "): applied"
                                   : "SCHED_FIFO: not applied (" +
                                         std::string(std::strerror(err == 0 ? EPERM : err)) + ")");
     // Each lane gets its own share of the cores (lane i: cores [i*k, (i+1)*k), k = cores /
@@ -723,9 +736,10 @@ struct Runtime::Impl {
       camera = std::thread([this] { camera_main(); });
       if (realtime_on.load(std::memory_order_acquire)) {
         // The camera releases frames itself when the scheduler's lock is free (arrive()):
-        // at the handlers' priority, so ordinary threads cannot preempt it holding the lock.
+        // at the synchronizer's priority, so neither ordinary threads nor a unit's compute
+        // threads hold a frame back or preempt it holding the lock.
         sched_param sp{};
-        sp.sched_priority = options.rt_priority;
+        sp.sched_priority = control_priority();
         const int err = pthread_setschedparam(camera.native_handle(), SCHED_FIFO, &sp);
         report.realtime.push_back(err == 0 ? "camera thread: SCHED_FIFO"
                                            : "camera thread: SCHED_FIFO not applied (" +

@@ -748,10 +748,10 @@ struct Node::Impl final : Observer {
   }
 
   // With --realtime the node's own threads run under SCHED_FIFO as the runtime's do (a
-  // frame is a release: the receiver at the synchronizer's priority; the publisher one
-  // below, so that it never delays a decision): otherwise any process on the machine can
-  // keep a frame or an output waiting for milliseconds. Best effort: the runtime reports
-  // whether SCHED_FIFO is permitted.
+  // frame is a release: the receiver at the synchronizer's priority, one above the
+  // handlers'; the publisher below the handlers, so that it never delays a decision).
+  // Otherwise any process on the machine can keep a frame or an output waiting for
+  // milliseconds. Best effort: the runtime reports whether SCHED_FIFO is permitted.
   void make_realtime(std::thread& t, int priority) const {
     if (!options.realtime) return;
     sched_param sp{};
@@ -762,7 +762,7 @@ struct Node::Impl final : Observer {
   RuntimeReport run() {
     std::thread receiver([this] { receive_main(); });
     std::thread publisher([this] { publish_main(); });
-    make_realtime(receiver, RuntimeOptions{}.rt_priority);
+    make_realtime(receiver, RuntimeOptions{}.rt_priority + 1);
     make_realtime(publisher, RuntimeOptions{}.rt_priority - 1);
     RuntimeReport report = runtime->run();
     receiving.store(false, std::memory_order_release);

@@ -48,7 +48,10 @@ const char* to_string(HandlerState s) noexcept;
 /// Options of a real run.
 struct RuntimeOptions {
   bool realtime = true;  ///< try SCHED_FIFO, CPU affinity and mlockall (reported either way)
-  int rt_priority = 10;  ///< SCHED_FIFO priority for the synchronizer and handlers
+  /// SCHED_FIFO priority of the lane handlers (and the backend's workers, which inherit it).
+  /// The global synchronizer and the threads that release frames run one above, so that a
+  /// deadline, a frame or a decision is not held up by a unit's compute threads.
+  int rt_priority = 10;
   /// Spin before parking, and before blocking on the scheduler's lock.
   Duration spin = std::chrono::microseconds{50};
   /// A handler that reported a completion to the global synchronizer (per-edge) spins this
