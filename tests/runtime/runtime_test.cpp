@@ -222,8 +222,12 @@ TEST(Runtime, StopNowEndsTheRunWithJobsInFlightUnfinished) {
   ASSERT_TRUE(s.has_value());
   s->duration = std::chrono::seconds{60};  // stop_now() ends it long before
   const Profile p = default_profile();
+  // Units at their profiled times (a cruise job is a ~20 ms chain): at 0.05 × a job took
+  // ~1 ms, and on a loaded machine (CI's sanitizer suite, two tests at once) the
+  // synchronizer could be descheduled that long after stop_now(), so every job in flight
+  // had ended by the time it acted.
   SyntheticBackend::Options o;
-  o.time_scale = 0.05;
+  o.time_scale = 1.0;
   SyntheticBackend backend(*s, p, 1, o);
   RuntimeOptions ro;
   ro.realtime = false;
