@@ -501,6 +501,29 @@ struct Runtime::Impl {
     (void)pthread_setschedparam(t.native_handle(), SCHED_FIFO, &sp);
   }
 
+  // What the threads run at, as the kernel has it: "SCHED_FIFO priority P" when every one
+  // has the same, "ordinary priority" when none is real-time, else "mixed".
+  static std::string scheduling_of(std::vector<std::thread>& threads) {
+    int fifo = 0, other = 0, priority = -1;
+    bool same = true;
+    for (std::thread& t : threads) {
+      int policy = 0;
+      sched_param sp{};
+      if (pthread_getschedparam(t.native_handle(), &policy, &sp) != 0) return "mixed";
+      if (policy == SCHED_FIFO) {
+        same = same && (priority < 0 || priority == sp.sched_priority);
+        priority = sp.sched_priority;
+        ++fifo;
+      } else {
+        ++other;
+      }
+    }
+    if (other == static_cast<int>(threads.size())) return "ordinary priority";
+    if (fifo == static_cast<int>(threads.size()) && same)
+      return "SCHED_FIFO priority " + std::to_string(priority);
+    return "mixed";
+  }
+
   void handler_main(int lane) {
     Handler& h = *handlers[static_cast<std::size_t>(lane)];
     // The real-time class and the lane's cores go on before the backend's first call:
@@ -742,6 +765,8 @@ struct Runtime::Impl {
             [this, &load_on] { interference_main(scenario.interference->intensity, load_on); });
         at_handler_priority(load.back());
       }
+      report.realtime.push_back("background load: " + std::to_string(load.size()) + " thread(s), " +
+                                scheduling_of(load));
     }
     clock.reset();
     std::thread camera;

@@ -215,6 +215,41 @@ TEST(Runtime, ExternalFramesAreTheReleasesAndStopEndsThem) {
   EXPECT_GT(m.completed, 0);
 }
 
+// A scenario's background load competes with the units: its threads run at the lane
+// handlers' SCHED_FIFO priority where real-time settings apply, never at the
+// synchronizer's (above the units, the load preempted them for its whole busy share), and
+// at the ordinary priority where they do not (no permission).
+TEST(Runtime, BackgroundLoadRunsAtTheHandlersPriority) {
+  auto s = parse_scenario(std::string(kScenario) + "interference: {kind: cpu, intensity: 0.1}\n",
+                          "rt.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  s->duration = std::chrono::milliseconds{200};
+  const Profile p = default_profile();
+  SyntheticBackend::Options o;
+  o.time_scale = 0.3;
+  SyntheticBackend backend(*s, p, 1, o);
+  RuntimeOptions ro;
+  ro.realtime = true;
+  ro.watchdog_x = 0.0;
+  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  const RuntimeReport report = rt.run();
+  const std::string applied = "SCHED_FIFO priority " + std::to_string(ro.rt_priority) + " (";
+  bool realtime = false;
+  std::string load;
+  for (const std::string& line : report.realtime) {
+    if (line.rfind(applied, 0) == 0 && line.find("applied") != std::string::npos &&
+        line.find("not applied") == std::string::npos)
+      realtime = true;
+    if (line.rfind("background load: ", 0) == 0) load = line;
+  }
+  ASSERT_FALSE(load.empty()) << "no background-load line in the report";
+  EXPECT_NE(load.find(realtime ? "SCHED_FIFO priority " + std::to_string(ro.rt_priority)
+                               : std::string("ordinary priority")),
+            std::string::npos)
+      << load;
+  EXPECT_EQ(load.find("mixed"), std::string::npos) << load;
+}
+
 // stop_now() (SIGINT in the CLI) ends the run without draining: the jobs in flight are
 // reported unfinished, every released job still ends exactly once.
 TEST(Runtime, StopNowEndsTheRunWithJobsInFlightUnfinished) {
