@@ -398,10 +398,11 @@ void Loader::parse_model(const Val& v) {
 }
 
 void Loader::parse_scheduler(const Val& v) {
-  const Fields f(v, {"gamma_ms",     "estimate",  "level_cost",    "max_batch", "qoe_lambda",
-                     "graph",        "deadlines", "reassign",      "merge",     "batching",
-                     "sync",         "drop",      "drop_estimate", "admission", "rank",
-                     "admit_margin", "shed_rate", "lookahead",     "shed_lone", "batch_by_job"});
+  const Fields f(
+      v, {"gamma_ms",      "estimate",     "level_cost", "max_batch",    "qoe_lambda", "graph",
+          "deadlines",     "reassign",     "merge",      "batching",     "sync",       "drop",
+          "drop_estimate", "admission",    "rank",       "admit_margin", "shed_rate",  "lookahead",
+          "shed_lone",     "batch_by_job", "path_rank"});
   auto& sc = s_.scheduler;
   // Policy options (§15 ablations): checked here so that a bad value names its line.
   PolicyOptions check;

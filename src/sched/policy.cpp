@@ -128,6 +128,7 @@ std::string set_option(PolicyOptions& o, std::string_view key, std::string_view 
   if (key == "lookahead") return choose(o.lookahead, key, value, kBool);
   if (key == "shed_lone") return choose(o.shed_lone, key, value, kBool);
   if (key == "batch_by_job") return choose(o.batch_by_job, key, value, kBool);
+  if (key == "path_rank") return choose(o.path_rank, key, value, kBool);
   if (key == "rank")
     return choose(
         o.rank, key, value,
@@ -158,9 +159,9 @@ std::string apply_options(PolicyOptions& o, std::string_view list) {
 
 const std::vector<std::string>& option_keys() {
   static const std::vector<std::string> v{
-      "graph", "deadlines", "reassign",      "merge",     "batching",
-      "sync",  "drop",      "drop_estimate", "admission", "admit_margin",
-      "rank",  "shed_rate", "lookahead",     "shed_lone", "batch_by_job"};
+      "graph",     "deadlines",     "reassign",     "merge",        "batching", "sync",
+      "drop",      "drop_estimate", "admission",    "admit_margin", "rank",     "shed_rate",
+      "lookahead", "shed_lone",     "batch_by_job", "path_rank"};
   return v;
 }
 
@@ -173,7 +174,8 @@ std::string describe(const PolicyOptions& o) {
          ",admission=" + to_string(o.admission) +
          ",admit_margin=" + std::to_string(o.admit_margin) + ",rank=" + to_string(o.rank) +
          ",shed_rate=" + yn(o.shed_by_rate) + ",lookahead=" + yn(o.lookahead) +
-         ",shed_lone=" + yn(o.shed_lone) + ",batch_by_job=" + yn(o.batch_by_job);
+         ",shed_lone=" + yn(o.shed_lone) + ",batch_by_job=" + yn(o.batch_by_job) +
+         ",path_rank=" + yn(o.path_rank);
 }
 
 std::optional<PolicyOptions> preset_options(std::string_view name) {
@@ -218,6 +220,7 @@ std::optional<PolicyOptions> preset_options(std::string_view name) {
       o.lookahead = true;
       o.shed_lone = true;
       o.batch_by_job = true;
+      o.path_rank = true;
     }
   } else {
     return std::nullopt;

@@ -512,7 +512,7 @@ void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   for (std::size_t i = 0; i < m.size(); ++i) {
     const Job& j = job(m[i].first);
     k.min_release = std::min(k.min_release, j.release);
-    r.job_deadline = std::min(r.job_deadline, j.deadline);
+    r.job_deadline = std::min(r.job_deadline, rank_deadline(j, m[i].second));
     const Key mk = tie_key(m[i].first, m[i].second, k.member_at[i].second);
     if (mk < r.tie) r.tie = mk;
   }
@@ -537,7 +537,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
       k.members.emplace_back(slot, unit);
       k.member_at.emplace_back(ru.height, ru.node);
       TaskRank& r = task_rank(t);
-      r.job_deadline = std::min(r.job_deadline, j.deadline);
+      r.job_deadline = std::min(r.job_deadline, rank_deadline(j, unit));
       if (const Key mk = tie_key(slot, unit, ru.node); mk < r.tie) r.tie = mk;
       if (gamma && frame > k.frame) {
         k.frame = frame;
@@ -559,7 +559,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   k.members.emplace_back(slot, unit);
   k.member_at.emplace_back(ru.height, ru.node);
   k.min_release = j.release;
-  task_rank(t) = TaskRank{tie_key(slot, unit, ru.node), j.deadline};
+  task_rank(t) = TaskRank{tie_key(slot, unit, ru.node), rank_deadline(j, unit)};
   k.cost = ru.estimate;
   u.task = t;
   push_ready(t);
@@ -573,6 +573,7 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   v.deadline = kNever;
   v.release = kNever;
   v.job_deadline = kNever;
+  TimePoint by_job = kNever;  // what ranking by job deadline reads (rank_deadline)
   v.cost = k.cost;
   Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
   // §4 re-assignment (red, red-ida): one look at the job's cache gives both its height's
@@ -600,6 +601,7 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
     }
     v.release = std::min(v.release, j.release);
     v.job_deadline = std::min(v.job_deadline, j.deadline);
+    by_job = std::min(by_job, rank_deadline(j, unit));
     if (mixed_criticality)
       v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
     const Key mk{0, j.release, j.op, j.seq, node, unit};
@@ -613,9 +615,9 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
   // batching is checked against.
   if (by_job_deadline(k)) {
-    TaskView by_job = v;
-    by_job.deadline = v.job_deadline;
-    best.rank = s.policy_->rank(by_job, now);
+    TaskView view = v;
+    view.deadline = by_job;
+    best.rank = s.policy_->rank(view, now);
   } else {
     best.rank = s.policy_->rank(v, now);
   }

@@ -117,7 +117,8 @@ struct Task {
 };
 
 // Over a task's members, kept as they join and leave (their jobs' fields do not change):
-// the least tie-break key (rank 0) and the earliest end-to-end deadline, what ranking by
+// the least tie-break key (rank 0) and the earliest end-to-end deadline (less the path after
+// the unit, with path_rank: Impl::rank_deadline), what ranking by
 // job deadline reads without a look into the jobs. Beside the tasks (Impl::task_ranks), so
 // that a task stays as small as the ranking of the other presets reads it.
 struct TaskRank {
@@ -389,6 +390,17 @@ struct Scheduler::Impl {
   // deadline: the earliest over the members of the job deadline less the longest path
   // after the member's unit (scheduler estimate). §15 batch_by_job.
   TimePoint latest_batch_end(const Task& k) const;
+
+  // What ranking by job deadline reads for one member: the job's deadline, less the longest
+  // path after the unit with path_rank, on the scheduler's estimate (p99 by default) as
+  // latest_batch_end reads it (§15; docs/BENCHMARKS.md round 9: on mean costs, one of the
+  // tests' 216 sets lost a job to edf at capacity).
+  TimePoint rank_deadline(const Job& j, int unit) const {
+    if (!opt.path_rank) return j.deadline;
+    const RefinedUnit& u = j.g->units[static_cast<std::size_t>(unit)];
+    const std::size_t e = idx(s.config_.estimate);
+    return j.deadline - (u.tail[e] - u.costs[e]);
+  }
 
   // True when the offered load exceeds what the lanes can do (§15 detect from demand).
   bool past_capacity() const;

@@ -597,18 +597,64 @@ TEST(Overload, BatchByJobBatchesHeadsAcrossFramesUnderOverload) {
     return h;
   };
   for (const double load : {2.0, 2.5}) {
-    const Heads with = run(load, "");
-    const Heads without = run(load, "batch_by_job=no");
+    // The mechanism, on the ranking it was made for (job deadline alone, path_rank=no).
+    const Heads with = run(load, "path_rank=no");
+    const Heads without = run(load, "path_rank=no,batch_by_job=no");
     EXPECT_GT(with.batched, without.batched * 3 / 2) << load;
     EXPECT_LT(with.runs, without.runs) << load;
     EXPECT_GT(with.m.met, without.m.met * 21 / 20)
         << load << ": " << with.m.met << " vs " << without.m.met;
+    // With path_rank (red-robust as it ships) heads rank by what their jobs still need after
+    // them, and more of them batch without it too (round 9): it still meets more jobs.
+    const Heads shipped = run(load, "");
+    const Heads shipped_without = run(load, "batch_by_job=no");
+    EXPECT_GT(shipped.m.met, shipped_without.m.met)
+        << load << ": " << shipped.m.met << " vs " << shipped_without.m.met;
   }
   const Heads with = run(0.8, "");
   const Heads without = run(0.8, "batch_by_job=no");
   EXPECT_EQ(with.m.missed, 0);
   EXPECT_EQ(with.m.met, without.m.met);
   EXPECT_EQ(with.batched, without.batched);
+}
+
+TEST(Overload, PathRankIsAnOptionOfRedRobustOnly) {
+  expect_option_of_red_robust_only("path_rank", &PolicyOptions::path_rank);
+}
+
+// path_rank (§15, docs/BENCHMARKS.md round 9): while ranked by job deadline, every unit of
+// a job ranked alike, so on several lanes a job's units off its critical path ran ahead of
+// another job's critical path, and red-robust fell to edf's figure below capacity, where the
+// demand test fires on a job's own critical path (plain fork-join and wide sets of the grid).
+// Ranked by the job's deadline less the path after the unit (p99), it meets as many as red
+// and edf there.
+TEST(Overload, PathRankRunsOtherJobsCriticalPathsFirstOnSeveralLanes) {
+  const Profile p = default_profile();
+  struct Set {
+    std::uint64_t seed;
+    int lanes;
+    grid::Shape shape;
+  };
+  int below_without = 0, points = 0;
+  for (const Set& set : {Set{25, 2, grid::Shape::ForkJoin}, Set{50, 4, grid::Shape::Wide},
+                         Set{51, 4, grid::Shape::Wide}}) {
+    grid::SetSpec spec;
+    spec.seed = set.seed;
+    spec.lanes = set.lanes;
+    spec.shape = set.shape;
+    for (const double load : {0.5, 0.8}) {
+      Scenario s = grid::set_scenario(spec, p, load);
+      const double red = grid::evaluate(s, p, "red").on_time;
+      const double edf = grid::evaluate(s, p, "edf").on_time;
+      const double with = grid::evaluate(s, p, "red-robust").on_time;
+      s.scheduler.policy_with = "path_rank=no";
+      const double without = grid::evaluate(s, p, "red-robust").on_time;
+      EXPECT_GE(with, std::max(red, edf) - 0.005) << s.name << " at " << load;
+      below_without += without < red - 0.005 ? 1 : 0;
+      ++points;
+    }
+  }
+  EXPECT_GE(below_without, points - 1);
 }
 
 // Ranks as EdfPolicy does, but is another type: the scheduler ranks its tasks the long way

@@ -89,6 +89,12 @@ struct PolicyOptions {
   /// deadline less the path after the head, not the task's intermediate deadline, which is
   /// past due under overload and let no batch form.
   bool batch_by_job = false;
+  /// While ranked by job deadline (§15): a unit ranks by its job's deadline less the
+  /// longest path after it on the scheduler's estimate (the latest it may end for the job
+  /// to make it: EDF on deadlines modified for precedence), not by the job's deadline
+  /// alone, which ran a job's off-path units ahead of another job's critical path on
+  /// several lanes.
+  bool path_rank = false;
 
   bool operator==(const PolicyOptions&) const = default;
 };
