@@ -12,6 +12,8 @@
 #      (no model) and, with TORCH=1, on LibTorch with the same model. Use REALTIME=0 for
 #      memory (mlockall locks every mapped page).
 # Usage: bench/ros2_targets.sh [OUT_DIR]
+#   (the node writes its summary, jobs.csv and units.csv to OUT_DIR/node-synthetic, beside
+#   red run's OUT_DIR/run-synthetic, to compare the runtime's own response in both)
 #   SCENARIO=scenarios/interference-none.yaml SECS=20 REALTIME=1 (SCHED_FIFO etc. for both
 #   red run and red node; 0: off) TORCH=0|1 DOMAIN=80 RED=... LISTENER=...
 #   STAMPS=1: the listener counts the camera's frames from a topic of their headers (red camera
@@ -75,7 +77,7 @@ echo "ros2 targets: $SCENARIO, ${SECS}s, real-time knobs ${REALTIME:-1}, shared 
 node_run() { # TAG BACKEND
   local tag=$1 backend=$2 d=$DOMAIN
   DOMAIN=$((DOMAIN + 1))
-  "$RED" node "$SCENARIO" --backend "$backend" --domain "$d" "${NODE_RT[@]}" "${DDS_ARGS[@]}" \
+  "$RED" node "$SCENARIO" --backend "$backend" --domain "$d" "${NODE_RT[@]}" "${DDS_ARGS[@]}" --out "$OUT/$tag" \
     2>"$OUT/$tag.log" &
   local pid=$!
   for _ in $(seq 1200); do grep -q "out /diagnostics" "$OUT/$tag.log" && break; sleep 0.1; done
