@@ -128,17 +128,18 @@ def node(tag):
     after = re.search(rf"job released -> push returned \([^)]*\) p50 {num} us, p99 {num} us", log)
     transport = re.search(rf"frame stamp -> taken \(camera to node over DDS\) p50 {num} us, p99 {num} us", log)
     publish = re.search(rf"job end -> output written p50 {num} us, p99 {num} us", log)
+    wake = re.search(rf"of which queued -> the publishing thread woke p50 {num} us, p99 {num} us", log)
     lst = json.load(open(f"{out}/{tag}.json"))
     rss = int(open(f"{out}/{tag}.rss_kb").read().strip() or 0) / 1024
     udp = open(f"{out}/{tag}.udp").read().strip() if os.path.exists(f"{out}/{tag}.udp") else "?"
     flt = open(f"{out}/{tag}.faults").read().strip() if os.path.exists(f"{out}/{tag}.faults") else "?"
     print(f"   ({tag}: the host received {udp} UDP datagrams from the node being ready to the listener's end;"
           f" the node had {flt} minor page faults meanwhile)")
-    return intake, release, lst, rss, transport, publish, whole, after
+    return intake, release, lst, rss, transport, publish, whole, after, wake
 def run(tag):
     p = json.load(open(f"{out}/{tag}/summary.json"))["policies"][0]
     return p
-ni, nr, nl, nrss, nt, npub, nw, na = node("node-synthetic")
+ni, nr, nl, nrss, nt, npub, nw, na, nwake = node("node-synthetic")
 rp = run("run-synthetic")
 if nw is not None and nw.lastindex == 4:
     print(f"1. frame received (taken from the DDS reader) -> job released, frame by frame: "
@@ -163,13 +164,15 @@ print(f"   red node (synthetic, stamp -> last output received): {nl['frames']} f
       f"p50 {r['p50']:.2f} ms, p99 {r['p99']:.2f} ms, mean {r['mean']:.2f} ms")
 print(f"   of which in the node: camera -> taken over DDS p50 {float(nt.group(1)) / 1e3:.2f} ms, p99 {float(nt.group(2)) / 1e3:.2f} ms;"
       f" job end -> output written p50 {float(npub.group(1)) / 1e3:.2f} ms, p99 {float(npub.group(2)) / 1e3:.2f} ms")
+if nwake:
+    print(f"   of the latter, the job's outputs queued -> the publishing thread woke: p50 {nwake.group(1)} us, p99 {nwake.group(2)} us")
 print(f"   node adds: p50 {r['p50'] - lat['p50']:+.2f} ms, p99 {r['p99'] - lat['p99']:+.2f} ms, mean {r['mean'] - lat['mean']:+.2f} ms (target p99 <= 1 ms)")
 peak = rp.get("peak_rss_mb") or 0.0
 print(f"3. resident set, synthetic backend (no model): red node {nrss:.1f} MB, red run peak {peak} MB: "
       f"the node adds {nrss - peak:+.1f} MB (same binary: a LibTorch build maps its libraries in both; "
       f"target: the node's own memory <= 20 MB)")
 if torch:
-    ti, tr, tl, trss, tt, tpub, tw, ta = node("node-torch")
+    ti, tr, tl, trss, tt, tpub, tw, ta, _ = node("node-torch")
     tp = run("run-torch")
     tpeak = tp.get("peak_rss_mb") or 0.0
     print(f"   torch: red node {trss:.1f} MB resident vs red run peak {tpeak} MB with the same model: "

@@ -223,6 +223,11 @@ int run_node(const NodeArgs& a) {
       "red node: job end -> output written p50 {:.2f} us, p99 {:.2f} us ({} outputs)\n",
       percentile(tm.publish_us, 0.5), percentile(tm.publish_us, 0.99), tm.publish_us.size());
   std::cerr << fmt::format(
+      "red node:   of which queued -> the publishing thread woke p50 {:.2f} us, p99 {:.2f} us ({} "
+      "waits)\n",
+      percentile(tm.publish_wake_us, 0.5), percentile(tm.publish_wake_us, 0.99),
+      tm.publish_wake_us.size());
+  std::cerr << fmt::format(
       "red node: frame taken -> pushed (check, move, keep; converted after the release) p50 "
       "{:.2f} us, p99 {:.2f} us ({} frames)\n",
       percentile(intake, 0.5), percentile(intake, 0.99), intake.size());

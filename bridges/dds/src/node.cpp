@@ -182,7 +182,7 @@ struct Node::Impl final : Observer {
   mutable std::mutex counters_mu;  // counters, timings and the vectors below
   NodeCounters counters;
   Node::Timings timings;  // rings of the newest kIntakeWindow each
-  std::uint64_t intakes = 0, publishes = 0, after_releases = 0;
+  std::uint64_t intakes = 0, publishes = 0, after_releases = 0, publish_wakes = 0;
 
   // Observer state: touched only from observer callbacks (serialized by the runtime).
   std::map<JobId, std::vector<Output>> finished_heads;
@@ -713,18 +713,25 @@ struct Node::Impl final : Observer {
     for (;;) {
       std::optional<Output> item;
       bool done = false;
+      double woke_us = -1;  // queued -> taken here, when this thread waited for it
       {
         std::unique_lock lock(pub_mu);
+        const bool waits = queue.empty();
         const auto wall = std::chrono::steady_clock::now() + (next_diag - clock.now());
         pub_cv.wait_until(lock, wall, [&] { return !queue.empty() || !publishing; });
         if (!queue.empty()) {
           item = std::move(queue.front());
           queue.pop_front();
+          if (waits) woke_us = to_us(clock.now() - item->ended);
         } else {
           done = !publishing;
         }
       }
       if (item) {
+        if (woke_us >= 0) {
+          std::lock_guard lock(counters_mu);
+          record(timings.publish_wake_us, publish_wakes++, woke_us);
+        }
         if (frame_of(*item, header, gray, fs)) {
           const FrameView g = gray->pixels();
           // Computed after the release unless this job ended first (then here, alike).

@@ -120,6 +120,10 @@ class Node {
     std::vector<double> after_release_us;
     /// A job ended -> its last output written to DDS (queue, computing, serializing).
     std::vector<double> publish_us;
+    /// Of publish_us, for each output the publishing thread waited for (a job's first):
+    /// queued at the job's end -> taken by that thread, its wake-up (on a VM, that of an
+    /// idle virtual CPU).
+    std::vector<double> publish_wake_us;
   };
   [[nodiscard]] Timings timings() const;
   /// The topics in use.
