@@ -573,7 +573,9 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   v.deadline = kNever;
   v.release = kNever;
   v.job_deadline = kNever;
-  TimePoint by_job = kNever;  // what ranking by job deadline reads (rank_deadline)
+  // What ranking by job deadline reads (rank_deadline), when this round ranks k so.
+  const bool rank_by_job = by_job_deadline(k);
+  TimePoint by_job = kNever;
   v.cost = k.cost;
   Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
   // §4 re-assignment (red, red-ida): one look at the job's cache gives both its height's
@@ -601,7 +603,7 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
     }
     v.release = std::min(v.release, j.release);
     v.job_deadline = std::min(v.job_deadline, j.deadline);
-    by_job = std::min(by_job, rank_deadline(j, unit));
+    if (rank_by_job) by_job = std::min(by_job, rank_deadline(j, unit));
     if (mixed_criticality)
       v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
     const Key mk{0, j.release, j.op, j.seq, node, unit};
@@ -614,7 +616,7 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
   // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
   // batching is checked against.
-  if (by_job_deadline(k)) {
+  if (rank_by_job) {
     TaskView view = v;
     view.deadline = by_job;
     best.rank = s.policy_->rank(view, now);
@@ -704,14 +706,10 @@ TimePoint Scheduler::Impl::latest_batch_end(const Task& k) const {
   // The scheduler's estimate (p99, by default) of the path after the unit: on the mean,
   // batches formed that their members' later units then missed (docs/BENCHMARKS.md
   // round 7).
-  const std::size_t e = idx(s.config_.estimate);
   TimePoint d = kNever;
   for (const auto& [slot, unit] : k.members) {
     const Job& j = jobs[static_cast<std::size_t>(slot)];
-    Duration after{0};
-    for (const int sx : j.g->units[static_cast<std::size_t>(unit)].succs)
-      after = std::max(after, j.g->units[static_cast<std::size_t>(sx)].tail[e]);
-    d = std::min(d, j.deadline - after);
+    d = std::min(d, j.deadline - path_after(j, unit));
   }
   return d;
 }

@@ -391,15 +391,19 @@ struct Scheduler::Impl {
   // after the member's unit (scheduler estimate). §15 batch_by_job.
   TimePoint latest_batch_end(const Task& k) const;
 
-  // What ranking by job deadline reads for one member: the job's deadline, less the longest
-  // path after the unit with path_rank, on the scheduler's estimate (p99 by default) as
-  // latest_batch_end reads it (§15; docs/BENCHMARKS.md round 9: on mean costs, one of the
-  // tests' 216 sets lost a job to edf at capacity).
-  TimePoint rank_deadline(const Job& j, int unit) const {
-    if (!opt.path_rank) return j.deadline;
+  // The longest path after a unit of j (the unit itself not counted) on the scheduler's
+  // estimate (p99 by default): what j still needs once the unit has ended.
+  Duration path_after(const Job& j, int unit) const {
     const RefinedUnit& u = j.g->units[static_cast<std::size_t>(unit)];
     const std::size_t e = idx(s.config_.estimate);
-    return j.deadline - (u.tail[e] - u.costs[e]);
+    return u.tail[e] - u.costs[e];
+  }
+
+  // What ranking by job deadline reads for one member: the job's deadline, less the path
+  // after the unit with path_rank (§15; docs/BENCHMARKS.md round 9: on mean costs instead,
+  // one of the tests' 216 sets lost a job to edf at capacity).
+  TimePoint rank_deadline(const Job& j, int unit) const {
+    return opt.path_rank ? j.deadline - path_after(j, unit) : j.deadline;
   }
 
   // True when the offered load exceeds what the lanes can do (§15 detect from demand).

@@ -334,6 +334,11 @@ TEST(DdsNodeIntake, FramesAreReleasedUnconvertedConvertedOnceWholeAndBadOnesNeve
   EXPECT_GT(direct, 0U)
       << "without the real-time knobs the receiving thread releases frames itself";
   EXPECT_EQ(t.after_release_us.size(), direct);
+  // The publisher's wake-up is timed for the outputs it waited for, a job's first: at most
+  // one per output it took, and some where any output was published.
+  EXPECT_LE(t.publish_wake_us.size(), t.publish_us.size() + c.jobs_without_output);
+  EXPECT_TRUE(t.publish_us.empty() || !t.publish_wake_us.empty());
+  for (double us : t.publish_wake_us) EXPECT_GE(us, 0.0);
 }
 
 // What the node publishes for a frame, computed here from the frame's own luminance by the
