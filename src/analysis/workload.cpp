@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "red/sim/cost_sampler.hpp"
@@ -162,6 +163,39 @@ std::vector<double> merged_encoder_runs(const Scenario& s, const PhaseWorkload& 
     for (std::size_t i : ops) runs[i] += per_s / sum;
   }
   return runs;
+}
+
+double NecessaryLoad::limit_scale() const noexcept {
+  if (fixed >= 1.0) return 0.0;
+  if (scaled <= 0.0) return std::numeric_limits<double>::infinity();
+  return (1.0 - fixed) / scaled;
+}
+
+NecessaryLoad necessary_load(const Scenario& s, const Profile& p) {
+  const UnitCosts mean(s, p, CostPoint::Mean);
+  const TimePoint from{s.warmup}, to{s.duration};
+  const double lanes = static_cast<double>(std::max(1, s.device.lanes));
+  NecessaryLoad load;
+  double weight = 0;
+  for (const PhaseWorkload& ph : phase_workloads(s, to)) {
+    const double w = to_s(std::min(ph.span.to, to) - std::max(ph.span.from, from));
+    if (w <= 0) continue;
+    weight += w;
+    const std::vector<double> runs = merged_encoder_runs(s, ph);
+    for (std::size_t i = 0; i < ph.ops.size(); ++i) {
+      if (!ph.ops[i]) continue;
+      const OperationSpec& op = *ph.ops[i];
+      double job = runs[i] * to_s(mean.encoder());
+      for (const NodeSpec& n : op.nodes) job += to_s(mean.fine_node(n));
+      const double share = job * release_rate(op, ph, s) / lanes * w;
+      (op.trigger_sensor >= 0 || op.rate_hz > 0 ? load.scaled : load.fixed) += share;
+    }
+  }
+  if (weight > 0) {
+    load.scaled /= weight;
+    load.fixed /= weight;
+  }
+  return load;
 }
 
 Profile worst_case_profile(const Profile& p) {

@@ -138,6 +138,70 @@ TEST(AnalyzeVerdict, EachPhaseThatEventsCreateIsJudged) {
   EXPECT_GE(nav.cp_coarse_mean, nav.cp_fine_mean);
 }
 
+// DESIGN §13's physical limit: the necessary work over the lanes, phases weighted by their
+// length in the measured window, a camera frame's encoder run counted once however many
+// operations it triggers, fixed release counts apart from what rate_scale scales.
+TEST(NecessaryLoad, PlainWorkAtItsRateOverTheLanes) {
+  const NecessaryLoad one = necessary_load(
+      single(20, milliseconds{40}, milliseconds{10}, milliseconds{12}), default_profile());
+  EXPECT_NEAR(one.scaled, 0.2, 1e-9);  // 10 ms × 20 Hz on one lane
+  EXPECT_DOUBLE_EQ(one.fixed, 0.0);
+  EXPECT_NEAR(one.limit_scale(), 5.0, 1e-9);
+  const NecessaryLoad two = necessary_load(
+      single(20, milliseconds{40}, milliseconds{10}, milliseconds{12}, 2), default_profile());
+  EXPECT_NEAR(two.scaled, 0.1, 1e-9);
+  EXPECT_NEAR(two.limit_scale(), 10.0, 1e-9);
+}
+
+TEST(NecessaryLoad, OneEncoderRunPerFrameForEveryOperationItTriggers) {
+  auto s = parse_scenario(R"(
+name: shared
+duration_s: 4
+warmup_s: 1
+model: {builtin: mimonet, heads: [lane, seg, steer, det]}
+sensors:
+  cam: {rate_hz: 10}
+operations:
+  - name: a
+    trigger: cam
+    deadline_ms: 200
+    nodes: {L: {head: lane, sensor: cam}}
+  - name: b
+    trigger: cam
+    deadline_ms: 200
+    nodes: {S: {head: seg, sensor: cam}}
+  - name: once
+    release: {count: 8}
+    deadline_ms: 500
+    nodes: {P: {cost_ms: 5}}
+)",
+                          "shared.yaml");
+  ASSERT_TRUE(s) << s.error().to_string();
+  const Profile p = default_profile();
+  const UnitCosts mean(*s, p, CostPoint::Mean);
+  const NecessaryLoad n = necessary_load(*s, p);
+  const auto head = [&](const char* name) { return to_s(mean.head(s->model.head_index(name))); };
+  EXPECT_NEAR(n.scaled, (to_s(mean.encoder()) + head("lane") + head("seg")) * 10, 1e-9);
+  EXPECT_NEAR(n.fixed, 0.005 * 8 / 4.0, 1e-9);  // 8 jobs of 5 ms over the 4 s run
+  EXPECT_NEAR(n.limit_scale(), (1 - n.fixed) / n.scaled, 1e-12);
+}
+
+TEST(NecessaryLoad, PhasesWeighByTheirLengthInTheMeasuredWindow) {
+  auto s = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/minibench-tight.yaml");
+  ASSERT_TRUE(s) << s.error().to_string();
+  const Profile p = default_profile();
+  const UnitCosts mean(*s, p, CostPoint::Mean);
+  const auto head = [&](const char* name) { return to_s(mean.head(s->model.head_index(name))); };
+  // Measured from 1 s to 20 s: detection runs in [1, 2), [3, 4), ..., [19, 20): 10 of 19 s.
+  const double cruise = to_s(mean.encoder()) + head("lane") + head("seg") + head("steer");
+  const double with_det = cruise + head("det");
+  const double expected = (10 * with_det + 9 * cruise) * 20 / 19;
+  const NecessaryLoad n = necessary_load(*s, p);
+  EXPECT_NEAR(n.scaled, expected, 1e-9);
+  EXPECT_GT(n.limit_scale(), 1 / (with_det * 20));
+  EXPECT_LT(n.limit_scale(), 1 / (cruise * 20));
+}
+
 // The verdicts agree with the simulator: an `ok` operation shows <= 1 % misses at the
 // profile's costs; an operation infeasible on best-case costs misses every job.
 void expect_consistent(const Analysis& a, const std::string& what) {

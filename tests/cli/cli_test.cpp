@@ -331,6 +331,67 @@ TEST_F(Cli, SweepWritesOneColumnPerValue) {
   EXPECT_EQ(values, (std::set<std::string>{"0.8", "1", "1.2"}));
 }
 
+// DESIGN §13: a sweep over rate_scale reports each policy's breakdown rate beside the
+// physical limit, and every swept value up to a policy's breakdown rate keeps its misses
+// within 1 %, the next one does not.
+TEST_F(Cli, SweepOverRateScaleReportsTheBreakdownRate) {
+  const fs::path out = dir_ / "sweep-rate";
+  const RunResult r =
+      red("sweep " + scenario("minibench-tight.yaml") +
+          " --set rate_scale=2.2,1.6,2.0,2.1 --policies edf,red,mono --out " + quote(out.string()));
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("breakdown rate"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("physical limit: rate_scale"), std::string::npos) << r.out;
+  const json j = json::parse(read_text(out / "sweep.json"));
+  const json& bd = j.at("breakdown");
+  EXPECT_DOUBLE_EQ(bd.at("miss_limit").get<double>(), 0.01);
+  const double limit = bd.at("limit_scale").get<double>();
+  EXPECT_NEAR(limit * bd.at("necessary_load").get<double>(), 1.0, 1e-9);
+  const json& values = j.at("values");
+  ASSERT_EQ(bd.at("policies").size(), 3u);
+  int found = 0;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const json& row = bd.at("policies")[i];
+    const json& miss = j.at("policies")[i].at("miss_rate");
+    ASSERT_EQ(row.at("name"), j.at("policies")[i].at("name"));
+    SCOPED_TRACE(row.at("name").get<std::string>());
+    if (row.at("rate_scale").is_null()) {
+      // None: the smallest swept value (1.6) already misses more than 1 %.
+      EXPECT_GT(miss[1].get<double>(), 0.01);
+      continue;
+    }
+    ++found;
+    const double b = row.at("rate_scale").get<double>();
+    EXPECT_NEAR(row.at("fraction").get<double>(), b / limit, 1e-9);
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      const double v = values[k].get<double>();
+      if (v <= b) {
+        EXPECT_LE(miss[k].get<double>(), 0.01) << v;
+      }
+    }
+    if (!row.at("censored").get<bool>()) {
+      // The next swept value above it misses more than 1 %.
+      double next = 1e9;
+      std::size_t at = 0;
+      for (std::size_t k = 0; k < values.size(); ++k)
+        if (values[k].get<double>() > b && values[k].get<double>() < next) {
+          next = values[k].get<double>();
+          at = k;
+        }
+      ASSERT_LT(next, 1e9);
+      EXPECT_GT(miss[at].get<double>(), 0.01);
+    }
+    // No policy keeps up past the physical limit by much: the limit is the work itself.
+    EXPECT_LE(b, limit * 1.05);
+  }
+  EXPECT_GE(found, 2);  // red and mono hold at 1.6 on the built-in profile; edf does not
+  const std::string html = read_text(out / "index.html");
+  EXPECT_NE(html.find("Breakdown rate"), std::string::npos);
+  EXPECT_NE(html.find("fraction of the limit"), std::string::npos);
+  EXPECT_TRUE(bd.at("policies")[0].at("rate_scale").is_null());
+}
+
 // ---- bad input: exit code 2 and a located message, never a crash -----------------------------
 
 TEST_F(Cli, UnknownPolicy) {

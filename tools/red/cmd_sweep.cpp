@@ -3,12 +3,14 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "red/analysis/workload.hpp"
 #include "red/core/clock.hpp"
 #include "red/observe/progress.hpp"
 #include "red/report/html.hpp"
@@ -68,6 +70,34 @@ Expected<std::pair<std::string, std::vector<double>>> parse_sweep(const std::str
   }
   if (values.empty()) return Error{"", 0, "--set " + key + ": no values"};
   return std::pair{key, values};
+}
+
+// DESIGN §13's breakdown rate of one policy over a rate_scale sweep: the largest swept scale
+// up to which (every smaller swept scale included) the miss rate stays within the limit.
+struct Breakdown {
+  std::optional<double> scale;  // none: the smallest swept scale already misses more
+  bool censored = false;        // no swept scale missed more: the rate is at least `scale`
+  double first_over = 0;        // the first scale past it, and its miss rate
+  double first_over_miss = 0;
+};
+
+constexpr double kBreakdownMiss = 0.01;
+
+Breakdown breakdown_of(const std::vector<double>& values, const std::vector<PolicyMetrics>& m) {
+  std::vector<std::size_t> order(values.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](auto x, auto y) { return values[x] < values[y]; });
+  Breakdown b;
+  for (std::size_t k : order) {
+    if (m[k].miss_rate > kBreakdownMiss) {
+      b.first_over = values[k];
+      b.first_over_miss = m[k].miss_rate;
+      return b;
+    }
+    b.scale = values[k];
+  }
+  b.censored = b.scale.has_value();
+  return b;
 }
 
 }  // namespace
@@ -175,6 +205,41 @@ void register_sweep(CLI::App& app, int& exit_code) {
     std::string text = table("miss rate", [](const PolicyMetrics& m) { return m.miss_rate; });
     text += table("mean latency (ms)", [](const PolicyMetrics& m) { return m.latency.mean; });
     text += table("QoE", [](const PolicyMetrics& m) { return m.qoe; });
+    // §13: over rate_scale, each policy's breakdown rate beside the physical limit.
+    std::vector<Breakdown> breakdowns;
+    NecessaryLoad need;
+    std::string limit_text;
+    std::vector<std::vector<std::string>> bd_rows;  // policy, breakdown, fraction, next
+    if (key == "rate_scale") {
+      need = necessary_load(*base, *p);
+      const double limit = need.limit_scale();
+      const bool finite = std::isfinite(limit) && limit > 0;
+      limit_text = fmt::format(
+          "physical limit: {} (the necessary work, one encoder run per frame shared by the "
+          "operations it triggers plus every head, at mean costs, takes {:.1f} % of the lanes "
+          "at rate_scale 1)",
+          finite ? fmt::format("rate_scale {:.3f}", limit) : "none", 100 * need.total());
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        const Breakdown b = breakdown_of(values, results[i]);
+        breakdowns.push_back(b);
+        const std::string past = b.censored ? "no swept value missed more"
+                                            : fmt::format("{:g}: {:.1f} % missed", b.first_over,
+                                                          100 * b.first_over_miss);
+        if (!b.scale) {
+          bd_rows.push_back({names[i], "none", "-", past});
+          continue;
+        }
+        const std::string ge = b.censored ? ">= " : "";
+        bd_rows.push_back({names[i], fmt::format("{}{:g}", ge, *b.scale),
+                           finite ? fmt::format("{}{:.3f}", ge, *b.scale / limit) : "-", past});
+      }
+      text += fmt::format(
+          "breakdown rate (miss rate <= {:g} % at every swept rate_scale up to it, DESIGN §13)\n"
+          "{}\n{:<10} {:>9} {:>12}\n",
+          100 * kBreakdownMiss, limit_text, "policy", "breakdown", "of the limit");
+      for (const auto& r : bd_rows)
+        text += fmt::format("{:<10} {:>9} {:>12}   ({})\n", r[0], r[1], r[2], r[3]);
+    }
     fmt::print("scenario {} (backend sim, seed {})\n{}", base->name, seed, text);
     if (a->out) {
       nlohmann::ordered_json j;
@@ -183,6 +248,25 @@ void register_sweep(CLI::App& app, int& exit_code) {
       j["parameter"] = key;
       j["values"] = values;
       j["seed"] = seed;
+      if (!breakdowns.empty()) {
+        nlohmann::ordered_json bd;
+        const double limit = need.limit_scale();
+        bd["miss_limit"] = kBreakdownMiss;
+        bd["necessary_load"] = need.total();
+        bd["limit_scale"] = std::isfinite(limit) ? nlohmann::ordered_json(limit) : nullptr;
+        for (std::size_t i = 0; i < names.size(); ++i) {
+          const Breakdown& b = breakdowns[i];
+          nlohmann::ordered_json row;
+          row["name"] = names[i];
+          row["rate_scale"] = b.scale ? nlohmann::ordered_json(*b.scale) : nullptr;
+          row["fraction"] = b.scale && std::isfinite(limit) && limit > 0
+                                ? nlohmann::ordered_json(*b.scale / limit)
+                                : nullptr;
+          row["censored"] = b.censored;
+          bd["policies"].push_back(row);
+        }
+        j["breakdown"] = bd;
+      }
       std::string csv =
           "policy," + key + ",jobs,miss_rate,drop_rate,latency_mean_ms,latency_p99_ms,qoe\n";
       for (std::size_t i = 0; i < names.size(); ++i) {
@@ -218,9 +302,25 @@ void register_sweep(CLI::App& app, int& exit_code) {
       if (!plots.note.empty()) std::cerr << "red: " << plots.note << '\n';
       const std::vector<HtmlLink> links = {{"sweep.csv", "one row per (policy, value)"},
                                            {"sweep.json", "the same numbers as JSON"}};
-      if (auto e = write_file(
-              *a->out, "index.html",
-              render_html(sweep_page(base->name, seed, key, values, series, plots, links)))) {
+      HtmlPage page = sweep_page(base->name, seed, key, values, series, plots, links);
+      if (!bd_rows.empty()) {
+        HtmlSection sec;
+        sec.id = "breakdown";
+        sec.heading = "Breakdown rate";
+        sec.paragraphs = {
+            fmt::format("The largest swept rate_scale up to which each policy misses at most "
+                        "{:g} % of its jobs at every swept value (DESIGN §13), and its fraction "
+                        "of the physical limit.",
+                        100 * kBreakdownMiss),
+            "P" + limit_text.substr(1) + "."};
+        HtmlTable t;
+        t.header = {"policy", "breakdown rate_scale", "fraction of the limit",
+                    "first swept value past it"};
+        t.rows = bd_rows;
+        sec.tables.push_back(std::move(t));
+        page.sections.push_back(std::move(sec));
+      }
+      if (auto e = write_file(*a->out, "index.html", render_html(page))) {
         print_error(*e);
         exit_code = kRunFailure;
         return;

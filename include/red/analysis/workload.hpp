@@ -93,6 +93,21 @@ double release_rate(const OperationSpec& op, const PhaseWorkload& ph, const Scen
 /// the camera has frames. An estimate; the simulator counts the real runs.
 std::vector<double> merged_encoder_runs(const Scenario& s, const PhaseWorkload& ph);
 
+/// The necessary work of DESIGN §13 as a share of the lanes' time: per job of each operation
+/// every head (a plain node's plain cost) once and its share of the frames' encoder runs
+/// under DynamicMerge (merged_encoder_runs), at mean costs, over the lanes; averaged over the
+/// phases of the measured window (warm-up to the end), weighted by their length.
+struct NecessaryLoad {
+  double scaled = 0;  ///< the share that grows with rate_scale (sensor and own rates)
+  double fixed = 0;   ///< operations with a fixed release count (rate_scale leaves them)
+  /// The share at the scenario's own rates.
+  [[nodiscard]] double total() const noexcept { return scaled + fixed; }
+  /// The rate_scale at which the necessary work fills every lane (the physical limit of the
+  /// breakdown rate); +inf when nothing scales, 0 when the fixed work alone fills them.
+  [[nodiscard]] double limit_scale() const noexcept;
+};
+NecessaryLoad necessary_load(const Scenario& s, const Profile& p);
+
 /// The profile whose every quantile of every unit and batch size is its max: worst-case
 /// costs for the simulator.
 Profile worst_case_profile(const Profile& p);
