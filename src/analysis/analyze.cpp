@@ -157,10 +157,7 @@ Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOp
       oa.alone_mean = alone(cmean);
       oa.work_coarse = work_coarse(op, cmean);
       oa.work_fine = work_fine(op, cmean);
-      Duration heads{0};
-      for (const NodeSpec& n : op.nodes) heads += cmean.fine_node(n);
-      oa.work_merged = heads + Duration{static_cast<std::int64_t>(
-                                   merged[i] * static_cast<double>(cmean.encoder().count()))};
+      oa.work_merged = work_merged(op, cmean, merged[i]);
       // What the policy runs: coarse units; a mono job (one encoder run per sensor); fine
       // units, whose encoder runs are shared only under DynamicMerge.
       oa.work_policy = opts->graph == GraphMode::Mono                  ? oa.work_fine

@@ -165,6 +165,13 @@ std::vector<double> merged_encoder_runs(const Scenario& s, const PhaseWorkload& 
   return runs;
 }
 
+Duration work_merged(const OperationSpec& op, const UnitCosts& c, double encoder_runs) {
+  Duration heads{0};
+  for (const NodeSpec& n : op.nodes) heads += c.fine_node(n);
+  return heads + Duration{static_cast<std::int64_t>(encoder_runs *
+                                                    static_cast<double>(c.encoder().count()))};
+}
+
 double NecessaryLoad::limit_scale() const noexcept {
   if (fixed >= 1.0) return 0.0;
   if (scaled <= 0.0) return std::numeric_limits<double>::infinity();
@@ -185,9 +192,8 @@ NecessaryLoad necessary_load(const Scenario& s, const Profile& p) {
     for (std::size_t i = 0; i < ph.ops.size(); ++i) {
       if (!ph.ops[i]) continue;
       const OperationSpec& op = *ph.ops[i];
-      double job = runs[i] * to_s(mean.encoder());
-      for (const NodeSpec& n : op.nodes) job += to_s(mean.fine_node(n));
-      const double share = job * release_rate(op, ph, s) / lanes * w;
+      const double share =
+          to_s(work_merged(op, mean, runs[i])) * release_rate(op, ph, s) / lanes * w;
       (op.trigger_sensor >= 0 || op.rate_hz > 0 ? load.scaled : load.fixed) += share;
     }
   }

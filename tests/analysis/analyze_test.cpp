@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -151,6 +152,14 @@ TEST(NecessaryLoad, PlainWorkAtItsRateOverTheLanes) {
       single(20, milliseconds{40}, milliseconds{10}, milliseconds{12}, 2), default_profile());
   EXPECT_NEAR(two.scaled, 0.1, 1e-9);
   EXPECT_NEAR(two.limit_scale(), 10.0, 1e-9);
+}
+
+TEST(NecessaryLoad, LimitScaleAtItsEdges) {
+  EXPECT_TRUE(std::isinf(NecessaryLoad{}.limit_scale()));  // nothing scales with the rates
+  EXPECT_TRUE(std::isinf(NecessaryLoad{0.0, 0.5}.limit_scale()));
+  EXPECT_DOUBLE_EQ((NecessaryLoad{0.2, 1.0}.limit_scale()), 0.0);  // fixed work fills the lanes
+  EXPECT_DOUBLE_EQ((NecessaryLoad{0.25, 0.5}.limit_scale()), 2.0);
+  EXPECT_DOUBLE_EQ((NecessaryLoad{0.25, 0.5}.total()), 0.75);
 }
 
 TEST(NecessaryLoad, OneEncoderRunPerFrameForEveryOperationItTriggers) {

@@ -392,6 +392,27 @@ TEST_F(Cli, SweepOverRateScaleReportsTheBreakdownRate) {
   EXPECT_TRUE(bd.at("policies")[0].at("rate_scale").is_null());
 }
 
+// A policy that misses at most 1 % at every swept scale has a breakdown rate of at least the
+// largest (censored); a sweep over another key reports none.
+TEST_F(Cli, SweepBreakdownRateIsCensoredWhenNoSweptScaleMissesMore) {
+  const fs::path out = dir_ / "sweep-censored";
+  const RunResult r = red("sweep " + scenario("minibench-tight.yaml") +
+                          " --set rate_scale=0.5,1 --policies red --out " + quote(out.string()));
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("no swept value missed more"), std::string::npos) << r.out;
+  const json j = json::parse(read_text(out / "sweep.json"));
+  const json& row = j.at("breakdown").at("policies").at(0);
+  EXPECT_TRUE(row.at("censored").get<bool>());
+  EXPECT_DOUBLE_EQ(row.at("rate_scale").get<double>(), 1.0);
+  for (const json& m : j.at("policies").at(0).at("miss_rate")) EXPECT_LE(m.get<double>(), 0.01);
+
+  const RunResult other =
+      red("sweep " + scenario("minibench-tight.yaml") + " --set deadline_scale=1 --policies red");
+  ASSERT_EQ(other.code, 0) << other.err;
+  EXPECT_EQ(other.out.find("breakdown rate"), std::string::npos) << other.out;
+}
+
 // ---- bad input: exit code 2 and a located message, never a crash -----------------------------
 
 TEST_F(Cli, UnknownPolicy) {

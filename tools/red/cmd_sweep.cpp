@@ -208,34 +208,32 @@ void register_sweep(CLI::App& app, int& exit_code) {
     // §13: over rate_scale, each policy's breakdown rate beside the physical limit.
     std::vector<Breakdown> breakdowns;
     NecessaryLoad need;
-    std::string limit_text;
+    double limit = 0;
+    bool has_limit = false;  // a finite, positive limit: fractions of it are shown
+    std::string limit_text;  // what follows "physical limit: "
     std::vector<std::vector<std::string>> bd_rows;  // policy, breakdown, fraction, next
     if (key == "rate_scale") {
       need = necessary_load(*base, *p);
-      const double limit = need.limit_scale();
-      const bool finite = std::isfinite(limit) && limit > 0;
+      limit = need.limit_scale();
+      has_limit = std::isfinite(limit) && limit > 0;
       limit_text = fmt::format(
-          "physical limit: {} (the necessary work, one encoder run per frame shared by the "
-          "operations it triggers plus every head, at mean costs, takes {:.1f} % of the lanes "
-          "at rate_scale 1)",
-          finite ? fmt::format("rate_scale {:.3f}", limit) : "none", 100 * need.total());
+          "{} (the necessary work, one encoder run per frame shared by the operations it "
+          "triggers plus every head, at mean costs, takes {:.1f} % of the lanes at rate_scale 1)",
+          has_limit ? fmt::format("rate_scale {:.3f}", limit) : "none", 100 * need.total());
       for (std::size_t i = 0; i < names.size(); ++i) {
         const Breakdown b = breakdown_of(values, results[i]);
         breakdowns.push_back(b);
         const std::string past = b.censored ? "no swept value missed more"
                                             : fmt::format("{:g}: {:.1f} % missed", b.first_over,
                                                           100 * b.first_over_miss);
-        if (!b.scale) {
-          bd_rows.push_back({names[i], "none", "-", past});
-          continue;
-        }
         const std::string ge = b.censored ? ">= " : "";
-        bd_rows.push_back({names[i], fmt::format("{}{:g}", ge, *b.scale),
-                           finite ? fmt::format("{}{:.3f}", ge, *b.scale / limit) : "-", past});
+        bd_rows.push_back(
+            {names[i], b.scale ? fmt::format("{}{:g}", ge, *b.scale) : "none",
+             b.scale && has_limit ? fmt::format("{}{:.3f}", ge, *b.scale / limit) : "-", past});
       }
       text += fmt::format(
           "breakdown rate (miss rate <= {:g} % at every swept rate_scale up to it, DESIGN §13)\n"
-          "{}\n{:<10} {:>9} {:>12}\n",
+          "physical limit: {}\n{:<10} {:>9} {:>12}\n",
           100 * kBreakdownMiss, limit_text, "policy", "breakdown", "of the limit");
       for (const auto& r : bd_rows)
         text += fmt::format("{:<10} {:>9} {:>12}   ({})\n", r[0], r[1], r[2], r[3]);
@@ -250,7 +248,6 @@ void register_sweep(CLI::App& app, int& exit_code) {
       j["seed"] = seed;
       if (!breakdowns.empty()) {
         nlohmann::ordered_json bd;
-        const double limit = need.limit_scale();
         bd["miss_limit"] = kBreakdownMiss;
         bd["necessary_load"] = need.total();
         bd["limit_scale"] = std::isfinite(limit) ? nlohmann::ordered_json(limit) : nullptr;
@@ -259,9 +256,8 @@ void register_sweep(CLI::App& app, int& exit_code) {
           nlohmann::ordered_json row;
           row["name"] = names[i];
           row["rate_scale"] = b.scale ? nlohmann::ordered_json(*b.scale) : nullptr;
-          row["fraction"] = b.scale && std::isfinite(limit) && limit > 0
-                                ? nlohmann::ordered_json(*b.scale / limit)
-                                : nullptr;
+          row["fraction"] =
+              b.scale && has_limit ? nlohmann::ordered_json(*b.scale / limit) : nullptr;
           row["censored"] = b.censored;
           bd["policies"].push_back(row);
         }
@@ -312,7 +308,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
                         "{:g} % of its jobs at every swept value (DESIGN §13), and its fraction "
                         "of the physical limit.",
                         100 * kBreakdownMiss),
-            "P" + limit_text.substr(1) + "."};
+            "Physical limit: " + limit_text + "."};
         HtmlTable t;
         t.header = {"policy", "breakdown rate_scale", "fraction of the limit",
                     "first swept value past it"};

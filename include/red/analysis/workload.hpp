@@ -93,9 +93,12 @@ double release_rate(const OperationSpec& op, const PhaseWorkload& ph, const Scen
 /// the camera has frames. An estimate; the simulator counts the real runs.
 std::vector<double> merged_encoder_runs(const Scenario& s, const PhaseWorkload& ph);
 
+/// Work of one job with its encoder runs shared across operations: every node's own part on
+/// the fine graph plus `encoder_runs` (merged_encoder_runs) encoder runs.
+Duration work_merged(const OperationSpec& op, const UnitCosts& c, double encoder_runs);
+
 /// The necessary work of DESIGN §13 as a share of the lanes' time: per job of each operation
-/// every head (a plain node's plain cost) once and its share of the frames' encoder runs
-/// under DynamicMerge (merged_encoder_runs), at mean costs, over the lanes; averaged over the
+/// its work_merged at mean costs, over the lanes; averaged over the
 /// phases of the measured window (warm-up to the end), weighted by their length.
 struct NecessaryLoad {
   double scaled = 0;  ///< the share that grows with rate_scale (sensor and own rates)
