@@ -113,7 +113,7 @@ TEST(Calibrate, RecoversTimeAndLaneFactorsResidualsAndHandOffs) {
   // Residual of the encoder: about its 10 ms spread, the factors divided out.
   const std::vector<Duration>* enc = c.table("encoder", 1);
   ASSERT_NE(enc, nullptr);
-  ASSERT_EQ(enc->size(), 21u);
+  ASSERT_EQ(enc->size(), 201u);
   EXPECT_NEAR(to_ms(table_quantile(*enc, 0.5)), 10.0, 0.4);
   // (Run B's first unit on lane 0 started alone but ran at 1.3x: the one outlier.)
   EXPECT_GE(to_ms(enc->front()), 9.0);
@@ -135,6 +135,37 @@ TEST(Calibrate, RecoversTimeAndLaneFactorsResidualsAndHandOffs) {
   const std::string table = calibration_table(iso, *p);
   EXPECT_NE(table.find("encoder"), std::string::npos);
   EXPECT_NE(table.find("lane factor"), std::string::npos);
+}
+
+TEST(Calibrate, ARareOutlierStaysRareInTheDraws) {
+  // 400 encoder runs of about 10 ms on one lane, alone, at a steady pace, and one of 30 ms:
+  // the residual's draws must be slow as often as the runs were (1 in 401), and its mean
+  // the runs' mean, not a tail spread from the 95th percentile up to the outlier.
+  const Scenario s = scenario(1);
+  CalibrationRun run{"edf", {}, {}, false};
+  TimePoint t{0};
+  double sum = 0;
+  for (int i = 0; i <= 400; ++i) {
+    const double d = i == 200 ? 30.0 : 10.0 * noise(i);
+    sum += d;
+    run.units.push_back(row(0, t, ms(d), UnitKind::Encoder, -1, true, t));
+    t = run.units.back().end + milliseconds{5};
+  }
+  auto p = calibrate_profile(default_profile(), s, {run});
+  ASSERT_TRUE(p.has_value()) << p.error().to_string();
+  const std::vector<Duration>* enc = p->calibration->table("encoder", 1);
+  ASSERT_NE(enc, nullptr);
+  EXPECT_NEAR(to_ms(enc->back()), 30.0, 1.5);  // the outlier is kept (the factor divides it)
+  int slow = 0;
+  double drawn = 0;
+  constexpr int kDraws = 10000;
+  for (int i = 0; i < kDraws; ++i) {
+    const double v = to_ms(table_quantile(*enc, (i + 0.5) / kDraws));
+    drawn += v;
+    if (v > 11.0) ++slow;  // every run but the outlier took at most 10.4 ms
+  }
+  EXPECT_LE(slow, kDraws / 100);  // 0.25 % of runs; 21 quantiles drew 5 % here
+  EXPECT_NEAR(drawn / kDraws, sum / 401.0, 0.01 * sum / 401.0);
 }
 
 TEST(Calibrate, SurvivesJsonRoundTrip) {

@@ -100,8 +100,8 @@ def main():
           "calibrated source and the policies played", json.dumps(cal)[:300])
     check({"encoder", "head/lane", "head/steer", "coarse/lane", "mono/drive"} <= set(cal["residual"]),
           "residual tables of the fine, coarse and mono units", sorted(cal["residual"]))
-    check(all(len(t) == 21 for u in cal["residual"].values() for t in u if t),
-          "21 quantiles per table")
+    check(all(len(t) == 201 for u in cal["residual"].values() for t in u if t),
+          "201 quantiles per table")
     check(len(cal["factors"]) > 0 and all(0.05 <= x <= 20 for x in cal["factors"]),
           "time factors measured")
     check(doc["units"]["encoder"][0]["samples"] > 2, "in-run statistics replace the isolated ones")
