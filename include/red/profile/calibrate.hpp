@@ -30,13 +30,13 @@ struct CalibrationRun {
 /// How the fit cuts the data.
 struct CalibrationOptions {
   Duration block{std::chrono::milliseconds{500}};  ///< time-factor block
-  int run_blocks = 8;     ///< replayed stretch, in blocks (the slow spells measured last seconds)
+  int run_blocks = 8;  ///< replayed stretch, in blocks (the slow spells measured last seconds)
   /// Residual quantiles at u = 0, 0.005, ..., 1. The simulator draws between neighbouring
   /// quantiles, so the last step spreads its share of the draws up to the slowest unit seen:
   /// with 21 points a single outlier among hundreds of units made 5 % of the draws slow
   /// (docs/FIDELITY.md).
   int table_points = 201;
-  int min_samples = 5;    ///< fewer completed runs of a unit: it keeps its isolated figures
+  int min_samples = 5;  ///< fewer completed runs of a unit: it keeps its isolated figures
   double seconds_per_policy = 0.0;  ///< recorded in the profile
 };
 
