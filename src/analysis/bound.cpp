@@ -18,6 +18,10 @@
 namespace red {
 namespace {
 
+// The ways of splitting shared encoder runs among jobs (work_bound): each gives an upper
+// bound, and the bound is the least of them.
+constexpr std::size_t kSplits = 3;
+
 // Element by element: `to` raised to `from` (the most over an operation's definitions), or
 // `from` added to it (the operations together); `to` grows to `from`'s length.
 void raise_to(std::vector<int>& to, const std::vector<int>& from) {
@@ -111,15 +115,17 @@ double work_bound(const Scenario& s, const Profile& p) {
   // may batch usefully (one per frame of a sensor for the operations it triggers, as many
   // as their window holds; the windows of the others).
   std::vector<int> share(s.sensors.size(), 0);
-  std::map<int, int> frames_queued;
-  int enc_queued = 0;
+  // By batch size b, with the batch's cost in the path: frames_queued[b][k] for the
+  // operations sensor k triggers, the most of their windows; useful[b] all of them.
+  std::vector<std::map<int, int>> frames_queued(static_cast<std::size_t>(enc_top) + 1);
+  std::vector<int> useful(static_cast<std::size_t>(enc_top) + 1, 0);
   // on_time[h][b]: the most on-time runs of head h a batch of b holds.
   std::map<int, std::vector<int>> head_on_time;
   for (int i = 0; i < s.operation_count(); ++i) {
     std::map<std::pair<int, int>, std::vector<int>> op_serve;  // (b, sensor) -> by n, max over defs
     std::map<int, std::vector<int>> op_heads;                  // head -> by b, max over defs
-    std::map<int, int> op_share;  // sensor -> jobs of this operation one run serves
-    std::map<int, int> op_own;    // sensor read, not triggering it -> runs that may batch
+    std::map<int, int> op_share;                // sensor -> jobs of this operation one run serves
+    std::map<std::pair<int, int>, int> op_own;  // (b, sensor read, not triggering it) -> runs
     for (const OperationSpec* op : all[static_cast<std::size_t>(i)]) {
       // Longest paths on mean costs into (up) and out of (down) each node, itself included.
       const std::size_t n = op->nodes.size();
@@ -163,13 +169,14 @@ double work_bound(const Scenario& s, const Profile& p) {
           per_run = static_cast<int>(std::min<double>(op->max_inflight, per));
         }
         op_share[k] = std::max(op_share[k], per_run);
-        const int w1 = window(*op, enc_one + after_encoder[k], i);
-        if (op->trigger_sensor == k)
-          frames_queued[k] = std::max(frames_queued[k], w1);
-        else
-          op_own[k] = std::max(op_own[k], w1);
         for (int b = 1; b <= enc_top; ++b) {
           const int w = window(*op, mean_ms(enc_prof, b) + after_encoder[k], i);
+          if (op->trigger_sensor == k) {
+            int& f = frames_queued[static_cast<std::size_t>(b)][k];
+            f = std::max(f, w);
+          } else {
+            op_own[{b, k}] = std::max(op_own[{b, k}], w);
+          }
           std::vector<int> by_n(static_cast<std::size_t>(b) + 1);
           for (int m = 0; m <= b; ++m) by_n[static_cast<std::size_t>(m)] = std::min(m * per_run, w);
           raise_to(op_serve[{b, k}], by_n);
@@ -179,18 +186,21 @@ double work_bound(const Scenario& s, const Profile& p) {
     for (const auto& [bk, by_n] : op_serve)
       add_to(serve[static_cast<std::size_t>(bk.first)][static_cast<std::size_t>(bk.second)], by_n);
     for (auto [k, c] : op_share) share[static_cast<std::size_t>(k)] += c;
-    for (auto [k, w] : op_own) enc_queued += w;
+    for (auto [bk, w] : op_own) useful[static_cast<std::size_t>(bk.first)] += w;
     for (const auto& [head, by_b] : op_heads) add_to(head_on_time[head], by_b);
   }
-  // Two ways to split a batch's time, each giving every on-time job at least the charge
-  // below; each gives an upper bound, and the bound is the lower of the two.
+  // Ways to split a batch's time, each giving every on-time job at least the charge below;
+  // each gives an upper bound, and the bound is the lowest (kSplits; the third, per frame,
+  // is further down).
   //  - Among its on-time jobs: a job's share is at least C(b) / J(b), J(b) the most on-time
   //    jobs a batch of b serves (the best split of b frames among the sensors, a knapsack).
   //    The same charge per sensor read, whatever the sensor.
   //  - Among its runs, C(b) / b each, and a run's among the at most share_k jobs it serves:
-  //    per read of sensor k, the least C(b) / b over the useful batch sizes, / share_k.
+  //    per read of sensor k, the least C(b) / b over the useful batch sizes (b frames or
+  //    more within the windows with the batch's cost C(b) in the path), / share_k.
   //    Lower where frames of a sensor feeding few operations batch with those of another.
-  for (auto [k, f] : frames_queued) enc_queued += f;
+  for (std::size_t b = 1; b < frames_queued.size(); ++b)
+    for (auto [k, f] : frames_queued[b]) useful[b] += f;
   double by_jobs = enc_one;
   for (int b = 1; b <= enc_top; ++b) {
     std::vector<int> most(static_cast<std::size_t>(b) + 1, 0);  // items used -> jobs served
@@ -207,9 +217,12 @@ double work_bound(const Scenario& s, const Profile& p) {
     const int jobs = *std::max_element(most.begin(), most.end());
     if (jobs > 0) by_jobs = std::min(by_jobs, mean_ms(enc_prof, b) / jobs);
   }
+  // A batch of b frames of which fewer than b serve on-time jobs costs each of those more
+  // than the batch of those alone would: only batches whose every frame may be useful count.
   double per_run = enc_one;
-  for (int b = 1; b <= std::min(enc_top, std::max(1, enc_queued)); ++b)
-    per_run = std::min(per_run, mean_ms(enc_prof, b) / b);
+  for (int b = 2; b <= enc_top; ++b)
+    if (useful[static_cast<std::size_t>(b)] >= b)
+      per_run = std::min(per_run, mean_ms(enc_prof, b) / b);
   std::array<std::vector<double>, 2> enc_charge{std::vector<double>(s.sensors.size(), by_jobs),
                                                 std::vector<double>(s.sensors.size())};
   for (std::size_t k = 0; k < s.sensors.size(); ++k)
@@ -237,16 +250,18 @@ double work_bound(const Scenario& s, const Profile& p) {
   // costs, heads and encoder runs as charged above), and whether its coarse critical path
   // fits its deadline at all.
   struct OpCost {
-    std::array<double, 2> work{};
+    std::array<double, kSplits> work{};
     bool feasible = true;
   };
   std::map<const OperationSpec*, OpCost> oc;
+  std::map<const OperationSpec*, double> own_cost;  // heads and plain nodes
   for (const auto& defs : all)
     for (const OperationSpec* op : defs) {
       OpCost c;
       double own = 0;
       for (const NodeSpec& n : op->nodes)
         own += n.is_plain() ? to_ms(n.cost->mean) : head_cost.at(n.head);
+      own_cost[op] = own;
       const std::set<int> read = sensors_read(*op);
       for (std::size_t w = 0; w < 2; ++w) {
         c.work[w] = own;
@@ -258,11 +273,66 @@ double work_bound(const Scenario& s, const Profile& p) {
       c.feasible = cp <= to_ms(resolve_deadline(*op, resolve));
       oc[op] = c;
     }
+  // The third way, per frame (§15): where every operation reading sensor k is triggered by
+  // it and reads no other sensor, a frame's encoder run, E (per_run: the least share of a
+  // batch a frame with on-time jobs pays), serves at most one job of each. The first two
+  // ways split E among every job a run could serve, as if every operation's job of each
+  // frame were on time; but serving m jobs of a frame costs at least E + the m cheapest
+  // jobs' own costs A_m. With the definitions reading k sorted by own cost a, the g
+  // cheapest (g the most jobs per lane time, g / (E + A_g)) are each charged (E + A_g) / g
+  // and every other its own cost a. That is valid for any set S of a run's on-time jobs:
+  // m = |S ∩ G| jobs of the group are charged m (E + A_g) / g ≤ E + A_m ≤ E + A(S ∩ G)
+  // (the points (E + A_m, m) lie under the line through (E + A_g, g), the steepest from the
+  // origin). Elsewhere the first way's charge stands.
+  std::vector<char> by_frame(s.sensors.size(), 1);
+  for (const auto& defs : all)
+    for (const OperationSpec* op : defs) {
+      const std::set<int> read = sensors_read(*op);
+      for (int k : read)
+        if (read.size() > 1 || op->trigger_sensor != k) by_frame[static_cast<std::size_t>(k)] = 0;
+    }
+  std::map<const OperationSpec*, double> frame_charge;  // encoder part, per definition
+  for (std::size_t k = 0; k < s.sensors.size(); ++k) {
+    if (!by_frame[k]) continue;
+    std::vector<std::pair<double, const OperationSpec*>> items;
+    for (const auto& defs : all)
+      for (const OperationSpec* op : defs) {
+        const std::set<int> read = sensors_read(*op);
+        if (read.count(static_cast<int>(k)) != 0 && oc.at(op).feasible)
+          items.emplace_back(own_cost.at(op), op);
+      }
+    if (items.empty()) continue;
+    std::sort(items.begin(), items.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::size_t g = 1;
+    double sum = 0, group_sum = items.front().first;
+    for (std::size_t m = 1; m <= items.size(); ++m) {
+      sum += items[m - 1].first;
+      // m / (E + A_m) > g / (E + A_g), without the division.
+      if (static_cast<double>(m) * (per_run + group_sum) >
+          static_cast<double>(g) * (per_run + sum)) {
+        g = m;
+        group_sum = sum;
+      }
+    }
+    const double charge = (per_run + group_sum) / static_cast<double>(g);
+    for (std::size_t m = 0; m < items.size(); ++m)
+      frame_charge[items[m].second] = m < g ? charge - items[m].first : 0.0;
+  }
+  for (auto& [op, c] : oc) {
+    c.work[2] = own_cost.at(op);
+    for (int k : sensors_read(*op)) {
+      const auto it = frame_charge.find(op);
+      c.work[2] += by_frame[static_cast<std::size_t>(k)] && it != frame_charge.end()
+                       ? it->second
+                       : enc_charge[0][static_cast<std::size_t>(k)];
+    }
+  }
 
   // The jobs that count, by deadline, with their least lane time under each way of splitting.
   struct Due {
     TimePoint deadline;
-    std::array<double, 2> work;
+    std::array<double, kSplits> work;
   };
   std::vector<Due> due;
   std::int64_t released = 0;
@@ -291,7 +361,7 @@ double work_bound(const Scenario& s, const Profile& p) {
   const double lanes = s.device.lanes;
   const TimePoint from = s.warmup;
   std::int64_t fit = std::numeric_limits<std::int64_t>::max();
-  for (std::size_t w = 0; w < 2; ++w) {
+  for (std::size_t w = 0; w < kSplits; ++w) {
     // The least-cost jobs first: how many of those counted in `count` fit `capacity` ms.
     std::map<double, std::int64_t> count;
     auto most_that_fit = [&count](double capacity) {

@@ -150,6 +150,90 @@ TEST(WorkBound, ChargesAnEncoderBatchOnlyToTheJobsItCanServeOnTime) {
   expect_above_every_policy(*s, p, "two operations on one camera, 14 and 500 ms");
 }
 
+// One camera triggers a cheap operation (the steer head) and a heavy one (det, seg, lane
+// and steer in a chain), on one lane with no batching: 14 ms of lane a frame. Split evenly,
+// a frame's 12 ms encoder run charges each job 6 ms, and a frame holds the cheap job (6.6)
+// and 7.4 / 18.1 of the heavy one: 0.70 of the jobs. But a frame whose heavy job is not on
+// time pays the whole run for the cheap one: serving m jobs of a frame costs at least the
+// run and the m cheapest jobs' heads, and the most jobs per lane time come from serving
+// both (2 per 24.7 ms, against 1 per 12.6), 12.35 ms a job: 14 / 12.35 of a frame's two.
+TEST(WorkBound, ChargesAFramesEncoderRunToTheJobsOnTimeOfThatFrame) {
+  const Profile p = default_profile();
+  const double enc = to_ms(p.find("encoder")->at(1).mean);
+  double heavy = 0;
+  for (const char* h : {"det", "seg", "lane", "steer"})
+    heavy += to_ms(p.find(std::string("head/") + h)->at(1).mean);
+  const double steer = to_ms(p.find("head/steer")->at(1).mean);
+  ASSERT_GT(2.0 / (enc + steer + heavy), 1.0 / (enc + steer));  // both beat the cheap alone
+  ScenarioBuilder b("a frame's jobs");
+  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
+  b.heads({"lane", "seg", "steer", "det"}).max_batch(1);
+  b.sensor("cam", 1000.0 / 14.0);
+  b.operation("cheap")
+      .trigger("cam")
+      .deadline(milliseconds{30})
+      .max_inflight(4)
+      .inference("S", "steer", "cam");
+  b.operation("heavy")
+      .trigger("cam")
+      .deadline(milliseconds{200})
+      .max_inflight(4)
+      .inference("D", "det", "cam")
+      .inference("G", "seg", "cam")
+      .inference("L", "lane", "cam")
+      .inference("T", "steer", "cam")
+      .edge("D", "G")
+      .edge("G", "L")
+      .edge("L", "T");
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  const double per_job = (enc + steer + heavy) / 2;
+  const double released = 2 * 143.0;  // frames at 0, 14, ..., 1988 ms
+  const double bound = work_bound(*s, p);
+  EXPECT_NEAR(bound, (2000.0 / per_job + 8) / released, 0.01);
+  EXPECT_LT(bound, 0.62);  // the even split's 0.70 and more
+  expect_above_every_policy(*s, p, "a cheap and a heavy operation on one camera");
+}
+
+// The same split where batches could help: the steer and det heads on one camera, a frame
+// every 14 ms, deadlines of 26 and 32 ms. A frame's encoder run and both heads take 17.1 ms,
+// more than the 14 ms a frame has: 14 / 17.1 of the jobs. A batch of two frames 14 ms
+// apart, of encoder runs (18.6 ms) or of heads, ends too late for the earlier frame's job,
+// though both frames fall within one run's window: a frame with an on-time job pays a whole
+// encoder run and its heads.
+TEST(WorkBound, ChargesAWholeRunWhereNoBatchOfFramesIsOnTime) {
+  const Profile p = default_profile();
+  const double enc1 = to_ms(p.find("encoder")->at(1).mean);
+  const double enc2 = to_ms(p.find("encoder")->at(2).mean);
+  const double steer = to_ms(p.find("head/steer")->at(1).mean);
+  const double det = to_ms(p.find("head/det")->at(1).mean);
+  const double steer2 = to_ms(p.find("head/steer")->at(2).mean);
+  const double det2 = to_ms(p.find("head/det")->at(2).mean);
+  ASSERT_GT(14.0 + enc2 + steer, 26.0);  // no batch of two frames for either operation
+  ASSERT_GT(14.0 + enc2 + det, 32.0);
+  ASSERT_GT(14.0 + enc1 + steer2, 26.0);
+  ASSERT_GT(14.0 + enc1 + det2, 32.0);
+  ASSERT_LE(14.0 + enc1 + det, 32.0);  // though two frames fit in the window of one run
+  ScenarioBuilder b("no batch on time");
+  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
+  b.heads({"lane", "seg", "steer", "det"}).max_batch(2);
+  b.sensor("cam", 1000.0 / 14.0);
+  b.operation("steer")
+      .trigger("cam")
+      .deadline(milliseconds{26})
+      .max_inflight(4)
+      .inference("S", "steer", "cam");
+  b.operation("det")
+      .trigger("cam")
+      .deadline(milliseconds{32})
+      .max_inflight(4)
+      .inference("D", "det", "cam");
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  EXPECT_NEAR(work_bound(*s, p), 14.0 / (enc1 + steer + det), 0.01);
+  expect_above_every_policy(*s, p, "the steer and det heads on one camera");
+}
+
 // One operation at 100 Hz for 1 s, 10.1 ms of work a job, 50 ms deadline: the work of the
 // 100 jobs is 1010 ms, more than the run's 1000 ms, yet every job can be on time, the last
 // ones finishing after releases stop (EDF does it). The bound counts the lane time up to each

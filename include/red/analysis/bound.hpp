@@ -21,7 +21,11 @@ namespace red {
 /// max_inflight of them; an encoder run on a frame serves one job of each operation the
 /// frame triggers, and of an operation sampling the newest frame its releases within γ or
 /// while the frame stays the newest (DynamicMerge, §3); a batch of frames of several
-/// sensors is split among them as serves the most jobs. The lane time is counted up to each
+/// sensors is split among them as serves the most jobs. Where a sensor's frames are read
+/// only by the operations they trigger, serving m jobs of a frame also costs at least a run
+/// (the least share of a batch of frames that may all serve on-time jobs) and the m
+/// cheapest jobs' own costs, and the jobs of the cheapest group are charged the run evenly
+/// (the bound is the least of these ways of splitting). The lane time is counted up to each
 /// job deadline t (the jobs due by t fit lanes × (t − warm-up), those due later count as on
 /// time), and at the run's end (releases stop then: the jobs that finish later were in flight,
 /// at most max_inflight per operation); the least of these counts. In [0, 1]; 1 when nothing is
