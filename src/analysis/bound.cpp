@@ -251,22 +251,22 @@ double work_bound(const Scenario& s, const Profile& p) {
   // fits its deadline at all.
   struct OpCost {
     std::array<double, kSplits> work{};
+    double own = 0;      // heads and plain nodes
+    std::set<int> read;  // sensors
     bool feasible = true;
   };
   std::map<const OperationSpec*, OpCost> oc;
-  std::map<const OperationSpec*, double> own_cost;  // heads and plain nodes
   for (const auto& defs : all)
     for (const OperationSpec* op : defs) {
       OpCost c;
-      double own = 0;
       for (const NodeSpec& n : op->nodes)
-        own += n.is_plain() ? to_ms(n.cost->mean) : head_cost.at(n.head);
-      own_cost[op] = own;
-      const std::set<int> read = sensors_read(*op);
+        c.own += n.is_plain() ? to_ms(n.cost->mean) : head_cost.at(n.head);
+      c.read = sensors_read(*op);
       for (std::size_t w = 0; w < 2; ++w) {
-        c.work[w] = own;
-        for (int k : read) c.work[w] += enc_charge[w][static_cast<std::size_t>(k)];
+        c.work[w] = c.own;
+        for (int k : c.read) c.work[w] += enc_charge[w][static_cast<std::size_t>(k)];
       }
+      c.work[2] = c.work[0];  // the third way, where it does not apply (below): the first
       // A fine-graph critical path is at most the coarse one; exclude only what no policy
       // can meet even alone.
       const double cp = to_ms(coarse_critical_path(*op, mean));
@@ -285,21 +285,17 @@ double work_bound(const Scenario& s, const Profile& p) {
   // (the points (E + A_m, m) lie under the line through (E + A_g, g), the steepest from the
   // origin). Elsewhere the first way's charge stands.
   std::vector<char> by_frame(s.sensors.size(), 1);
-  for (const auto& defs : all)
-    for (const OperationSpec* op : defs) {
-      const std::set<int> read = sensors_read(*op);
-      for (int k : read)
-        if (read.size() > 1 || op->trigger_sensor != k) by_frame[static_cast<std::size_t>(k)] = 0;
-    }
-  std::map<const OperationSpec*, double> frame_charge;  // encoder part, per definition
+  for (const auto& [op, c] : oc)
+    for (int k : c.read)
+      if (c.read.size() > 1 || op->trigger_sensor != k) by_frame[static_cast<std::size_t>(k)] = 0;
   for (std::size_t k = 0; k < s.sensors.size(); ++k) {
     if (!by_frame[k]) continue;
-    std::vector<std::pair<double, const OperationSpec*>> items;
+    // In the order of `all` (not of `oc`'s pointers), so that ties sort the same every run.
+    std::vector<std::pair<double, OpCost*>> items;
     for (const auto& defs : all)
       for (const OperationSpec* op : defs) {
-        const std::set<int> read = sensors_read(*op);
-        if (read.count(static_cast<int>(k)) != 0 && oc.at(op).feasible)
-          items.emplace_back(own_cost.at(op), op);
+        OpCost& c = oc.at(op);
+        if (c.feasible && c.read.count(static_cast<int>(k)) != 0) items.emplace_back(c.own, &c);
       }
     if (items.empty()) continue;
     std::sort(items.begin(), items.end(),
@@ -315,18 +311,10 @@ double work_bound(const Scenario& s, const Profile& p) {
         group_sum = sum;
       }
     }
+    // Each reads sensor k alone: the group's charge, or its own cost.
     const double charge = (per_run + group_sum) / static_cast<double>(g);
     for (std::size_t m = 0; m < items.size(); ++m)
-      frame_charge[items[m].second] = m < g ? charge - items[m].first : 0.0;
-  }
-  for (auto& [op, c] : oc) {
-    c.work[2] = own_cost.at(op);
-    for (int k : sensors_read(*op)) {
-      const auto it = frame_charge.find(op);
-      c.work[2] += by_frame[static_cast<std::size_t>(k)] && it != frame_charge.end()
-                       ? it->second
-                       : enc_charge[0][static_cast<std::size_t>(k)];
-    }
+      items[m].second->work[2] = m < g ? charge : items[m].first;
   }
 
   // The jobs that count, by deadline, with their least lane time under each way of splitting.
