@@ -18,8 +18,9 @@
 namespace red {
 namespace {
 
-// The ways of splitting shared encoder runs among jobs (work_bound): each gives an upper
-// bound, and the bound is the least of them.
+// The ways of splitting shared encoder runs among jobs (work_bound) that every workload
+// has: each gives an upper bound, and the bound is the least of them (more per frame where
+// they apply).
 constexpr std::size_t kSplits = 3;
 
 // Element by element: `to` raised to `from` (the most over an operation's definitions), or
@@ -106,6 +107,39 @@ double work_bound(const Scenario& s, const Profile& p) {
   const UnitProfile* enc_prof = p.find("encoder");
   const int enc_top = enc_prof == nullptr ? 0 : std::min(max_batch, enc_prof->max_batch());
   auto mean_ms = [](const UnitProfile* u, int b) { return to_ms(u->at(b).mean); };
+  const double lanes = s.device.lanes;
+  // The least lane time of a set of an operation's nodes (encoders aside): plain costs, and
+  // the runs of each head in the cheapest batches (a batch holding other jobs' runs as
+  // well takes no less).
+  auto lane_time = [&](const OperationSpec& op, const std::vector<char>& in) {
+    double w = 0;
+    std::map<int, int> runs;  // head -> runs
+    for (std::size_t x = 0; x < op.nodes.size(); ++x) {
+      if (!in[x]) continue;
+      const NodeSpec& node = op.nodes[x];
+      if (node.is_plain())
+        w += to_ms(node.cost->mean);
+      else
+        ++runs[node.head];
+    }
+    for (auto [head, m] : runs) {
+      const UnitProfile* hp = p.find("head/" + s.model.heads[static_cast<std::size_t>(head)]);
+      if (hp == nullptr || hp->by_batch.empty()) {
+        w += m * to_ms(mean.head(head));
+        continue;
+      }
+      const int top = std::min(max_batch, hp->max_batch());
+      std::vector<double> least(static_cast<std::size_t>(m) + 1, 0.0);  // runs -> lane time
+      for (int q = 1; q <= m; ++q) {
+        double& best = least[static_cast<std::size_t>(q)];
+        best = std::numeric_limits<double>::infinity();
+        for (int b = 1; b <= std::min(q, top); ++b)
+          best = std::min(best, least[static_cast<std::size_t>(q - b)] + mean_ms(hp, b));
+      }
+      w += least[static_cast<std::size_t>(m)];
+    }
+    return w;
+  };
   // serve[b][k][n]: the most on-time jobs n frames of sensor k in an encoder batch of b serve.
   std::vector<std::vector<std::vector<int>>> serve(
       static_cast<std::size_t>(enc_top) + 1,
@@ -119,6 +153,9 @@ double work_bound(const Scenario& s, const Profile& p) {
   // operations sensor k triggers, the most of their windows; useful[b] all of them.
   std::vector<std::map<int, int>> frames_queued(static_cast<std::size_t>(enc_top) + 1);
   std::vector<int> useful(static_cast<std::size_t>(enc_top) + 1, 0);
+  // frames_of[def][b]: for a definition triggered by the sensor it reads, the most frames
+  // of it within its window with an encoder batch of b in the path.
+  std::map<const OperationSpec*, std::vector<int>> frames_of;
   // on_time[h][b]: the most on-time runs of head h a batch of b holds.
   std::map<int, std::vector<int>> head_on_time;
   for (int i = 0; i < s.operation_count(); ++i) {
@@ -142,12 +179,39 @@ double work_bound(const Scenario& s, const Profile& p) {
           up[to] = std::max(up[to], up[from] + cost[to]);
           down[from] = std::max(down[from], cost[from] + down[to]);
         }
-      std::map<int, std::vector<int>> h;    // head -> by b
-      std::map<int, double> after_encoder;  // sensor -> longest path from a node reading it
+      // The work before and after a node takes at least its lane time over the lanes, as
+      // well as its longest path: ancestors and descendants of each node (itself excluded).
+      std::vector<std::vector<char>> anc(n, std::vector<char>(n, 0)), desc = anc;
+      for (std::size_t round = 0; round < n; ++round)
+        for (const EdgeSpec& e : op->edges) {
+          const auto from = static_cast<std::size_t>(e.from), to = static_cast<std::size_t>(e.to);
+          desc[from][to] = anc[to][from] = 1;
+          for (std::size_t x = 0; x < n; ++x) {
+            desc[from][x] = desc[from][x] || desc[to][x];
+            anc[to][x] = anc[to][x] || anc[from][x];
+          }
+        }
+      auto before = [&](std::size_t v) {
+        std::set<int> encoders;
+        if (!op->nodes[v].is_plain()) encoders.insert(op->nodes[v].sensor);
+        for (std::size_t x = 0; x < n; ++x)
+          if (anc[v][x] && !op->nodes[x].is_plain()) encoders.insert(op->nodes[x].sensor);
+        const double w = lane_time(*op, anc[v]) + enc_one * static_cast<double>(encoders.size());
+        return std::max(up[v] - cost[v], w / lanes);
+      };
+      auto after = [&](std::size_t v) {
+        return std::max(down[v] - cost[v], lane_time(*op, desc[v]) / lanes);
+      };
+      std::map<int, std::vector<int>> h;     // head -> by b
+      std::map<int, double> after_encoder;   // sensor -> longest path from a node reading it
+      std::map<int, std::vector<char>> fed;  // sensor -> the nodes that run after its encoder
       for (std::size_t v = 0; v < n; ++v) {
         const NodeSpec& node = op->nodes[v];
         if (node.is_plain()) continue;
         after_encoder[node.sensor] = std::max(after_encoder[node.sensor], down[v]);
+        auto& f = fed.try_emplace(node.sensor, n, 0).first->second;
+        f[v] = 1;
+        for (std::size_t x = 0; x < n; ++x) f[x] = f[x] || desc[v][x];
         const UnitProfile* hp =
             p.find("head/" + s.model.heads[static_cast<std::size_t>(node.head)]);
         if (hp == nullptr || hp->by_batch.empty()) continue;
@@ -156,8 +220,10 @@ double work_bound(const Scenario& s, const Profile& p) {
         by_b.resize(static_cast<std::size_t>(top) + 1, 0);
         for (int b = 1; b <= top; ++b)
           by_b[static_cast<std::size_t>(b)] +=
-              window(*op, up[v] + down[v] - 2 * cost[v] + mean_ms(hp, b), i);
+              window(*op, before(v) + mean_ms(hp, b) + after(v), i);
       }
+      for (auto& [k, f] : fed)
+        after_encoder[k] = std::max(after_encoder[k], lane_time(*op, f) / lanes);
       for (const auto& [head, by_b] : h) raise_to(op_heads[head], by_b);
       for (int k : sensors_read(*op)) {
         const auto ku = static_cast<std::size_t>(k);
@@ -174,6 +240,9 @@ double work_bound(const Scenario& s, const Profile& p) {
           if (op->trigger_sensor == k) {
             int& f = frames_queued[static_cast<std::size_t>(b)][k];
             f = std::max(f, w);
+            auto& mine = frames_of[op];
+            mine.resize(static_cast<std::size_t>(enc_top) + 1, 0);
+            mine[static_cast<std::size_t>(b)] = w;
           } else {
             op_own[{b, k}] = std::max(op_own[{b, k}], w);
           }
@@ -250,7 +319,7 @@ double work_bound(const Scenario& s, const Profile& p) {
   // costs, heads and encoder runs as charged above), and whether its coarse critical path
   // fits its deadline at all.
   struct OpCost {
-    std::array<double, kSplits> work{};
+    std::vector<double> work = std::vector<double>(kSplits);
     double own = 0;      // heads and plain nodes
     std::set<int> read;  // sensors
     bool feasible = true;
@@ -288,39 +357,98 @@ double work_bound(const Scenario& s, const Profile& p) {
   for (const auto& [op, c] : oc)
     for (int k : c.read)
       if (c.read.size() > 1 || op->trigger_sensor != k) by_frame[static_cast<std::size_t>(k)] = 0;
-  for (std::size_t k = 0; k < s.sensors.size(); ++k) {
-    if (!by_frame[k]) continue;
-    // In the order of `all` (not of `oc`'s pointers), so that ties sort the same every run.
-    std::vector<std::pair<double, OpCost*>> items;
-    for (const auto& defs : all)
-      for (const OperationSpec* op : defs) {
-        OpCost& c = oc.at(op);
-        if (c.feasible && c.read.count(static_cast<int>(k)) != 0) items.emplace_back(c.own, &c);
+  // Charges way `split` per frame with a run of E: each definition reading a per-frame
+  // sensor gets its group's charge or its own cost (the others keep the first way's).
+  auto per_frame = [&](double e, std::size_t split) {
+    for (auto& [op, c] : oc) c.work[split] = c.work[0];
+    for (std::size_t k = 0; k < s.sensors.size(); ++k) {
+      if (!by_frame[k]) continue;
+      // In the order of `all` (not of `oc`'s pointers), so that ties sort the same every run.
+      std::vector<std::pair<double, OpCost*>> items;
+      for (const auto& defs : all)
+        for (const OperationSpec* op : defs) {
+          OpCost& c = oc.at(op);
+          if (c.feasible && c.read.count(static_cast<int>(k)) != 0) items.emplace_back(c.own, &c);
+        }
+      if (items.empty()) continue;
+      std::sort(items.begin(), items.end(),
+                [](const auto& a, const auto& b) { return a.first < b.first; });
+      std::size_t g = 1;
+      double sum = 0, group_sum = items.front().first;
+      for (std::size_t m = 1; m <= items.size(); ++m) {
+        sum += items[m - 1].first;
+        // m / (E + A_m) > g / (E + A_g), without the division.
+        if (static_cast<double>(m) * (e + group_sum) > static_cast<double>(g) * (e + sum)) {
+          g = m;
+          group_sum = sum;
+        }
       }
-    if (items.empty()) continue;
-    std::sort(items.begin(), items.end(),
-              [](const auto& a, const auto& b) { return a.first < b.first; });
-    std::size_t g = 1;
-    double sum = 0, group_sum = items.front().first;
-    for (std::size_t m = 1; m <= items.size(); ++m) {
-      sum += items[m - 1].first;
-      // m / (E + A_m) > g / (E + A_g), without the division.
-      if (static_cast<double>(m) * (per_run + group_sum) >
-          static_cast<double>(g) * (per_run + sum)) {
-        g = m;
-        group_sum = sum;
-      }
+      // Each reads sensor k alone: the group's charge, or its own cost.
+      const double charge = (e + group_sum) / static_cast<double>(g);
+      for (std::size_t m = 0; m < items.size(); ++m)
+        items[m].second->work[split] = m < g ? charge : items[m].first;
     }
-    // Each reads sensor k alone: the group's charge, or its own cost.
-    const double charge = (per_run + group_sum) / static_cast<double>(g);
-    for (std::size_t m = 0; m < items.size(); ++m)
-      items[m].second->work[2] = m < g ? charge : items[m].first;
+  };
+  per_frame(per_run, 2);
+  // More ways per frame, where every sensor read is read per frame: a larger run E, up to a
+  // whole run C(1), where a batch's frames cannot all carry on-time jobs of every operation.
+  // A frame j frames before the newest of a batch of b serves on time only the operations
+  // whose window holds j + 1 of its frames (frames_of), so the batch's jobs are charged
+  // above their own costs at most the sum, over its frames, of the excess (charge − own) of
+  // the operations each may serve; the way is valid where that is at most C(b) for every b
+  // (the frames of several sensors as they carry the most, a knapsack as for by_jobs).
+  std::size_t splits = kSplits;
+  bool every_by_frame = enc_prof != nullptr;
+  for (const auto& [op, c] : oc)
+    for (int k : c.read) every_by_frame = every_by_frame && by_frame[static_cast<std::size_t>(k)];
+  for (int e = 1; every_by_frame && e <= enc_top; ++e) {
+    const double run = mean_ms(enc_prof, e) / e;
+    if (run <= per_run) continue;  // no larger than the third way's
+    for (auto& [op, c] : oc) c.work.push_back(0);
+    per_frame(run, splits);
+    bool valid = true;
+    for (int b = 1; valid && b <= enc_top; ++b) {
+      std::vector<double> most(static_cast<std::size_t>(b) + 1, 0.0);  // frames -> excess
+      for (std::size_t k = 0; k < s.sensors.size(); ++k) {
+        // excess[j]: the most a frame of sensor k, j frames before the newest, carries.
+        std::vector<double> excess(static_cast<std::size_t>(b), 0.0);
+        for (std::size_t j = 0; j < excess.size(); ++j)
+          for (const auto& defs : all) {
+            double top = 0;  // one job of an operation per frame, of one of its definitions
+            for (const OperationSpec* op : defs) {
+              const OpCost& c = oc.at(op);
+              const auto f = frames_of.find(op);
+              if (!c.feasible || op->trigger_sensor != static_cast<int>(k) ||
+                  f == frames_of.end() ||
+                  f->second[static_cast<std::size_t>(b)] < static_cast<int>(j) + 1)
+                continue;
+              top = std::max(top, c.work[splits] - c.own);
+            }
+            excess[j] += top;
+          }
+        std::vector<double> next = most;
+        for (std::size_t used = 0; used < most.size(); ++used) {
+          double carried = 0;
+          for (std::size_t m = 1; used + m < most.size(); ++m) {
+            carried += excess[m - 1];
+            next[used + m] = std::max(next[used + m], most[used] + carried);
+          }
+        }
+        most = std::move(next);
+      }
+      valid = *std::max_element(most.begin(), most.end()) <= mean_ms(enc_prof, b) + 1e-9;
+    }
+    if (valid) {
+      ++splits;
+    } else {
+      for (auto& [op, c] : oc) c.work.pop_back();
+    }
   }
 
   // The jobs that count, by deadline, with their least lane time under each way of splitting.
   struct Due {
     TimePoint deadline;
-    std::array<double, kSplits> work;
+    std::vector<double> work;
   };
   std::vector<Due> due;
   std::int64_t released = 0;
@@ -346,10 +474,9 @@ double work_bound(const Scenario& s, const Profile& p) {
     for (const OperationSpec* op : defs) most = std::max(most, op->max_inflight);
     in_flight_at_end += most;
   }
-  const double lanes = s.device.lanes;
   const TimePoint from = s.warmup;
   std::int64_t fit = std::numeric_limits<std::int64_t>::max();
-  for (std::size_t w = 0; w < kSplits; ++w) {
+  for (std::size_t w = 0; w < splits; ++w) {
     // The least-cost jobs first: how many of those counted in `count` fit `capacity` ms.
     std::map<double, std::int64_t> count;
     auto most_that_fit = [&count](double capacity) {

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -232,6 +233,97 @@ TEST(WorkBound, ChargesAWholeRunWhereNoBatchOfFramesIsOnTime) {
   ASSERT_TRUE(s) << s.error().to_string();
   EXPECT_NEAR(work_bound(*s, p), 14.0 / (enc1 + steer + det), 0.01);
   expect_above_every_policy(*s, p, "the steer and det heads on one camera");
+}
+
+// A batch of two frames 14 ms apart ends too late for the earlier frame's steer job (26 ms
+// deadline) but not for its det-then-seg job (45 ms): in such a batch only the newer frame
+// carries both jobs. Charging each frame a whole run C(1) = 12 ms, split as the per-frame way
+// splits it, is then still valid, since a batch of two frames carries no more than
+// C(1) + (charge - own) of the older frame's det job, less than C(2); while the half batch
+// (9.3 ms) the third way charges assumes that both frames of every batch may carry both jobs.
+// The heads batch across frames at their cheapest: det and seg at C(2) / 2.
+TEST(WorkBound, ChargesAWholeRunWhereTheOlderFrameOfABatchCarriesFewerJobs) {
+  const Profile p = default_profile();
+  const double enc1 = to_ms(p.find("encoder")->at(1).mean);
+  const double enc2 = to_ms(p.find("encoder")->at(2).mean);
+  const double enc3 = to_ms(p.find("encoder")->at(3).mean);
+  const double steer = to_ms(p.find("head/steer")->at(1).mean);
+  const double det = to_ms(p.find("head/det")->at(1).mean);
+  const double seg = to_ms(p.find("head/seg")->at(1).mean);
+  const double det2 = to_ms(p.find("head/det")->at(2).mean);
+  const double seg2 = to_ms(p.find("head/seg")->at(2).mean);
+  ASSERT_GT(14.0 + enc2 + steer, 26.0);       // the steer job: one frame of a batch
+  ASSERT_LE(14.0 + enc2 + det + seg, 45.0);   // the det-seg job: two frames of a batch of two,
+  ASSERT_GT(14.0 + enc3 + det + seg, 45.0);   // but one of a batch of three
+  ASSERT_LE(14.0 + enc1 + det2 + seg, 45.0);  // its heads batch across two frames
+  ASSERT_LE(14.0 + enc1 + det + seg2, 45.0);
+  const double own = steer + det2 / 2 + seg2 / 2;  // both jobs' heads
+  const double charge = (enc1 + own) / 2;
+  ASSERT_LE(enc1 + (charge - det2 / 2 - seg2 / 2), enc2);  // the way is valid
+  ScenarioBuilder b("older frames carry fewer jobs");
+  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
+  b.heads({"lane", "seg", "steer", "det"}).max_batch(2);
+  b.sensor("cam", 1000.0 / 14.0);
+  b.operation("steer")
+      .trigger("cam")
+      .deadline(milliseconds{26})
+      .max_inflight(4)
+      .inference("S", "steer", "cam");
+  b.operation("detseg")
+      .trigger("cam")
+      .deadline(milliseconds{45})
+      .max_inflight(4)
+      .inference("D", "det", "cam")
+      .inference("G", "seg", "cam")
+      .edge("D", "G");
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  const double released = 2 * 143.0;  // frames at 0, 14, ..., 1988 ms
+  // Due after the run's 2 s, in flight when releases stop: one steer job and three det-seg.
+  const double bound = work_bound(*s, p);
+  EXPECT_NEAR(bound, (2000.0 / charge + 4) / released, 0.01);
+  expect_above_every_policy(*s, p, "a steer and a det-seg operation on one camera");
+}
+
+// On one lane the work after a unit takes at least its lane time, not only its longest
+// path: three heads side by side on a frame every 20 ms, deadline 45 ms. A batch of two
+// frames' encoder runs (18.6 ms) leaves the older frame 45 - 20 - 18.6 = 6.4 ms, enough for
+// its longest head (4.5 ms) but not for the three (11.5 ms, more side by side in batches):
+// no batch of frames is on time, and each job pays a whole run and its heads (batched
+// across frames at their cheapest, which the heads' own windows allow).
+TEST(WorkBound, CountsTheLaneTimeAfterAnEncoderBatchOnOneLane) {
+  const Profile p = default_profile();
+  auto ms = [&p](const char* unit, int b) { return to_ms(p.find(unit)->at(b).mean); };
+  const double heads = ms("head/lane", 1) + ms("head/seg", 1) + ms("head/det", 1);
+  ASSERT_LE(20.0 + ms("encoder", 2) + ms("head/det", 1), 45.0);  // the longest path fits
+  ASSERT_GT(20.0 + ms("encoder", 2) + heads, 45.0);              // the lane time does not
+  for (const char* h : {"head/lane", "head/seg", "head/det"})
+    ASSERT_LE(20.0 + ms("encoder", 1) + ms(h, 2), 45.0);  // each head batches two frames
+  const double per_job =
+      ms("encoder", 1) + (ms("head/lane", 2) + ms("head/seg", 2) + ms("head/det", 2)) / 2;
+  ASSERT_GT(per_job, 20.0);                                            // more than a frame's 20 ms,
+  ASSERT_LT(per_job - ms("encoder", 1) + ms("encoder", 2) / 2, 20.0);  // a half batch less
+  ScenarioBuilder b("lane time after the encoder");
+  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
+  b.heads({"lane", "seg", "steer", "det"}).max_batch(2);
+  b.sensor("cam", 50.0);
+  b.operation("three")
+      .trigger("cam")
+      .deadline(milliseconds{45})
+      .max_inflight(4)
+      .inference("L", "lane", "cam")
+      .inference("G", "seg", "cam")
+      .inference("D", "det", "cam");
+  auto s = b.build();
+  ASSERT_TRUE(s) << s.error().to_string();
+  // 100 frames (0, 20, ..., 1980 ms). By the deadline of frame i, 20 i + 45 ms, at most
+  // (20 i + 45) / per_job of its i + 1 jobs fit, the later ones counted on time; at the
+  // run's end 2000 / per_job, and the last two frames, due after it.
+  double fit = std::floor(2000.0 / per_job) + 2;
+  for (int i = 0; i < 98; ++i)
+    fit = std::min(fit, std::min(i + 1.0, std::floor((20.0 * i + 45) / per_job)) + 99 - i);
+  EXPECT_NEAR(work_bound(*s, p), fit / 100.0, 1e-9);
+  expect_above_every_policy(*s, p, "three heads side by side on one lane");
 }
 
 // One operation at 100 Hz for 1 s, 10.1 ms of work a job, 50 ms deadline: the work of the

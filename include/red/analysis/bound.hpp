@@ -17,15 +17,19 @@ namespace red {
 /// per sensor it reads an encoder run, the least over batch sizes b of C(b) divided by the
 /// most on-time jobs a batch of b can serve. A batch is at most `max_batch`; it serves at
 /// most the jobs of each operation released within D − P_b(u) of each other (P_b(u) the
-/// longest path through the unit with the unit at C(b); none if that exceeds D), at most
+/// time a job needs through the unit with the unit at C(b): before and after it, the longer
+/// of the longest path and the lane time over the lanes; none if that exceeds D), at most
 /// max_inflight of them; an encoder run on a frame serves one job of each operation the
 /// frame triggers, and of an operation sampling the newest frame its releases within γ or
 /// while the frame stays the newest (DynamicMerge, §3); a batch of frames of several
 /// sensors is split among them as serves the most jobs. Where a sensor's frames are read
 /// only by the operations they trigger, serving m jobs of a frame also costs at least a run
 /// (the least share of a batch of frames that may all serve on-time jobs) and the m
-/// cheapest jobs' own costs, and the jobs of the cheapest group are charged the run evenly
-/// (the bound is the least of these ways of splitting). The lane time is counted up to each
+/// cheapest jobs' own costs, and the jobs of the cheapest group are charged the run evenly;
+/// where every sensor read is read so, also with a larger run (up to C(1)) where the older
+/// frames of a batch serve fewer operations on time, if no batch of b frames is then
+/// charged more than C(b) above its jobs' own costs (the bound is the least of these ways of
+/// splitting). The lane time is counted up to each
 /// job deadline t (the jobs due by t fit lanes × (t − warm-up), those due later count as on
 /// time), and at the run's end (releases stop then: the jobs that finish later were in flight,
 /// at most max_inflight per operation); the least of these counts. In [0, 1]; 1 when nothing is
