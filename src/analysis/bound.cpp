@@ -108,6 +108,14 @@ double work_bound(const Scenario& s, const Profile& p) {
   const int enc_top = enc_prof == nullptr ? 0 : std::min(max_batch, enc_prof->max_batch());
   auto mean_ms = [](const UnitProfile* u, int b) { return to_ms(u->at(b).mean); };
   const double lanes = s.device.lanes;
+  // A head's profile, null where it has none to batch by; and the largest batch of it.
+  auto head_profile = [&](int head) -> const UnitProfile* {
+    const UnitProfile* hp = p.find("head/" + s.model.heads[static_cast<std::size_t>(head)]);
+    return hp != nullptr && !hp->by_batch.empty() ? hp : nullptr;
+  };
+  auto top_batch = [max_batch](const UnitProfile* hp) {
+    return std::min(max_batch, hp->max_batch());
+  };
   // The least lane time of a set of an operation's nodes (encoders aside): plain costs, and
   // the runs of each head in the cheapest batches (a batch holding other jobs' runs as
   // well takes no less).
@@ -123,12 +131,12 @@ double work_bound(const Scenario& s, const Profile& p) {
         ++runs[node.head];
     }
     for (auto [head, m] : runs) {
-      const UnitProfile* hp = p.find("head/" + s.model.heads[static_cast<std::size_t>(head)]);
-      if (hp == nullptr || hp->by_batch.empty()) {
+      const UnitProfile* hp = head_profile(head);
+      if (hp == nullptr) {
         w += m * to_ms(mean.head(head));
         continue;
       }
-      const int top = std::min(max_batch, hp->max_batch());
+      const int top = top_batch(hp);
       std::vector<double> least(static_cast<std::size_t>(m) + 1, 0.0);  // runs -> lane time
       for (int q = 1; q <= m; ++q) {
         double& best = least[static_cast<std::size_t>(q)];
@@ -203,7 +211,7 @@ double work_bound(const Scenario& s, const Profile& p) {
         return std::max(down[v] - cost[v], lane_time(*op, desc[v]) / lanes);
       };
       std::map<int, std::vector<int>> h;     // head -> by b
-      std::map<int, double> after_encoder;   // sensor -> longest path from a node reading it
+      std::map<int, double> after_encoder;   // sensor -> the time a job needs after its run
       std::map<int, std::vector<char>> fed;  // sensor -> the nodes that run after its encoder
       for (std::size_t v = 0; v < n; ++v) {
         const NodeSpec& node = op->nodes[v];
@@ -212,15 +220,14 @@ double work_bound(const Scenario& s, const Profile& p) {
         auto& f = fed.try_emplace(node.sensor, n, 0).first->second;
         f[v] = 1;
         for (std::size_t x = 0; x < n; ++x) f[x] = f[x] || desc[v][x];
-        const UnitProfile* hp =
-            p.find("head/" + s.model.heads[static_cast<std::size_t>(node.head)]);
-        if (hp == nullptr || hp->by_batch.empty()) continue;
-        const int top = std::min(max_batch, hp->max_batch());
+        const UnitProfile* hp = head_profile(node.head);
+        if (hp == nullptr) continue;
+        const int top = top_batch(hp);
         auto& by_b = h[node.head];
         by_b.resize(static_cast<std::size_t>(top) + 1, 0);
+        const double around = before(v) + after(v);
         for (int b = 1; b <= top; ++b)
-          by_b[static_cast<std::size_t>(b)] +=
-              window(*op, before(v) + mean_ms(hp, b) + after(v), i);
+          by_b[static_cast<std::size_t>(b)] += window(*op, around + mean_ms(hp, b), i);
       }
       for (auto& [k, f] : fed)
         after_encoder[k] = std::max(after_encoder[k], lane_time(*op, f) / lanes);
@@ -300,8 +307,8 @@ double work_bound(const Scenario& s, const Profile& p) {
   // A head's charge per run: least over b of C(b) / (on-time runs in a batch of b).
   std::map<int, double> head_cost;
   for (int head = 0; head < static_cast<int>(s.model.heads.size()); ++head) {
-    const UnitProfile* hp = p.find("head/" + s.model.heads[static_cast<std::size_t>(head)]);
-    if (hp == nullptr || hp->by_batch.empty()) {
+    const UnitProfile* hp = head_profile(head);
+    if (hp == nullptr) {
       head_cost[head] = 0.0;
       continue;
     }

@@ -40,6 +40,26 @@ void expect_above_every_policy(const Scenario& s, const Profile& p, const std::s
   }
 }
 
+// A unit's mean cost in the profile, in ms, at batch size b.
+double mean_ms(const Profile& p, const std::string& unit, int b = 1) {
+  return to_ms(p.find(unit)->at(b).mean);
+}
+
+// The shape of the hand-worked cases below: 2 s on one lane from time 0, one camera "cam"
+// at `hz`, MIMONet's four heads, batches of at most `max_batch`.
+ScenarioBuilder one_camera(std::string name, double hz, int max_batch) {
+  ScenarioBuilder b(std::move(name));
+  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
+  b.heads({"lane", "seg", "steer", "det"}).max_batch(max_batch);
+  b.sensor("cam", hz);
+  return b;
+}
+
+// An operation each frame of "cam" triggers, with up to 4 jobs in flight.
+OperationBuilder& on_camera(ScenarioBuilder& b, std::string name, Duration deadline) {
+  return b.operation(std::move(name)).trigger("cam").deadline(deadline).max_inflight(4);
+}
+
 TEST(WorkBound, AboveEveryPolicyOnTheBundledScenarios) {
   const std::string dir = std::string(RED_SOURCE_DIR) + "/scenarios";
   const Profile p = default_profile();
@@ -79,8 +99,8 @@ TEST(WorkBound, AboveEveryPolicyOnSeededRandomSets) {
 // so the bound charges each job half of it; on two cameras each job pays a whole run.
 TEST(WorkBound, SharesAnEncoderRunBetweenOperationsThatMayMerge) {
   const Profile p = default_profile();
-  const double enc = to_ms(p.find("encoder")->at(1).mean);
-  const double steer = to_ms(p.find("head/steer")->at(1).mean);
+  const double enc = mean_ms(p, "encoder");
+  const double steer = mean_ms(p, "head/steer");
   ASSERT_LT(steer, enc);
   auto build = [&](bool one_camera) {
     ScenarioBuilder b("merged");
@@ -122,26 +142,15 @@ TEST(WorkBound, SharesAnEncoderRunBetweenOperationsThatMayMerge) {
 // its two jobs.
 TEST(WorkBound, ChargesAnEncoderBatchOnlyToTheJobsItCanServeOnTime) {
   const Profile p = default_profile();
-  const double enc1 = to_ms(p.find("encoder")->at(1).mean);
-  const double enc2 = to_ms(p.find("encoder")->at(2).mean);
-  const double steer1 = to_ms(p.find("head/steer")->at(1).mean);
-  const double steer2 = to_ms(p.find("head/steer")->at(2).mean);
+  const double enc1 = mean_ms(p, "encoder");
+  const double enc2 = mean_ms(p, "encoder", 2);
+  const double steer1 = mean_ms(p, "head/steer");
+  const double steer2 = mean_ms(p, "head/steer", 2);
   ASSERT_GT(enc2 + steer1, 14.0);  // a two-frame encoder batch is too late for "tight"
   ASSERT_LE(enc1 + steer2, 14.0);  // one frame's encoder, then both steer heads, is not
-  ScenarioBuilder b("windows");
-  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
-  b.heads({"lane", "seg", "steer", "det"}).max_batch(2);
-  b.sensor("cam", 100);
-  b.operation("loose")
-      .trigger("cam")
-      .deadline(milliseconds{500})
-      .max_inflight(4)
-      .inference("A", "steer", "cam");
-  b.operation("tight")
-      .trigger("cam")
-      .deadline(milliseconds{14})
-      .max_inflight(4)
-      .inference("B", "steer", "cam");
+  ScenarioBuilder b = one_camera("windows", 100, 2);
+  on_camera(b, "loose", milliseconds{500}).inference("A", "steer", "cam");
+  on_camera(b, "tight", milliseconds{14}).inference("B", "steer", "cam");
   auto s = b.build();
   ASSERT_TRUE(s) << s.error().to_string();
   // 2000 ms of lane fit 2000 / per_job of the 400 jobs; releases stop at 2 s, and of the
@@ -160,25 +169,15 @@ TEST(WorkBound, ChargesAnEncoderBatchOnlyToTheJobsItCanServeOnTime) {
 // both (2 per 24.7 ms, against 1 per 12.6), 12.35 ms a job: 14 / 12.35 of a frame's two.
 TEST(WorkBound, ChargesAFramesEncoderRunToTheJobsOnTimeOfThatFrame) {
   const Profile p = default_profile();
-  const double enc = to_ms(p.find("encoder")->at(1).mean);
+  const double enc = mean_ms(p, "encoder");
   double heavy = 0;
   for (const char* h : {"det", "seg", "lane", "steer"})
-    heavy += to_ms(p.find(std::string("head/") + h)->at(1).mean);
-  const double steer = to_ms(p.find("head/steer")->at(1).mean);
+    heavy += mean_ms(p, std::string("head/") + h);
+  const double steer = mean_ms(p, "head/steer");
   ASSERT_GT(2.0 / (enc + steer + heavy), 1.0 / (enc + steer));  // both beat the cheap alone
-  ScenarioBuilder b("a frame's jobs");
-  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
-  b.heads({"lane", "seg", "steer", "det"}).max_batch(1);
-  b.sensor("cam", 1000.0 / 14.0);
-  b.operation("cheap")
-      .trigger("cam")
-      .deadline(milliseconds{30})
-      .max_inflight(4)
-      .inference("S", "steer", "cam");
-  b.operation("heavy")
-      .trigger("cam")
-      .deadline(milliseconds{200})
-      .max_inflight(4)
+  ScenarioBuilder b = one_camera("a frame's jobs", 1000.0 / 14.0, 1);
+  on_camera(b, "cheap", milliseconds{30}).inference("S", "steer", "cam");
+  on_camera(b, "heavy", milliseconds{200})
       .inference("D", "det", "cam")
       .inference("G", "seg", "cam")
       .inference("L", "lane", "cam")
@@ -204,31 +203,20 @@ TEST(WorkBound, ChargesAFramesEncoderRunToTheJobsOnTimeOfThatFrame) {
 // encoder run and its heads.
 TEST(WorkBound, ChargesAWholeRunWhereNoBatchOfFramesIsOnTime) {
   const Profile p = default_profile();
-  const double enc1 = to_ms(p.find("encoder")->at(1).mean);
-  const double enc2 = to_ms(p.find("encoder")->at(2).mean);
-  const double steer = to_ms(p.find("head/steer")->at(1).mean);
-  const double det = to_ms(p.find("head/det")->at(1).mean);
-  const double steer2 = to_ms(p.find("head/steer")->at(2).mean);
-  const double det2 = to_ms(p.find("head/det")->at(2).mean);
+  const double enc1 = mean_ms(p, "encoder");
+  const double enc2 = mean_ms(p, "encoder", 2);
+  const double steer = mean_ms(p, "head/steer");
+  const double det = mean_ms(p, "head/det");
+  const double steer2 = mean_ms(p, "head/steer", 2);
+  const double det2 = mean_ms(p, "head/det", 2);
   ASSERT_GT(14.0 + enc2 + steer, 26.0);  // no batch of two frames for either operation
   ASSERT_GT(14.0 + enc2 + det, 32.0);
   ASSERT_GT(14.0 + enc1 + steer2, 26.0);
   ASSERT_GT(14.0 + enc1 + det2, 32.0);
   ASSERT_LE(14.0 + enc1 + det, 32.0);  // though two frames fit in the window of one run
-  ScenarioBuilder b("no batch on time");
-  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
-  b.heads({"lane", "seg", "steer", "det"}).max_batch(2);
-  b.sensor("cam", 1000.0 / 14.0);
-  b.operation("steer")
-      .trigger("cam")
-      .deadline(milliseconds{26})
-      .max_inflight(4)
-      .inference("S", "steer", "cam");
-  b.operation("det")
-      .trigger("cam")
-      .deadline(milliseconds{32})
-      .max_inflight(4)
-      .inference("D", "det", "cam");
+  ScenarioBuilder b = one_camera("no batch on time", 1000.0 / 14.0, 2);
+  on_camera(b, "steer", milliseconds{26}).inference("S", "steer", "cam");
+  on_camera(b, "det", milliseconds{32}).inference("D", "det", "cam");
   auto s = b.build();
   ASSERT_TRUE(s) << s.error().to_string();
   EXPECT_NEAR(work_bound(*s, p), 14.0 / (enc1 + steer + det), 0.01);
@@ -244,14 +232,14 @@ TEST(WorkBound, ChargesAWholeRunWhereNoBatchOfFramesIsOnTime) {
 // The heads batch across frames at their cheapest: det and seg at C(2) / 2.
 TEST(WorkBound, ChargesAWholeRunWhereTheOlderFrameOfABatchCarriesFewerJobs) {
   const Profile p = default_profile();
-  const double enc1 = to_ms(p.find("encoder")->at(1).mean);
-  const double enc2 = to_ms(p.find("encoder")->at(2).mean);
-  const double enc3 = to_ms(p.find("encoder")->at(3).mean);
-  const double steer = to_ms(p.find("head/steer")->at(1).mean);
-  const double det = to_ms(p.find("head/det")->at(1).mean);
-  const double seg = to_ms(p.find("head/seg")->at(1).mean);
-  const double det2 = to_ms(p.find("head/det")->at(2).mean);
-  const double seg2 = to_ms(p.find("head/seg")->at(2).mean);
+  const double enc1 = mean_ms(p, "encoder");
+  const double enc2 = mean_ms(p, "encoder", 2);
+  const double enc3 = mean_ms(p, "encoder", 3);
+  const double steer = mean_ms(p, "head/steer");
+  const double det = mean_ms(p, "head/det");
+  const double seg = mean_ms(p, "head/seg");
+  const double det2 = mean_ms(p, "head/det", 2);
+  const double seg2 = mean_ms(p, "head/seg", 2);
   ASSERT_GT(14.0 + enc2 + steer, 26.0);       // the steer job: one frame of a batch
   ASSERT_LE(14.0 + enc2 + det + seg, 45.0);   // the det-seg job: two frames of a batch of two,
   ASSERT_GT(14.0 + enc3 + det + seg, 45.0);   // but one of a batch of three
@@ -260,19 +248,9 @@ TEST(WorkBound, ChargesAWholeRunWhereTheOlderFrameOfABatchCarriesFewerJobs) {
   const double own = steer + det2 / 2 + seg2 / 2;  // both jobs' heads
   const double charge = (enc1 + own) / 2;
   ASSERT_LE(enc1 + (charge - det2 / 2 - seg2 / 2), enc2);  // the way is valid
-  ScenarioBuilder b("older frames carry fewer jobs");
-  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
-  b.heads({"lane", "seg", "steer", "det"}).max_batch(2);
-  b.sensor("cam", 1000.0 / 14.0);
-  b.operation("steer")
-      .trigger("cam")
-      .deadline(milliseconds{26})
-      .max_inflight(4)
-      .inference("S", "steer", "cam");
-  b.operation("detseg")
-      .trigger("cam")
-      .deadline(milliseconds{45})
-      .max_inflight(4)
+  ScenarioBuilder b = one_camera("older frames carry fewer jobs", 1000.0 / 14.0, 2);
+  on_camera(b, "steer", milliseconds{26}).inference("S", "steer", "cam");
+  on_camera(b, "detseg", milliseconds{45})
       .inference("D", "det", "cam")
       .inference("G", "seg", "cam")
       .edge("D", "G");
@@ -293,7 +271,7 @@ TEST(WorkBound, ChargesAWholeRunWhereTheOlderFrameOfABatchCarriesFewerJobs) {
 // across frames at their cheapest, which the heads' own windows allow).
 TEST(WorkBound, CountsTheLaneTimeAfterAnEncoderBatchOnOneLane) {
   const Profile p = default_profile();
-  auto ms = [&p](const char* unit, int b) { return to_ms(p.find(unit)->at(b).mean); };
+  auto ms = [&p](const char* unit, int b) { return mean_ms(p, unit, b); };
   const double heads = ms("head/lane", 1) + ms("head/seg", 1) + ms("head/det", 1);
   ASSERT_LE(20.0 + ms("encoder", 2) + ms("head/det", 1), 45.0);  // the longest path fits
   ASSERT_GT(20.0 + ms("encoder", 2) + heads, 45.0);              // the lane time does not
@@ -303,14 +281,8 @@ TEST(WorkBound, CountsTheLaneTimeAfterAnEncoderBatchOnOneLane) {
       ms("encoder", 1) + (ms("head/lane", 2) + ms("head/seg", 2) + ms("head/det", 2)) / 2;
   ASSERT_GT(per_job, 20.0);                                            // more than a frame's 20 ms,
   ASSERT_LT(per_job - ms("encoder", 1) + ms("encoder", 2) / 2, 20.0);  // a half batch less
-  ScenarioBuilder b("lane time after the encoder");
-  b.duration(std::chrono::seconds{2}).warmup(milliseconds{0}).seed(1).lanes(1);
-  b.heads({"lane", "seg", "steer", "det"}).max_batch(2);
-  b.sensor("cam", 50.0);
-  b.operation("three")
-      .trigger("cam")
-      .deadline(milliseconds{45})
-      .max_inflight(4)
+  ScenarioBuilder b = one_camera("lane time after the encoder", 50.0, 2);
+  on_camera(b, "three", milliseconds{45})
       .inference("L", "lane", "cam")
       .inference("G", "seg", "cam")
       .inference("D", "det", "cam");
