@@ -96,8 +96,11 @@ def main():
     with open(calibrated) as f:
         doc = json.load(f)
     cal = doc["calibration"]
-    check(doc["source"] == "calibrated" and cal["policies"] == ["edf", "red", "mono"],
-          "calibrated source and the policies played", json.dumps(cal)[:300])
+    # 2 s per policy: two turns of 1 s each, the policies alternating, the first of each
+    # round moving one on.
+    check(doc["source"] == "calibrated" and
+          cal["policies"] == ["edf", "red", "mono", "red", "mono", "edf"],
+          "calibrated source and the policies' turns, in the order played", json.dumps(cal)[:300])
     check({"encoder", "head/lane", "head/steer", "coarse/lane", "mono/drive"} <= set(cal["residual"]),
           "residual tables of the fine, coarse and mono units", sorted(cal["residual"]))
     check(all(len(t) == 201 for u in cal["residual"].values() for t in u if t),
@@ -124,6 +127,10 @@ def main():
         (["--from", out_json, "--calibrate", scenario, "--calibrate-policies", "edf,nope"],
          "unknown policy 'nope'"),
         (["--from", out_json, "--calibrate", scenario, "--calibrate-s", "0"], "--calibrate-s"),
+        (["--from", out_json, "--calibrate", scenario, "--calibrate-rounds", "0"],
+         "--calibrate-rounds must be at least 1"),
+        (["--from", out_json, "--calibrate", scenario, "--calibrate-s", "2",
+          "--calibrate-rounds", "3"], "at least 1 s of the 2 s of --calibrate-s (got 3)"),
         (["--from", os.path.join(scratch, "missing.json"), "--calibrate", scenario], "missing.json"),
     ]
     for args, message in bad:

@@ -3,8 +3,10 @@
 /// table with the shared-versus-separate comparison (§13) and writes the profile JSON.
 /// Without the LibTorch backend the command exists but only says how to get it.
 
+#include <algorithm>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -63,6 +65,8 @@ struct ProfileArgs {
   std::vector<std::string> calibrate_from;  ///< fit from these real runs' units.csv instead
   double calibrate_s = 8.0;                 ///< seconds per policy
   std::string calibrate_policies = "edf,red,mono";
+  /// Turns per policy, each calibrate_s / rounds seconds; unset: 3, fewer below 3 s.
+  std::optional<int> calibrate_rounds;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -210,6 +214,13 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
   if (!s) return s.error();
   if (!(a.calibrate_s >= 1.0 && a.calibrate_s <= 3600.0))
     return Error{"", 0, "--calibrate-s must be in [1, 3600] seconds"};
+  const int rounds =
+      a.calibrate_rounds.value_or(std::clamp(static_cast<int>(a.calibrate_s), 1, 3));
+  if (rounds < 1 || a.calibrate_s / rounds < 1.0)
+    return Error{"", 0,
+                 fmt::format("--calibrate-rounds must be at least 1 and leave each turn at least "
+                             "1 s of the {:g} s of --calibrate-s (got {})",
+                             a.calibrate_s, rounds)};
   std::vector<std::string> policies = split(a.calibrate_policies);
   for (const std::string& n : policies)
     if (!make_policy(n)) return Error{"", 0, "--calibrate-policies: unknown policy '" + n + "'"};
@@ -232,19 +243,27 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
     fmt::print("{}", calibration_table(isolated, *p));
     return p;
   }
-  // Long enough to pass the warm-up and measure `calibrate_s` seconds after it.
-  s->duration = s->warmup + from_ms(1000.0 * a.calibrate_s);
+  // The policies take turns, `rounds` turns each of calibrate_s / rounds seconds after the
+  // warm-up, the first of every round moving one on. Each policy runs its own unit kinds,
+  // so a slow stretch of the machine during the one turn of a policy would read as its
+  // units being slow (docs/FIDELITY.md): in turns spread over the calibration, every
+  // policy meets the machine's slow and fast stretches alike.
+  s->duration = s->warmup + from_ms(1000.0 * a.calibrate_s / rounds);
   RealRunOptions real;
   real.seed = s->seed;
   real.keep_units = true;
   auto backend = make_backend(*s, isolated, real);
   if (!backend) return backend.error();
   code = kRunFailure;
+  std::vector<std::string> turns;
+  for (int r = 0; r < rounds; ++r)
+    for (std::size_t i = 0; i < policies.size(); ++i)
+      turns.push_back(policies[(i + static_cast<std::size_t>(r)) % policies.size()]);
   std::vector<CalibrationRun> runs;
-  for (const std::string& n : policies) {
+  for (const std::string& n : turns) {
     if (!a.quiet)
-      std::cerr << fmt::format("red profile: calibrating: {} on {} for {:g} s\n", n, s->name,
-                               to_s(s->duration));
+      std::cerr << fmt::format("red profile: calibrating: {} on {} for {:g} s (turn {} of {})\n",
+                               n, s->name, to_s(s->duration), runs.size() + 1, turns.size());
     RuntimeReport report;
     auto r = run_real(*s, isolated, n, **backend, real, {}, &report);
     if (!r) return r.error();
@@ -404,6 +423,9 @@ void register_profile(CLI::App& app, int& exit_code) {
   cmd->add_option("--calibrate-policies", args->calibrate_policies,
                   "Policies played during calibration (their units: coarse, fine, mono)")
       ->capture_default_str();
+  cmd->add_option("--calibrate-rounds", args->calibrate_rounds,
+                  "Turns each calibration policy takes, --calibrate-s / rounds seconds each, "
+                  "the policies alternating (default 3, fewer when --calibrate-s is under 3)");
   cmd->callback([args, &exit_code] { exit_code = run_profile(*args); });
 }
 
