@@ -214,8 +214,7 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
   if (!s) return s.error();
   if (!(a.calibrate_s >= 1.0 && a.calibrate_s <= 3600.0))
     return Error{"", 0, "--calibrate-s must be in [1, 3600] seconds"};
-  const int rounds =
-      a.calibrate_rounds.value_or(std::clamp(static_cast<int>(a.calibrate_s), 1, 3));
+  const int rounds = a.calibrate_rounds.value_or(std::clamp(static_cast<int>(a.calibrate_s), 1, 3));
   if (rounds < 1 || a.calibrate_s / rounds < 1.0)
     return Error{"", 0,
                  fmt::format("--calibrate-rounds must be at least 1 and leave each turn at least "
@@ -262,8 +261,8 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
   std::vector<CalibrationRun> runs;
   for (const std::string& n : turns) {
     if (!a.quiet)
-      std::cerr << fmt::format("red profile: calibrating: {} on {} for {:g} s (turn {} of {})\n",
-                               n, s->name, to_s(s->duration), runs.size() + 1, turns.size());
+      std::cerr << fmt::format("red profile: calibrating: {} on {} for {:g} s (turn {} of {})\n", n,
+                               s->name, to_s(s->duration), runs.size() + 1, turns.size());
     RuntimeReport report;
     auto r = run_real(*s, isolated, n, **backend, real, {}, &report);
     if (!r) return r.error();
