@@ -294,6 +294,52 @@ TEST_F(Cli, CompareRunsEveryPresetOnTheSameReleases) {
   }
 }
 
+// A real comparison (synthetic backend) is followed by the simulator's prediction with the
+// profile and, where the runs kept their units (--out), by a second prediction from the
+// costs each policy's own units met in the run; prediction.json holds both.
+TEST_F(Cli, RealComparePredictsFromTheProfileAndFromTheRunsOwnCosts) {
+  const fs::path out = dir_ / "real";
+  const std::string args = "compare " + scenario("case-async.yaml") +
+                           " --backend synthetic --no-realtime --set duration_s=2 "
+                           "--policies edf,red";
+  const RunResult r = red(args + " --out " + quote(out.string()), "timeout 300");
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string own_costs = "simulator with the costs each policy's units met in this run";
+  EXPECT_TRUE(contains(r.out, "simulator prediction with the same profile")) << r.out;
+  ASSERT_TRUE(contains(r.out, own_costs)) << r.out;
+  // A row per policy in the second table.
+  const std::string second = r.out.substr(r.out.find(own_costs));
+  for (const char* name : {"edf ", "red "}) {
+    bool found = false;
+    for (const std::string& line : lines_of(second)) found = found || line.rfind(name, 0) == 0;
+    EXPECT_TRUE(found) << name << "\n" << second;
+  }
+
+  const json j = json::parse(read_text(out / "prediction.json"));
+  ASSERT_EQ(j.at("policies").size(), 2u);
+  const json summary = json::parse(read_text(out / "summary.json"));
+  for (std::size_t i = 0; i < 2; ++i) {
+    const json& p = j.at("policies")[i];
+    SCOPED_TRACE(p.at("policy").get<std::string>());
+    EXPECT_EQ(p.at("policy"), summary.at("policies")[i].at("name"));
+    for (const char* which : {"sim", "sim_run_costs"}) {
+      const json& x = p.at(which);
+      EXPECT_LE(x.at("miss_pct_min").get<double>(), x.at("miss_pct").get<double>()) << which;
+      EXPECT_LE(x.at("miss_pct").get<double>(), x.at("miss_pct_max").get<double>()) << which;
+      EXPECT_LE(x.at("mean_ms_min").get<double>(), x.at("mean_ms").get<double>()) << which;
+      EXPECT_LE(x.at("mean_ms").get<double>(), x.at("mean_ms_max").get<double>()) << which;
+      EXPECT_GT(x.at("mean_ms").get<double>(), 0.0) << which;  // jobs completed
+    }
+  }
+
+  // Without --out the runs keep no units: only the prediction from the profile.
+  const RunResult plain = red(args, "timeout 300");
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  EXPECT_TRUE(contains(plain.out, "simulator prediction with the same profile")) << plain.out;
+  EXPECT_FALSE(contains(plain.out, own_costs)) << plain.out;
+}
+
 // ---- red sweep ------------------------------------------------------------------------------
 
 TEST_F(Cli, SweepWritesOneColumnPerValue) {

@@ -18,6 +18,7 @@
 #include "real_run.hpp"
 #include "red/analysis/analyze.hpp"
 #include "red/metrics/phases.hpp"
+#include "red/profile/calibrate.hpp"
 #include "red/report/report.hpp"
 #include "red/report/row_queue.hpp"
 #include "red/report/stream.hpp"
@@ -50,62 +51,121 @@ std::optional<SyncMode> parse_sync(const std::string& v) {
   return std::nullopt;  // CLI11 has checked the value
 }
 
+// A calibration of one policy's run from its own units (docs/FIDELITY.md, "The run's own
+// costs"): what every unit of that policy cost in this run, the machine's stretches and the
+// hand-offs the runtime timed. The simulator drawing from it predicts the run without the
+// machine's drift between the calibration and the run, so the two predictions side by side
+// tell the simulator's own error from the machine's. nullopt where the run kept no units
+// (no --out) or completed too few model units to fit (plain nodes cost what the scenario says).
+std::optional<Profile> run_costs(const Scenario& s, const Profile& p, const PolicyRun& r,
+                                 const std::vector<double>& handoff_us,
+                                 std::optional<SyncMode> sync) {
+  CalibrationRun run{r.metrics.name, {}, handoff_us, false};
+  const auto opts = policy_options(s, r.metrics.name, sync);
+  run.round_trips = opts && opts->sync == SyncMode::PerEdge;
+  for (const UnitRow& u : r.units)
+    if (u.start >= TimePoint{s.warmup}) run.units.push_back(u);
+  if (run.units.empty()) return std::nullopt;
+  auto c = calibrate_profile(p, s, {std::move(run)});
+  if (!c) return std::nullopt;
+  return std::move(c).value();
+}
+
 // The simulator's prediction of a real run, side by side with it (same scenario, same
 // profile): how well the simulator, fed the measured profile, predicts reality. With a
 // calibrated profile the prediction is random like the run (the machine's slow stretches
 // are replayed from the calibration), so it is given over several seeds: the median and
-// the range. Returns prediction.json's text.
+// the range. Where the runs kept their units (--out), a second table predicts each policy
+// from the costs its own units met in the run (run_costs). Returns prediction.json's text.
 std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
-                             const std::vector<PolicyRun>& real, std::optional<SyncMode> sync) {
-  const int seeds = p.calibration ? 5 : 1;
+                             const std::vector<PolicyRun>& real,
+                             const std::vector<std::vector<double>>& handoffs,
+                             std::optional<SyncMode> sync) {
+  constexpr int kCalibratedSeeds = 5;
+  const int seeds = p.calibration ? kCalibratedSeeds : 1;
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 == 1 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  };
+  // Miss %, mean latency and QoE of `n` seeds of the simulator, costs drawn from `costs`
+  // (nullptr: the profile the scheduler plans with).
+  struct Predicted {
+    std::vector<double> miss, mean, qoe;
+  };
+  auto predict = [&](const std::string& policy, int n, const Profile* costs) {
+    Predicted out;
+    for (int k = 0; k < n; ++k) {
+      auto sim = simulate_policy(s, p, policy, seed + static_cast<std::uint64_t>(k), {}, false,
+                                 sync, costs);
+      if (!sim) break;
+      out.miss.push_back(100 * sim->metrics.miss_rate);
+      out.mean.push_back(sim->metrics.latency.mean);
+      out.qoe.push_back(sim->metrics.qoe);
+    }
+    return out;
+  };
+  auto range = [&](const std::vector<double>& v, int n, const char* f) {
+    const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+    return n > 1 ? fmt::format(fmt::runtime(std::string(f) + " [" + f + "-" + f + "]"), median(v),
+                               *lo, *hi)
+                 : fmt::format(fmt::runtime(f), v.front());
+  };
+  auto to_json = [&](const Predicted& x) {
+    const auto [mlo, mhi] = std::minmax_element(x.miss.begin(), x.miss.end());
+    const auto [llo, lhi] = std::minmax_element(x.mean.begin(), x.mean.end());
+    return nlohmann::ordered_json{{"miss_pct", median(x.miss)}, {"miss_pct_min", *mlo},
+                                  {"miss_pct_max", *mhi},       {"mean_ms", median(x.mean)},
+                                  {"mean_ms_min", *llo},        {"mean_ms_max", *lhi},
+                                  {"qoe", median(x.qoe)}};
+  };
+  auto print_header = [] {
+    fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", "policy", "miss% real",
+               "miss% sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim");
+  };
+  auto print_row = [&](const PolicyRun& r, const Predicted& x, int n) {
+    fmt::print("{:<10} {:>10.2f} {:>20} {:>12.2f} {:>22} {:>8.3f} {:>8.3f}\n", r.metrics.name,
+               100 * r.metrics.miss_rate, range(x.miss, n, "{:.2f}"), r.metrics.latency.mean,
+               range(x.mean, n, "{:.2f}"), r.metrics.qoe, median(x.qoe));
+  };
+
   fmt::print("simulator prediction with the same profile ({}{}):\n", p.source,
              seeds > 1 ? fmt::format(", median [min-max] of {} seeds", seeds) : "");
-  fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", "policy", "miss% real",
-             "miss% sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim");
+  print_header();
   nlohmann::ordered_json doc;
   doc["scenario"] = s.name;
   doc["profile"] = p.source;
   doc["seeds"] = seeds;
   nlohmann::ordered_json policies = nlohmann::ordered_json::array();
-  auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.size() % 2 == 1 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-  };
-  for (const PolicyRun& r : real) {
-    std::vector<double> miss, mean, qoe;
-    for (int k = 0; k < seeds; ++k) {
-      auto sim = simulate_policy(s, p, r.metrics.name, seed + static_cast<std::uint64_t>(k), {},
-                                 false, sync);
-      if (!sim) break;
-      miss.push_back(100 * sim->metrics.miss_rate);
-      mean.push_back(sim->metrics.latency.mean);
-      qoe.push_back(sim->metrics.qoe);
+  std::vector<std::optional<Predicted>> own(real.size());
+  for (std::size_t i = 0; i < real.size(); ++i) {
+    const PolicyRun& r = real[i];
+    const Predicted x = predict(r.metrics.name, seeds, nullptr);
+    if (x.miss.empty()) continue;
+    print_row(r, x, seeds);
+    nlohmann::ordered_json row{{"policy", r.metrics.name},
+                               {"real",
+                                {{"miss_pct", 100 * r.metrics.miss_rate},
+                                 {"mean_ms", r.metrics.latency.mean},
+                                 {"qoe", r.metrics.qoe}}},
+                               {"sim", to_json(x)}};
+    static const std::vector<double> kNone;
+    if (const auto c = run_costs(s, p, r, i < handoffs.size() ? handoffs[i] : kNone, sync)) {
+      Predicted y = predict(r.metrics.name, kCalibratedSeeds, &*c);
+      if (!y.miss.empty()) {
+        row["sim_run_costs"] = to_json(y);
+        own[i] = std::move(y);
+      }
     }
-    if (miss.empty()) continue;
-    auto range = [&](const std::vector<double>& v, const char* f) {
-      const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
-      return seeds > 1 ? fmt::format(fmt::runtime(std::string(f) + " [" + f + "-" + f + "]"),
-                                     median(v), *lo, *hi)
-                       : fmt::format(fmt::runtime(f), v.front());
-    };
-    fmt::print("{:<10} {:>10.2f} {:>20} {:>12.2f} {:>22} {:>8.3f} {:>8.3f}\n", r.metrics.name,
-               100 * r.metrics.miss_rate, range(miss, "{:.2f}"), r.metrics.latency.mean,
-               range(mean, "{:.2f}"), r.metrics.qoe, median(qoe));
-    const auto [mlo, mhi] = std::minmax_element(miss.begin(), miss.end());
-    const auto [llo, lhi] = std::minmax_element(mean.begin(), mean.end());
-    policies.push_back(nlohmann::ordered_json{{"policy", r.metrics.name},
-                                              {"real",
-                                               {{"miss_pct", 100 * r.metrics.miss_rate},
-                                                {"mean_ms", r.metrics.latency.mean},
-                                                {"qoe", r.metrics.qoe}}},
-                                              {"sim",
-                                               {{"miss_pct", median(miss)},
-                                                {"miss_pct_min", *mlo},
-                                                {"miss_pct_max", *mhi},
-                                                {"mean_ms", median(mean)},
-                                                {"mean_ms_min", *llo},
-                                                {"mean_ms_max", *lhi},
-                                                {"qoe", median(qoe)}}}});
+    policies.push_back(std::move(row));
+  }
+  if (std::any_of(own.begin(), own.end(), [](const auto& x) { return x.has_value(); })) {
+    fmt::print(
+        "simulator with the costs each policy's units met in this run (the model without the "
+        "machine's drift, median [min-max] of {} seeds):\n",
+        kCalibratedSeeds);
+    print_header();
+    for (std::size_t i = 0; i < real.size(); ++i)
+      if (own[i]) print_row(real[i], *own[i], kCalibratedSeeds);
   }
   doc["policies"] = std::move(policies);
   return doc.dump(2) + "\n";
@@ -213,7 +273,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     real.rows = &*queue;
   }
   std::vector<PolicyRun> runs;
-  std::vector<RuntimeReport> reports;  // real runs: what the runtime measured, per policy
+  std::vector<RuntimeReport> reports;         // real runs: what the runtime measured, per policy
+  std::vector<std::vector<double>> handoffs;  // real runs: the hand-offs timed (a bounded sample)
   // Observers beside the metrics: the timeline (only when it will be written) and the
   // progress line (only on a terminal, only for runs longer than a few seconds).
   std::vector<std::unique_ptr<TraceObserver>> traces;
@@ -252,8 +313,10 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       print_runtime_report(n, report);
     if (!sim) {
       // Only the samples are needed later (rss.csv): the timing samples go now, so a
-      // compare of many policies does not keep them all.
+      // compare of many policies does not keep them all; the hand-offs feed the prediction
+      // from the run's own costs.
       report.decision_us = {};
+      handoffs.push_back(std::move(report.handoff_us));
       report.handoff_us = {};
       report.frame_release_us = {};
       reports.push_back(std::move(report));
@@ -290,7 +353,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
   std::string prediction;
-  if (!sim && stop_signal() == 0) prediction = print_prediction(*s, *p, seed, runs, real.sync);
+  if (!sim && stop_signal() == 0)
+    prediction = print_prediction(*s, *p, seed, runs, handoffs, real.sync);
   if (a.phases) {
     std::vector<std::string> names_run;
     std::vector<std::vector<PhaseMetrics>> phases;
