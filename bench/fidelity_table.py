@@ -3,7 +3,8 @@
 their range) beside the simulator's prediction from the calibrated profile (median and
 range over seeds), and whether it is within the target: miss rate within 5 points and mean
 latency within 10 % of the median real run. A policy whose real runs spread over more than
-20 points is marked bimodal: its spread is the figure, not one number.
+20 points is marked bimodal: its spread is the figure, not one number. Then the same
+check left one out, and each run against the prediction from its own units' costs.
 Usage: fidelity_table.py OUT_DIR scenario.yaml ..."""
 import glob
 import json
@@ -124,6 +125,45 @@ def main():
         lines += ["", f"{within} of {len(keys)} (scenario, policy) pairs within the target, left "
                   "one out (medians over the runs)."]
         json.dump(loo_rows, open(os.path.join(out, "fidelity-loo.json"), "w"), indent=1)
+    # From each run's own costs: `red compare` (with --out) also predicts each policy from the
+    # costs its own units met in that run (prediction.json, sim_run_costs): the simulator's
+    # model apart from the machine's drift since the calibration (docs/FIDELITY.md). Each run
+    # is compared with its own prediction, not with the median.
+    own_rows = []
+    for s in scenarios:
+        name = os.path.splitext(os.path.basename(s))[0]
+        d = os.path.join(out, name)
+        for path in sorted(glob.glob(os.path.join(d, "run*", "prediction.json"))):
+            run = os.path.basename(os.path.dirname(path))
+            for p in json.load(open(path))["policies"]:
+                own = p.get("sim_run_costs")
+                if own is None:
+                    continue
+                real = p["real"]
+                d_miss = own["miss_pct"] - real["miss_pct"]
+                d_mean = ((own["mean_ms"] - real["mean_ms"]) / real["mean_ms"] * 100
+                          if real["mean_ms"] > 0 else 0.0)
+                own_rows.append({"scenario": name, "policy": p["policy"], "run": run,
+                                 "real_miss_pct": round(real["miss_pct"], 2),
+                                 "sim_miss_pct": round(own["miss_pct"], 2),
+                                 "real_mean_ms": round(real["mean_ms"], 2),
+                                 "sim_mean_ms": round(own["mean_ms"], 2),
+                                 "d_miss_points": round(d_miss, 2), "d_mean_pct": round(d_mean, 1),
+                                 "within_target": abs(d_miss) <= 5 and abs(d_mean) <= 10})
+    if own_rows:
+        lines += ["", "From each run's own costs (each policy predicted from the costs its units "
+                  "met in that run; the model apart from the machine's drift):", "",
+                  "| scenario | policy | run | real miss % | sim miss % | Δ pts | real mean ms | "
+                  "sim mean ms | Δ % | within target |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in own_rows:
+            lines.append("| {scenario} | {policy} | {run} | {real_miss_pct:g} | {sim_miss_pct:g} | "
+                         "{d_miss_points:+.1f} | {real_mean_ms:g} | {sim_mean_ms:g} | "
+                         "{d_mean_pct:+.1f} | {v} |".format(
+                             v="yes" if r["within_target"] else "no", **r))
+        lines += ["", f"{sum(r['within_target'] for r in own_rows)} of {len(own_rows)} "
+                  "(scenario, policy, run) within the target from the run's own costs."]
+        json.dump(own_rows, open(os.path.join(out, "fidelity-own.json"), "w"), indent=1)
     # The real runs themselves: median [min-max] over the runs, per scenario and policy.
     for s in scenarios:
         name = os.path.splitext(os.path.basename(s))[0]
