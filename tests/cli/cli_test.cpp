@@ -333,6 +333,12 @@ TEST_F(Cli, RealComparePredictsFromTheProfileAndFromTheRunsOwnCosts) {
     }
   }
 
+  // index.html shows both predictions after the comparison.
+  const std::string html = read_text(out / "index.html");
+  EXPECT_TRUE(contains(html, "Simulator&#39;s prediction of these runs") ||
+              contains(html, "Simulator's prediction of these runs"));
+  EXPECT_TRUE(contains(html, "Simulator fed the costs each policy")) << html.substr(0, 2000);
+
   // Without --out the runs keep no units: only the prediction from the profile.
   const RunResult plain = red(args, "timeout 300");
   ASSERT_EQ(plain.code, 0) << plain.err;

@@ -76,11 +76,12 @@ std::optional<Profile> run_costs(const Scenario& s, const Profile& p, const Poli
 // calibrated profile the prediction is random like the run (the machine's slow stretches
 // are replayed from the calibration), so it is given over several seeds: the median and
 // the range. Where the runs kept their units (--out), a second table predicts each policy
-// from the costs its own units met in the run (run_costs). Returns prediction.json's text.
+// from the costs its own units met in the run (run_costs). Returns prediction.json's text;
+// `html` gets the same tables for index.html.
 std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
                              const std::vector<PolicyRun>& real,
                              const std::vector<std::vector<double>>& handoffs,
-                             std::optional<SyncMode> sync) {
+                             std::optional<SyncMode> sync, std::vector<HtmlTable>& html) {
   constexpr int kCalibratedSeeds = 5;
   const int seeds = p.calibration ? kCalibratedSeeds : 1;
   auto median = [](std::vector<double> v) {
@@ -122,15 +123,28 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", "policy", "miss% real",
                "miss% sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim");
   };
-  auto print_row = [&](const PolicyRun& r, const Predicted& x, int n) {
+  auto print_row = [&](const PolicyRun& r, const Predicted& x, int n, HtmlTable& t) {
     fmt::print("{:<10} {:>10.2f} {:>20} {:>12.2f} {:>22} {:>8.3f} {:>8.3f}\n", r.metrics.name,
                100 * r.metrics.miss_rate, range(x.miss, n, "{:.2f}"), r.metrics.latency.mean,
                range(x.mean, n, "{:.2f}"), r.metrics.qoe, median(x.qoe));
+    t.rows.push_back({r.metrics.name, fmt::format("{:.2f}", 100 * r.metrics.miss_rate),
+                      range(x.miss, n, "{:.2f}"), fmt::format("{:.2f}", r.metrics.latency.mean),
+                      range(x.mean, n, "{:.2f}"), fmt::format("{:.3f}", r.metrics.qoe),
+                      fmt::format("{:.3f}", median(x.qoe))});
+  };
+  auto table = [](std::string caption) {
+    return HtmlTable{std::move(caption),
+                     {"policy", "miss % real", "miss % sim", "mean ms real", "mean ms sim",
+                      "QoE real", "QoE sim"},
+                     {}};
   };
 
-  fmt::print("simulator prediction with the same profile ({}{}):\n", p.source,
-             seeds > 1 ? fmt::format(", median [min-max] of {} seeds", seeds) : "");
+  const std::string over = seeds > 1 ? fmt::format(", median [min-max] of {} seeds", seeds) : "";
+  fmt::print("simulator prediction with the same profile ({}{}):\n", p.source, over);
   print_header();
+  HtmlTable ahead = table(fmt::format(
+      "Simulator's prediction of these runs with the same profile ({}{}; docs/FIDELITY.md)",
+      p.source, over));
   nlohmann::ordered_json doc;
   doc["scenario"] = s.name;
   doc["profile"] = p.source;
@@ -141,7 +155,7 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     const PolicyRun& r = real[i];
     const Predicted x = predict(r.metrics.name, seeds, nullptr);
     if (x.miss.empty()) continue;
-    print_row(r, x, seeds);
+    print_row(r, x, seeds, ahead);
     nlohmann::ordered_json row{{"policy", r.metrics.name},
                                {"real",
                                 {{"miss_pct", 100 * r.metrics.miss_rate},
@@ -158,14 +172,21 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     }
     policies.push_back(std::move(row));
   }
+  html.push_back(std::move(ahead));
   if (std::any_of(own.begin(), own.end(), [](const auto& x) { return x.has_value(); })) {
+    HtmlTable t = table(fmt::format(
+        "Simulator fed the costs each policy's units met in this run: the model apart from the "
+        "machine's drift since the profile was measured (median [min-max] of {} seeds; "
+        "docs/FIDELITY.md, \"The run's own costs\")",
+        kCalibratedSeeds));
     fmt::print(
         "simulator with the costs each policy's units met in this run (the model without the "
         "machine's drift, median [min-max] of {} seeds):\n",
         kCalibratedSeeds);
     print_header();
     for (std::size_t i = 0; i < real.size(); ++i)
-      if (own[i]) print_row(real[i], *own[i], kCalibratedSeeds);
+      if (own[i]) print_row(real[i], *own[i], kCalibratedSeeds, t);
+    html.push_back(std::move(t));
   }
   doc["policies"] = std::move(policies);
   return doc.dump(2) + "\n";
@@ -353,8 +374,9 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
   std::string prediction;
+  std::vector<HtmlTable> prediction_html;
   if (!sim && stop_signal() == 0)
-    prediction = print_prediction(*s, *p, seed, runs, handoffs, real.sync);
+    prediction = print_prediction(*s, *p, seed, runs, handoffs, real.sync, prediction_html);
   if (a.phases) {
     std::vector<std::string> names_run;
     std::vector<std::vector<PhaseMetrics>> phases;
@@ -393,6 +415,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
         if (auto an = analyze(*s, *p, ao)) verdicts.push_back(std::move(an).value());
       }
       o.verdicts = verdict_html_table(verdicts);
+      o.prediction = std::move(prediction_html);
     }
     o.timeline = timeline;
     o.rows_written = stream != nullptr;

@@ -182,6 +182,7 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
       links.push_back({"trace.json", "the timeline: drag into https://ui.perfetto.dev"});
     HtmlPage page = compare_page(h, metrics, plots, links);
     if (options.verdicts) page.tables.insert(page.tables.begin(), *options.verdicts);
+    for (const HtmlTable& t : options.prediction) page.tables.push_back(t);
     std::vector<std::string> names;
     for (const PolicyMetrics& m : metrics) names.push_back(m.name);
     page.sections.push_back(phase_section(s, names, phases));

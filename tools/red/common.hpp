@@ -57,6 +57,9 @@ struct OutputOptions {
   std::optional<std::pair<Duration, Duration>> timeline;
   /// The verdict table shown first in index.html (red compare; red/analysis), if any.
   std::optional<HtmlTable> verdicts;
+  /// Tables shown after the comparison in index.html: the simulator's prediction of a real
+  /// comparison (red compare on a real backend), if any.
+  std::vector<HtmlTable> prediction;
   /// jobs.csv and units.csv are in `dir` already (streamed during the run,
   /// report/stream.hpp): not written again; the runs' rows still feed the plots.
   bool rows_written = false;
