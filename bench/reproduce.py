@@ -841,15 +841,15 @@ def section_fidelity(page, scenarios_dir):
                          "see section"))
     own = os.path.join(runs_dir, "fidelity-own.json")
     own_rows = json.load(open(own)) if os.path.exists(own) else []
+    own_within = sum(r["within_target"] for r in own_rows)
     if own_rows:
         page.summary.append(("Simulator's model, from each run's own unit costs",
                              "— (not in the paper; docs/FIDELITY.md)",
-                             f"{sum(r['within_target'] for r in own_rows)} of {len(own_rows)} "
-                             "policy-runs within target", "see section"))
+                             f"{own_within} of {len(own_rows)} policy-runs within target",
+                             "see section"))
     page.data["fidelity"] = {"measured": bool(rows or loo_rows), "ahead_within": within,
                              "ahead_pairs": len(rows), "loo_rows": len(loo_rows),
-                             "own_costs_within": sum(r["within_target"] for r in own_rows),
-                             "own_costs_runs": len(own_rows)}
+                             "own_costs_within": own_within, "own_costs_runs": len(own_rows)}
 
 
 def machine():

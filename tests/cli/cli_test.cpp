@@ -346,6 +346,24 @@ TEST_F(Cli, RealComparePredictsFromTheProfileAndFromTheRunsOwnCosts) {
   EXPECT_FALSE(contains(plain.out, own_costs)) << plain.out;
 }
 
+// Plain nodes cost what the scenario says: there is nothing to fit from the run's units, so
+// the run still succeeds with the prediction from the profile alone.
+TEST_F(Cli, RealCompareOfPlainNodesHasNoPredictionFromTheRunsCosts) {
+  const fs::path out = dir_ / "plain";
+  const RunResult r =
+      red("compare " + quote(data("tiny.yaml")) +
+              " --backend synthetic --no-realtime --policies edf --out " + quote(out.string()),
+          "timeout 300");
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "simulator prediction with the same profile")) << r.out;
+  EXPECT_FALSE(contains(r.out, "costs each policy's units met")) << r.out;
+  const json j = json::parse(read_text(out / "prediction.json"));
+  ASSERT_EQ(j.at("policies").size(), 1u);
+  EXPECT_TRUE(j.at("policies")[0].contains("sim"));
+  EXPECT_FALSE(j.at("policies")[0].contains("sim_run_costs"));
+}
+
 // ---- red sweep ------------------------------------------------------------------------------
 
 TEST_F(Cli, SweepWritesOneColumnPerValue) {

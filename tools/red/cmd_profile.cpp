@@ -266,12 +266,7 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
     RuntimeReport report;
     auto r = run_real(*s, isolated, n, **backend, real, {}, &report);
     if (!r) return r.error();
-    CalibrationRun run{n, {}, report.handoff_us, false};
-    const auto opts = policy_options(*s, n);
-    run.round_trips = opts && opts->sync == SyncMode::PerEdge;
-    for (const UnitRow& u : r->units)
-      if (u.start >= TimePoint{s->warmup}) run.units.push_back(u);
-    runs.push_back(std::move(run));
+    runs.push_back(calibration_run(*s, n, r->units, std::move(report.handoff_us)));
   }
   CalibrationOptions o;
   o.seconds_per_policy = a.calibrate_s;

@@ -60,11 +60,7 @@ std::optional<SyncMode> parse_sync(const std::string& v) {
 std::optional<Profile> run_costs(const Scenario& s, const Profile& p, const PolicyRun& r,
                                  const std::vector<double>& handoff_us,
                                  std::optional<SyncMode> sync) {
-  CalibrationRun run{r.metrics.name, {}, handoff_us, false};
-  const auto opts = policy_options(s, r.metrics.name, sync);
-  run.round_trips = opts && opts->sync == SyncMode::PerEdge;
-  for (const UnitRow& u : r.units)
-    if (u.start >= TimePoint{s.warmup}) run.units.push_back(u);
+  CalibrationRun run = calibration_run(s, r.metrics.name, r.units, handoff_us, sync);
   if (run.units.empty()) return std::nullopt;
   auto c = calibrate_profile(p, s, {std::move(run)});
   if (!c) return std::nullopt;
@@ -123,14 +119,18 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", "policy", "miss% real",
                "miss% sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim");
   };
+  // One row, printed and kept for index.html: the same cells in both.
   auto print_row = [&](const PolicyRun& r, const Predicted& x, int n, HtmlTable& t) {
-    fmt::print("{:<10} {:>10.2f} {:>20} {:>12.2f} {:>22} {:>8.3f} {:>8.3f}\n", r.metrics.name,
-               100 * r.metrics.miss_rate, range(x.miss, n, "{:.2f}"), r.metrics.latency.mean,
-               range(x.mean, n, "{:.2f}"), r.metrics.qoe, median(x.qoe));
-    t.rows.push_back({r.metrics.name, fmt::format("{:.2f}", 100 * r.metrics.miss_rate),
-                      range(x.miss, n, "{:.2f}"), fmt::format("{:.2f}", r.metrics.latency.mean),
-                      range(x.mean, n, "{:.2f}"), fmt::format("{:.3f}", r.metrics.qoe),
-                      fmt::format("{:.3f}", median(x.qoe))});
+    std::vector<std::string> c{r.metrics.name,
+                               fmt::format("{:.2f}", 100 * r.metrics.miss_rate),
+                               range(x.miss, n, "{:.2f}"),
+                               fmt::format("{:.2f}", r.metrics.latency.mean),
+                               range(x.mean, n, "{:.2f}"),
+                               fmt::format("{:.3f}", r.metrics.qoe),
+                               fmt::format("{:.3f}", median(x.qoe))};
+    fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", c[0], c[1], c[2], c[3], c[4],
+               c[5], c[6]);
+    t.rows.push_back(std::move(c));
   };
   auto table = [](std::string caption) {
     return HtmlTable{std::move(caption),

@@ -122,6 +122,17 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   return run;
 }
 
+CalibrationRun calibration_run(const Scenario& s, const std::string& policy,
+                               const std::vector<UnitRow>& units, std::vector<double> handoff_us,
+                               std::optional<SyncMode> sync) {
+  CalibrationRun run{policy, {}, std::move(handoff_us), false};
+  const auto opts = policy_options(s, policy, sync);
+  run.round_trips = opts && opts->sync == SyncMode::PerEdge;
+  for (const UnitRow& u : units)
+    if (u.start >= TimePoint{s.warmup}) run.units.push_back(u);
+  return run;
+}
+
 std::string samples_csv(const std::vector<std::string>& policies,
                         const std::vector<RuntimeReport>& reports) {
   std::string out = "policy,t_s,rss_mb,ready,in_flight\n";

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "red/core/expected.hpp"
+#include "red/profile/calibrate.hpp"
 #include "red/profile/profile.hpp"
 #include "red/runtime/backend.hpp"
 #include "red/runtime/runtime.hpp"
@@ -41,6 +42,13 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
                              Backend& backend, const RealRunOptions& o,
                              const std::vector<Observer*>& extra = {},
                              RuntimeReport* report = nullptr);
+
+/// What calibration needs of one real run of `policy` (docs/FIDELITY.md): its units
+/// started after the warm-up, the hand-offs the runtime timed, and whether those were
+/// round trips through the global synchronizer (the policy's sync mode is per-edge).
+CalibrationRun calibration_run(const Scenario& s, const std::string& policy,
+                               const std::vector<UnitRow>& units, std::vector<double> handoff_us,
+                               std::optional<SyncMode> sync = std::nullopt);
 
 /// rss.csv text: policy, t_s, rss_mb, ready, in_flight: the runtime's samples (once a
 /// second) of each real run, in order.
