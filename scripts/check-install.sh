@@ -23,7 +23,7 @@ echo "== install: configure and build the core into $PREFIX"
 rm -rf "$PREFIX" "$STAGE/examples" "$STAGE/pc"
 cmake -S . -B "$STAGE/build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRED_TORCH=OFF \
   -DRED_BUILD_TESTS=OFF -DRED_BUILD_BENCH=OFF -DBUILD_SHARED_LIBS="$SHARED" \
-  -DCMAKE_INSTALL_PREFIX="$PREFIX" >/dev/null
+  -DCMAKE_INSTALL_PREFIX="$PREFIX" -DRED_WERROR=ON >/dev/null
 cmake --build "$STAGE/build" -j"$JOBS"
 cmake --install "$STAGE/build" >/dev/null
 

@@ -10,7 +10,7 @@ SECONDS_EACH=${1:-15}
 BUILD=${2:-build-fuzz}
 if [ ! -x "$BUILD/tests/fuzz/fuzz_scenario" ]; then
   CC=clang CXX=clang++ cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF -DRED_BUILD_TESTS=OFF -DRED_FUZZ=ON >/dev/null
+    -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF -DRED_BUILD_TESTS=OFF -DRED_FUZZ=ON -DRED_WERROR=ON >/dev/null
 fi
 cmake --build "$BUILD" -j"$(nproc)" --target fuzz
 WORK=$(mktemp -d /tmp/red-fuzz.XXXXXX)

@@ -13,19 +13,22 @@ echo "== formatting (.clang-format)"
 git ls-files '*.cpp' '*.hpp' | xargs clang-format --dry-run -Werror
 
 echo "== build and test (Release, all targets)"
-scripts/build.sh
+scripts/build.sh -DRED_WERROR=ON
 ctest --test-dir build --output-on-failure -j"$JOBS"
+
+echo "== every C++ source again with the whole standard library included first (newer toolchains)"
+/usr/bin/python3 scripts/check-stdlib.py build
 
 echo "== build and test under address,undefined sanitizers (core, no LibTorch)"
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF \
-  -DRED_SANITIZE=address,undefined -DRED_DDS=OFF >/dev/null
+  -DRED_SANITIZE=address,undefined -DRED_DDS=OFF -DRED_WERROR=ON >/dev/null
 cmake --build build-asan -j"$JOBS"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j"$JOBS"
 
 echo "== build and test the real-time runtime under the thread sanitizer"
 cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF \
-  -DRED_SANITIZE=thread -DRED_DDS=OFF >/dev/null
+  -DRED_SANITIZE=thread -DRED_DDS=OFF -DRED_WERROR=ON >/dev/null
 cmake --build build-tsan -j"$JOBS" --target red_tests
 TSAN_OPTIONS=halt_on_error=1 build-tsan/tests/red_tests --gtest_filter='*Runtime*:RowQueue*'
 

@@ -58,7 +58,7 @@ void escape(std::string& out, std::string_view s) {
   }
 }
 
-std::string quoted(std::string_view s) {
+std::string json_string(std::string_view s) {
   std::string out = "\"";
   escape(out, s);
   out += '"';
@@ -115,7 +115,7 @@ void metadata_event(Emitter& e, const char* name, int pid, int tid, const std::s
 }
 
 void thread_track(Emitter& e, int pid, int tid, std::string_view name, int sort) {
-  metadata_event(e, "thread_name", pid, tid, "{\"name\":" + quoted(name) + "}");
+  metadata_event(e, "thread_name", pid, tid, "{\"name\":" + json_string(name) + "}");
   metadata_event(e, "thread_sort_index", pid, tid, fmt::format("{{\"sort_index\":{}}}", sort));
 }
 
@@ -202,7 +202,7 @@ void write_units(Emitter& e, const Scenario& s, const TraceObserver& t, int pid,
     const TimePoint end = u.open ? std::max(u.start, end_of_run) : u.end;
     lane_end[lane] = end;
     std::string& b = e.begin();
-    b += "\"name\":" + quoted(unit_label(s, t, u));
+    b += "\"name\":" + json_string(unit_label(s, t, u));
     b += fmt::format(R"(,"cat":"{}","ph":"X","ts":{},"dur":{},"pid":{},"tid":{},"args":{{)",
                      to_string(u.kind), us(u.start), us(end - u.start), pid, tid);
     b += fmt::format(R"("kind":"{}")", to_string(u.kind));
@@ -210,18 +210,18 @@ void write_units(Emitter& e, const Scenario& s, const TraceObserver& t, int pid,
       const TraceObserver::MemberRec& m = t.members()[u.member_begin];
       const std::string name = t.member_name(m);
       const auto colon = name.find(':');
-      b += ",\"operation\":" + quoted(s.operation_name(m.operation));
-      b += ",\"job\":" + quoted(name.substr(0, colon));
-      if (colon != std::string::npos) b += ",\"node\":" + quoted(name.substr(colon + 1));
+      b += ",\"operation\":" + json_string(s.operation_name(m.operation));
+      b += ",\"job\":" + json_string(name.substr(0, colon));
+      if (colon != std::string::npos) b += ",\"node\":" + json_string(name.substr(colon + 1));
     }
     if (u.head >= 0 && static_cast<std::size_t>(u.head) < s.model.heads.size())
-      b += ",\"head\":" + quoted(s.model.heads[static_cast<std::size_t>(u.head)]);
+      b += ",\"head\":" + json_string(s.model.heads[static_cast<std::size_t>(u.head)]);
     if (u.sensor >= 0 && static_cast<std::size_t>(u.sensor) < s.sensors.size())
-      b += ",\"sensor\":" + quoted(s.sensors[static_cast<std::size_t>(u.sensor)].name);
+      b += ",\"sensor\":" + json_string(s.sensors[static_cast<std::size_t>(u.sensor)].name);
     b += fmt::format(R"(,"batch":{},"merged":{},"members":[)", u.batch, u.member_count);
     for (std::uint32_t i = 0; i < u.member_count; ++i) {
       if (i > 0) b += ',';
-      b += quoted(t.member_name(t.members()[u.member_begin + i]));
+      b += json_string(t.member_name(t.members()[u.member_begin + i]));
     }
     b += fmt::format(
         R"(],"round_trip":{},"status":"{}","dispatch":{},"decided_ms":{},"policy_deadline_ms":{}}})",
@@ -234,7 +234,7 @@ void write_units(Emitter& e, const Scenario& s, const TraceObserver& t, int pid,
 void instant(Emitter& e, std::string_view name, const char* cat, TimePoint at, int pid, int tid,
              const std::string& args) {
   std::string& b = e.begin();
-  b += "\"name\":" + quoted(name);
+  b += "\"name\":" + json_string(name);
   b += fmt::format(R"(,"cat":"{}","ph":"i","s":"t","ts":{},"pid":{},"tid":{},"args":{})", cat,
                    us(at), pid, tid, args);
   e.end();
@@ -256,17 +256,17 @@ void write_jobs(Emitter& e, const Scenario& s, const TraceObserver& t, int pid,
     const std::string& op = s.operation_name(j.operation);
     const std::string job = op + "#" + std::to_string(j.seq);
     const int itid = op_tid(pid, j.operation, 0);
-    std::string args = "{\"job\":" + quoted(job);
+    std::string args = "{\"job\":" + json_string(job);
     if (!j.counted) args += ",\"warmup\":true";
     args += '}';
     instant(e, "release", "job", j.release, pid, itid, args);
     instant(e, "deadline", "job", j.deadline, pid, itid, args);
     if (const char* mark = miss_mark(j.outcome)) {
-      std::string margs = "{\"job\":" + quoted(job);
+      std::string margs = "{\"job\":" + json_string(job);
       margs += fmt::format(R"(,"outcome":"{}")", to_string(j.outcome));
       if (j.outcome == JobOutcome::Missed)
         margs += fmt::format(R"(,"late_ms":{})", ms(j.finish - j.deadline));
-      if (!j.reason.empty()) margs += ",\"reason\":" + quoted(j.reason);
+      if (!j.reason.empty()) margs += ",\"reason\":" + json_string(j.reason);
       margs += '}';
       instant(e, mark, "miss", j.finish, pid, itid, margs);
     }
@@ -280,14 +280,14 @@ void write_jobs(Emitter& e, const Scenario& s, const TraceObserver& t, int pid,
     }
     rows[row] = j.finish;
     std::string& b = e.begin();
-    b += "\"name\":" + quoted(job);
+    b += "\"name\":" + json_string(job);
     b += fmt::format(R"(,"cat":"job","ph":"X","ts":{},"dur":{},"pid":{},"tid":{},"cname":"{}",)"
                      R"("args":{{"outcome":"{}","response_ms":{},"deadline_ms":{})",
                      us(j.release), us(j.finish - j.release), pid,
                      op_tid(pid, j.operation, static_cast<int>(row) + 1), job_color(j.outcome),
                      to_string(j.outcome), ms(j.finish - j.release), ms(j.deadline - j.release));
     if (!j.counted) b += ",\"warmup\":true";
-    if (!j.reason.empty()) b += ",\"reason\":" + quoted(j.reason);
+    if (!j.reason.empty()) b += ",\"reason\":" + json_string(j.reason);
     b += "}";
     e.end();
   }
@@ -319,7 +319,8 @@ void write_counters(Emitter& e, const TraceObserver& t, int pid) {
 
 void write_process(Emitter& e, const Scenario& s, const TraceProcess& p, int pid, bool global) {
   const TraceObserver& t = *p.trace;
-  metadata_event(e, "process_name", pid, pid * kPidStride, "{\"name\":" + quoted(p.name) + "}");
+  metadata_event(e, "process_name", pid, pid * kPidStride,
+                 "{\"name\":" + json_string(p.name) + "}");
   metadata_event(e, "process_sort_index", pid, pid * kPidStride,
                  fmt::format("{{\"sort_index\":{}}}", pid));
   int lanes = s.device.lanes;
@@ -350,8 +351,9 @@ void write_process(Emitter& e, const Scenario& s, const TraceProcess& p, int pid
           w.sensor >= 0 && static_cast<std::size_t>(w.sensor) < s.sensors.size()
               ? s.sensors[static_cast<std::size_t>(w.sensor)].name
               : std::string("?");
-      instant(e, "merge wait", "merge", w.at, pid, stid,
-              "{\"sensor\":" + quoted(sensor) + fmt::format(R"(,"until_ms":{}}})", ms(w.until)));
+      instant(
+          e, "merge wait", "merge", w.at, pid, stid,
+          "{\"sensor\":" + json_string(sensor) + fmt::format(R"(,"until_ms":{}}})", ms(w.until)));
     }
   }
   write_counters(e, t, pid);
@@ -363,10 +365,10 @@ void write_process(Emitter& e, const Scenario& s, const TraceProcess& p, int pid
                                    ? s.events[static_cast<std::size_t>(ev.index)].kind
                                    : std::string("event");
       std::string& b = e.begin();
-      b += "\"name\":" + quoted(fmt::format("event {}: {}", ev.index, kind));
+      b += "\"name\":" + json_string(fmt::format("event {}: {}", ev.index, kind));
       b += fmt::format(R"(,"cat":"workload","ph":"i","s":"g","ts":{},"pid":{},"tid":{},)",
                        us(ev.at), pid, stid);
-      b += fmt::format(R"("args":{{"index":{},"kind":{}}})", ev.index, quoted(kind));
+      b += fmt::format(R"("args":{{"index":{},"kind":{}}})", ev.index, json_string(kind));
       e.end();
     }
   if (t.truncated()) {
@@ -384,15 +386,15 @@ void write_process(Emitter& e, const Scenario& s, const TraceProcess& p, int pid
 void write_chrome_trace(std::ostream& out, const Scenario& s,
                         const std::vector<TraceProcess>& processes, const Meta& metadata) {
   out << "{\"displayTimeUnit\":\"ms\",\n\"otherData\":{";
-  std::string head = "\"generator\":\"red\",\"scenario\":" + quoted(s.name);
-  for (const auto& [k, v] : metadata) head += "," + quoted(k) + ":" + quoted(v);
+  std::string head = "\"generator\":\"red\",\"scenario\":" + json_string(s.name);
+  for (const auto& [k, v] : metadata) head += "," + json_string(k) + ":" + json_string(v);
   head += R"(,"layout":"one process per policy; tracks: one per lane (unit slices), )"
           R"(per operation release/deadline/miss instants and job slices, counters")";
   for (const TraceProcess& p : processes)
     if (p.trace != nullptr && p.trace->truncated())
-      head += "," + quoted("truncated " + p.name) + ":" +
-              quoted(fmt::format("trace stops at {:.3f} s: the limit of {} events was reached",
-                                 to_s(p.trace->truncated_at()), p.trace->events()));
+      head += "," + json_string("truncated " + p.name) + ":" +
+              json_string(fmt::format("trace stops at {:.3f} s: the limit of {} events was reached",
+                                      to_s(p.trace->truncated_at()), p.trace->events()));
   out << head << "},\n\"traceEvents\":[";
   {
     Emitter e(out);

@@ -93,9 +93,11 @@ Expected<c10::Device> parse_device(const std::string& text) {
                    "device '" + text + "' asked for, but this LibTorch has no CUDA support " +
                        "or sees no GPU"};
     }
-    if (static_cast<std::size_t>(index) >= torch::cuda::device_count()) {
+    // device_count() is size_t up to LibTorch 2.6 and c10::DeviceIndex later.
+    const auto visible = static_cast<std::size_t>(torch::cuda::device_count());
+    if (static_cast<std::size_t>(index) >= visible) {
       return Error{"", 0,
-                   "device '" + text + "': only " + std::to_string(torch::cuda::device_count()) +
+                   "device '" + text + "': only " + std::to_string(visible) +
                        " CUDA device(s) visible"};
     }
     return c10::Device(c10::kCUDA, static_cast<c10::DeviceIndex>(index));
