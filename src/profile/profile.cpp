@@ -242,6 +242,30 @@ Duration micros(const json& v, const std::string& where) {
   return from_us(us);
 }
 
+Measurement parse_measurement(const json& m) {
+  if (!m.is_object()) bad("measurement: must be an object");
+  only_keys(
+      m,
+      {"timing", "warmup_min", "warmup_max", "tolerance", "window", "device_warmup_s", "unstable"},
+      "measurement");
+  Measurement out;
+  const auto count = [&m](const char* key) {
+    if (!m.contains(key)) return 0;
+    const std::int64_t n = whole(m[key], std::string("measurement.") + key);
+    if (n < 0 || n > 1'000'000'000) bad(fmt::format("measurement.{}: must be in [0, 1e9]", key));
+    return static_cast<int>(n);
+  };
+  if (m.contains("timing")) out.timing = str(m["timing"], "measurement.timing");
+  out.warmup_min = count("warmup_min");
+  out.warmup_max = count("warmup_max");
+  out.window = count("window");
+  out.unstable = count("unstable");
+  if (m.contains("tolerance")) out.tolerance = num(m["tolerance"], "measurement.tolerance");
+  if (m.contains("device_warmup_s"))
+    out.device_warmup_s = num(m["device_warmup_s"], "measurement.device_warmup_s");
+  return out;
+}
+
 UnitProfile parse_unit(const json& arr, const std::string& where) {
   if (!arr.is_array() || arr.empty()) bad(where + ": must be a non-empty list of batch sizes");
   UnitProfile u;
@@ -249,7 +273,9 @@ UnitProfile parse_unit(const json& arr, const std::string& where) {
     const json& e = arr[i];
     const std::string at = fmt::format("{}[{}]", where, i);
     if (!e.is_object()) bad(at + ": must be an object");
-    only_keys(e, {"batch", "samples", "min_us", "mean_us", "p50_us", "p95_us", "p99_us", "max_us"},
+    only_keys(e,
+              {"batch", "samples", "warmup_runs", "min_us", "mean_us", "p50_us", "p95_us", "p99_us",
+               "max_us"},
               at);
     const std::int64_t batch = whole(need(e, "batch", at), at + ".batch");
     if (batch != static_cast<std::int64_t>(i) + 1)
@@ -262,6 +288,11 @@ UnitProfile parse_unit(const json& arr, const std::string& where) {
       const std::int64_t n = whole(e["samples"], at + ".samples");
       if (n < 0 || n > 1'000'000'000) bad(at + ".samples: must be in [0, 1e9]");
       s.samples = static_cast<int>(n);
+    }
+    if (e.contains("warmup_runs")) {
+      const std::int64_t n = whole(e["warmup_runs"], at + ".warmup_runs");
+      if (n < 0 || n > 1'000'000'000) bad(at + ".warmup_runs: must be in [0, 1e9]");
+      s.warmup_runs = static_cast<int>(n);
     }
     s.min = micros(need(e, "min_us", at), at + ".min_us");
     s.mean = micros(need(e, "mean_us", at), at + ".mean_us");
@@ -369,9 +400,20 @@ Calibration parse_calibration(const json& c) {
 using ordered = nlohmann::ordered_json;
 
 ordered stats_json(const LatencyStats& s, int batch) {
-  return ordered{{"batch", batch},           {"samples", s.samples},   {"min_us", to_us(s.min)},
-                 {"mean_us", to_us(s.mean)}, {"p50_us", to_us(s.p50)}, {"p95_us", to_us(s.p95)},
-                 {"p99_us", to_us(s.p99)},   {"max_us", to_us(s.max)}};
+  ordered o{{"batch", batch}, {"samples", s.samples}};
+  if (s.warmup_runs > 0) o["warmup_runs"] = s.warmup_runs;
+  for (const auto& [key, v] :
+       {std::pair{"min_us", s.min}, std::pair{"mean_us", s.mean}, std::pair{"p50_us", s.p50},
+        std::pair{"p95_us", s.p95}, std::pair{"p99_us", s.p99}, std::pair{"max_us", s.max}})
+    o[key] = to_us(v);
+  return o;
+}
+
+ordered measurement_json(const Measurement& m) {
+  return ordered{{"timing", m.timing},         {"warmup_min", m.warmup_min},
+                 {"warmup_max", m.warmup_max}, {"tolerance", m.tolerance},
+                 {"window", m.window},         {"device_warmup_s", m.device_warmup_s},
+                 {"unstable", m.unstable}};
 }
 
 ordered memory_json(const MemoryStats& m) {
@@ -409,7 +451,7 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
     if (!doc.is_object()) bad("a profile must be a JSON object");
     only_keys(doc,
               {"schema", "source", "device", "model", "sync_round_trip_us", "profile_wall_s",
-               "units", "memory", "calibration"},
+               "measurement", "units", "memory", "calibration"},
               "profile");
     const json& schema = need(doc, "schema", "profile");
     if (!schema.is_number_integer() || schema.get<std::int64_t>() != Profile::kSchema)
@@ -435,6 +477,7 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
         p.separate_memory = parse_memory(m["separate"], "memory.separate");
     }
     if (doc.contains("calibration")) p.calibration = parse_calibration(doc["calibration"]);
+    if (doc.contains("measurement")) p.measurement = parse_measurement(doc["measurement"]);
     return p;
   } catch (const Bad& b) {
     return Error{file, 0, b.message};
@@ -470,6 +513,7 @@ std::string profile_to_json(const Profile& p) {
   doc["model"] = p.model;
   doc["sync_round_trip_us"] = to_us(p.sync_round_trip);
   doc["profile_wall_s"] = p.profile_wall_s;
+  if (p.measurement) doc["measurement"] = measurement_json(*p.measurement);
   std::vector<std::pair<int, std::string>> names;
   for (const auto& [name, unit] : p.units) names.emplace_back(unit_rank(name), name);
   std::sort(names.begin(), names.end());

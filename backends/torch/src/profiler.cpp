@@ -5,6 +5,7 @@
 #include <c10/core/Allocator.h>
 #include <c10/util/ThreadLocalDebugInfo.h>
 #include <torch/cuda.h>
+#include <torch/version.h>
 #include <unistd.h>
 
 #if defined(__GLIBC__)
@@ -14,13 +15,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <numeric>
 #include <string>
 #include <vector>
 
 #include "internal.hpp"
+#include "unit_timer.hpp"
 
 namespace red::torchb {
 
@@ -28,14 +32,22 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// The allocator's running totals in c10's memory-reporting hook: int64_t up to LibTorch
+// 1.13, size_t from 2.0 on.
+#if TORCH_VERSION_MAJOR >= 2
+using ReportedTotal = std::size_t;
+#else
+using ReportedTotal = std::int64_t;
+#endif
+
 /// Receives every allocation and free that LibTorch's allocators report on this thread
 /// while installed as the thread's PROFILER_STATE debug info, and keeps the peak sum.
 class PeakMeter final : public c10::MemoryReportingInfoBase {
  public:
   explicit PeakMeter(c10::DeviceType type) : type_(type) {}
 
-  void reportMemoryUsage(void* /*ptr*/, std::int64_t alloc_size, std::int64_t /*total_allocated*/,
-                         std::int64_t /*total_reserved*/, c10::Device device) override {
+  void reportMemoryUsage(void* /*ptr*/, std::int64_t alloc_size, ReportedTotal /*total_allocated*/,
+                         ReportedTotal /*total_reserved*/, c10::Device device) override {
     if (device.type() != type_) return;
     live_ += alloc_size;
     peak_ = std::max(peak_, live_);
@@ -71,40 +83,92 @@ LatencyStats summarize(std::vector<Duration> samples) {
   return s;
 }
 
+/// The median of samples [first, last) (upper median for an even count).
+Duration median_of(std::deque<Duration>::const_iterator first,
+                   std::deque<Duration>::const_iterator last) {
+  std::vector<Duration> v(first, last);
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
 class Profiler {
  public:
   Profiler(const ProfileOptions& options, const ProgressFn& progress)
       : options_(options), progress_(progress) {}
 
-  /// Runs fn warmup times, then times `runs` runs of it.
-  LatencyStats measure(const std::function<void()>& fn) const {
+  /// Warms fn up (options.warmup untimed runs at least), then times options.runs runs of it.
+  /// While the first `window` timed runs are slower than the rest by more than the
+  /// tolerance (the unit was still cold: a GPU's first calls of a shape choose and load
+  /// kernels, clocks ramp up), they count as warm-up and as many more are timed, up to
+  /// warmup_max warm-up runs. A warm CPU unit thus costs no more runs than before.
+  LatencyStats measure(const std::function<void()>& fn) {
     for (int i = 0; i < options_.warmup; ++i) fn();
     sync();
-    std::vector<Duration> samples;
-    samples.reserve(static_cast<std::size_t>(options_.runs));
-    for (int i = 0; i < options_.runs; ++i) {
-      const auto start = Clock::now();
-      fn();
-      sync();  // CUDA kernels run asynchronously: the unit ends when its work has finished
-      samples.push_back(std::chrono::duration_cast<Duration>(Clock::now() - start));
+    int warmed = options_.warmup;
+    std::deque<Duration> samples;
+    for (int i = 0; i < options_.runs; ++i) samples.push_back(timer_.time(fn));
+    const int w = options_.warmup > 0 ? std::min(options_.window, options_.runs / 3) : 0;
+    const auto window = static_cast<std::ptrdiff_t>(w);
+    while (
+        w > 0 &&
+        static_cast<double>(median_of(samples.begin(), samples.begin() + window).count()) >
+            (1.0 + options_.tolerance) *
+                static_cast<double>(median_of(samples.begin() + window, samples.end()).count())) {
+      if (warmed + w > options_.warmup_max) {
+        ++unstable_;
+        break;
+      }
+      for (int i = 0; i < w; ++i) {
+        samples.pop_front();
+        samples.push_back(timer_.time(fn));
+      }
+      warmed += w;
     }
-    return summarize(std::move(samples));
+    LatencyStats s = summarize({samples.begin(), samples.end()});
+    s.warmup_runs = warmed;
+    return s;
+  }
+
+  /// On a GPU: keeps the device busy with fn for options.device_warmup_s before anything is
+  /// measured (clocks up from idle, kernels loaded). Returns the seconds spent; 0 on a CPU.
+  double warm_device(const std::function<void()>& fn) {
+    if (!timer_.on_device() || options_.device_warmup_s <= 0) return 0.0;
+    const auto start = Clock::now();
+    const auto until = start + std::chrono::duration_cast<Clock::duration>(
+                                   std::chrono::duration<double>(options_.device_warmup_s));
+    while (Clock::now() < until) {
+      fn();
+      sync();
+    }
+    return std::chrono::duration<double>(Clock::now() - start).count();
   }
 
   void say(const std::string& message) const {
     if (progress_) progress_(message);
   }
 
-  void set_device(const c10::Device& d) { cuda_ = d.is_cuda(); }
+  void set_device(const c10::Device& d) { timer_ = UnitTimer(d); }
+
+  /// How the units were measured, for the profile.
+  [[nodiscard]] Measurement measurement(double device_warmup_s) const {
+    Measurement m;
+    m.timing = timer_.method();
+    m.warmup_min = options_.warmup;
+    m.warmup_max = std::max(options_.warmup, options_.warmup_max);
+    m.tolerance = options_.tolerance;
+    m.window = options_.warmup > 0 ? std::min(options_.window, options_.runs / 3) : 0;
+    m.device_warmup_s = std::round(device_warmup_s * 1000) / 1000;
+    m.unstable = unstable_;
+    return m;
+  }
 
  private:
-  void sync() const {
-    if (cuda_) torch::cuda::synchronize();
-  }
+  void sync() const { timer_.sync(); }
 
   ProfileOptions options_;
   const ProgressFn& progress_;
-  bool cuda_ = false;
+  UnitTimer timer_{c10::Device(c10::kCPU)};
+  int unstable_ = 0;
 };
 
 void release_freed_memory() {
@@ -146,9 +210,12 @@ std::int64_t peak_allocated_bytes(const c10::Device& device, const std::function
 Expected<Profile> profile_model(const ModelOptions& model, const ProfileOptions& options,
                                 const ProgressFn& progress) {
   if (options.warmup < 0 || options.runs < 1 || options.max_batch < 1 ||
-      options.coarse_max_batch < 1) {
+      options.coarse_max_batch < 1 || options.warmup_max < 0 || options.window < 0 ||
+      !(options.tolerance >= 0) ||
+      !(options.device_warmup_s >= 0 && options.device_warmup_s <= 600)) {
     return Error{"", 0,
-                 "profile options: need warmup >= 0, runs >= 1, max_batch >= 1 and "
+                 "profile options: need warmup >= 0, warmup_max >= 0, window >= 0, tolerance "
+                 ">= 0, device_warmup_s in [0, 600], runs >= 1, max_batch >= 1 and "
                  "coarse_max_batch >= 1"};
   }
   const auto wall_start = Clock::now();
@@ -169,7 +236,9 @@ Expected<Profile> profile_model(const ModelOptions& model, const ProfileOptions&
     p.model = m->label();
     const int n_heads = static_cast<int>(m->heads().size());
     prof.say("profiling " + p.model + " on " + p.device + ": " + std::to_string(options.runs) +
-             " runs after " + std::to_string(options.warmup) + " warm-up runs per unit and batch");
+             " runs per unit and batch size, timed by " + prof.measurement(0).timing +
+             ", after at least " + std::to_string(options.warmup) +
+             " warm-up runs and until the time is stable");
 
     // Memory of the shared model: one frame (batch 1) through the encoder and every head, keeping
     // every head's output until the frame is done (as a runtime would).
@@ -186,6 +255,16 @@ Expected<Profile> profile_model(const ModelOptions& model, const ProfileOptions&
       });
     }
     p.shared_memory = shared_mem;
+
+    double device_warmup_s = 0;
+    {
+      stage = "warming the device up";
+      const at::Tensor x = m->make_input(1, 1);
+      device_warmup_s = prof.warm_device([&] {
+        const Features f = m->encode(x);
+        for (int h = 0; h < n_heads; ++h) (void)m->head(h, f);
+      });
+    }
 
     for (int b = 1; b <= options.max_batch; ++b) {
       const at::Tensor x = m->make_input(b, static_cast<std::uint64_t>(b));
@@ -241,6 +320,7 @@ Expected<Profile> profile_model(const ModelOptions& model, const ProfileOptions&
         }
       }
     }
+    p.measurement = prof.measurement(device_warmup_s);
     p.profile_wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
     prof.say("profile done in " + std::to_string(p.profile_wall_s) + " s");
     return p;

@@ -25,6 +25,9 @@ struct LatencyStats {
   Duration p99{0};
   Duration max{0};
   int samples = 0;  ///< timed runs behind the figures (0 for the built-in default)
+  /// Untimed runs before them (`red profile` warms each unit and batch size until its time
+  /// is stable; 0 when not recorded).
+  int warmup_runs = 0;
 
   /// The statistic that stands for the cost.
   [[nodiscard]] Duration estimate(EstimateKind k) const noexcept;
@@ -72,6 +75,20 @@ struct Calibration {
 /// Inverse CDF of a quantile table (u = i / (n - 1)), linear between points; u in [0, 1).
 Duration table_quantile(const std::vector<Duration>& table, double u) noexcept;
 
+/// How `red profile` measured the units (§8): the clock that timed them and the warm-up
+/// before each (unit, batch size).
+struct Measurement {
+  std::string timing;  ///< "host wall clock" (CPU) or "device events" (GPU)
+  int warmup_min = 0;  ///< untimed runs at least, per unit and batch size
+  int warmup_max = 0;  ///< and at most (then measured even if not stable)
+  /// Stable: the first timed runs are no slower than the rest by more than this fraction
+  /// (else they count as warm-up and as many more are timed).
+  double tolerance = 0;
+  int window = 0;              ///< runs compared at a time
+  double device_warmup_s = 0;  ///< the device kept busy before the first unit (GPU clocks)
+  int unstable = 0;            ///< (unit, batch size) pairs that hit warmup_max unstable
+};
+
 /// Memory figures of a model (bytes).
 struct MemoryStats {
   std::int64_t parameter_bytes = 0;
@@ -94,6 +111,7 @@ struct Profile {
   std::optional<MemoryStats> separate_memory;               ///< four separate networks
   double profile_wall_s = 0.0;                              ///< how long `red profile` took
   std::optional<Calibration> calibration;  ///< in-run measurements (`red profile --calibrate`)
+  std::optional<Measurement> measurement;  ///< how the units were timed and warmed
 
   /// The unit named `name`, or nullptr.
   [[nodiscard]] const UnitProfile* find(const std::string& name) const noexcept;

@@ -18,7 +18,17 @@ namespace red::torchb {
 
 /// How much to measure.
 struct ProfileOptions {
-  int warmup = 3;     ///< untimed runs before the timed ones, per unit and batch size
+  /// Untimed runs at least before the timed ones, per unit and batch size. Then the unit is
+  /// warm when its time is stable: while the first `window` timed runs are slower than the
+  /// rest by more than `tolerance`, they count as warm-up and as many more are timed, up to
+  /// `warmup_max` warm-up runs. 0: no warm-up at all.
+  int warmup = 3;
+  int warmup_max = 60;
+  double tolerance = 0.10;
+  int window = 3;
+  /// On a GPU, the device kept busy this long before the first unit is measured (clocks up,
+  /// kernels chosen and loaded); 0 on the CPU.
+  double device_warmup_s = 1.0;
   int runs = 30;      ///< timed runs per unit and batch size (LatencyStats::samples)
   int max_batch = 4;  ///< `encoder` and `head/<h>` are measured at batch sizes 1..max_batch
   /// `coarse/<h>` and `separate/<h>` are measured at batch sizes 1..min(this, max_batch).
