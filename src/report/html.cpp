@@ -170,6 +170,27 @@ HtmlPage compare_page(const SummaryHeader& header, const std::vector<PolicyMetri
     page.facts.emplace_back("measured",
                             fmt::format("{:g} s after warm-up", policies.front().measured_s));
   page.tables.push_back(comparison_html_table(policies, header.baseline));
+  HtmlTable frames;
+  frames.caption =
+      "Frames of the sensors (real runs): offered in the measured window, released, and how "
+      "late (release - nominal capture time)";
+  frames.header = {"policy",
+                   "offered",
+                   "released",
+                   "late p50 ms",
+                   "late p99 ms",
+                   "late max ms",
+                   "more than a period late",
+                   "note"};
+  for (const PolicyMetrics& m : policies) {
+    if (!m.releases) continue;
+    const PolicyMetrics::Releases& r = *m.releases;
+    frames.rows.push_back({m.name, std::to_string(r.offered), std::to_string(r.released),
+                           num(r.late_p50_ms, 3), num(r.late_p99_ms, 3), num(r.late_max_ms, 3),
+                           std::to_string(r.behind),
+                           releases_warning(m) ? "fell behind the sensors" : "kept up"});
+  }
+  if (!frames.rows.empty()) page.tables.push_back(std::move(frames));
   page.plots = plots.plots;
   page.plots_note = plots.note;
   page.files = files;

@@ -118,6 +118,14 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
       p["failure_reasons"] = f;
     }
     if (m.peak_rss_mb) p["peak_rss_mb"] = *m.peak_rss_mb;
+    if (m.releases)
+      p["frames"] = {{"offered", m.releases->offered},
+                     {"released", m.releases->released},
+                     {"released_late_ms",
+                      {{"p50", m.releases->late_p50_ms},
+                       {"p99", m.releases->late_p99_ms},
+                       {"max", m.releases->late_max_ms}}},
+                     {"behind_a_period", m.releases->behind}};
     p["ratios"] = {{"miss_rate", opt(m.ratio_miss)},
                    {"latency_mean", opt(m.ratio_latency)},
                    {"qoe", opt(m.ratio_qoe)}};
@@ -189,6 +197,32 @@ std::string comparison_table(const std::vector<PolicyMetrics>& policies,
         m.qoe, m.encoder_runs, r(m.ratio_miss), r(m.ratio_latency), r(m.ratio_qoe));
   }
   return out;
+}
+
+std::string releases_table(const std::vector<PolicyMetrics>& policies) {
+  bool any = false;
+  for (const PolicyMetrics& m : policies) any = any || m.releases.has_value();
+  if (!any) return {};
+  std::string out = fmt::format("\nframes    {:>8} {:>8} {:>13} {:>13} {:>13} {:>7}\n", "offered",
+                                "released", "late p50 ms", "late p99 ms", "late max ms", "behind");
+  for (const PolicyMetrics& m : policies) {
+    if (!m.releases) continue;
+    const PolicyMetrics::Releases& r = *m.releases;
+    out += fmt::format("{:<10}{:>8} {:>8} {:>13.3f} {:>13.3f} {:>13.3f} {:>7}\n", m.name, r.offered,
+                       r.released, r.late_p50_ms, r.late_p99_ms, r.late_max_ms, r.behind);
+  }
+  return out;
+}
+
+std::optional<std::string> releases_warning(const PolicyMetrics& m) {
+  if (!m.releases) return std::nullopt;
+  const PolicyMetrics::Releases& r = *m.releases;
+  if (r.released >= r.offered && r.behind == 0) return std::nullopt;
+  return fmt::format(
+      "policy {}: releases fell behind the sensors: {} of {} frames released, {} more than a "
+      "period late (late by p50 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms); the policies did not "
+      "all see the same workload",
+      m.name, r.released, r.offered, r.behind, r.late_p50_ms, r.late_p99_ms, r.late_max_ms);
 }
 
 std::optional<Error> write_file(const std::string& dir, const std::string& name,

@@ -110,7 +110,7 @@ struct InEvent {
   enum Kind : std::uint8_t { Frame, Complete } kind;
   int index;  // sensor or lane
   std::uint64_t frame;
-  TimePoint t;
+  TimePoint t;  // a completion's end; a frame's nominal capture time (pushed: its arrival)
   UnitStatus status;
   std::string reason;
 };
@@ -128,8 +128,9 @@ struct Runtime::Impl {
   // The scheduler is driven by one thread at a time: the global synchronizer, a handler
   // taking a local decision (on-demand), or a thread releasing the frame it brought.
   std::mutex sched_mu;
-  TimePoint last_now{0};  // under sched_mu
-  bool releasing = true;  // under sched_mu: releases have not ended
+  TimePoint last_now{0};            // under sched_mu
+  bool releasing = true;            // under sched_mu: releases have not ended
+  TimePoint releases_end = kNever;  // under sched_mu: when they ended
   // One round's events, taken from the inbox, and the lanes whose units completed in them
   // (under sched_mu; their capacity is reused).
   std::vector<InEvent> round_events;
@@ -162,6 +163,11 @@ struct Runtime::Impl {
   std::optional<std::latch> warmed;  // counts down as each lane finishes Backend::warm_up
   std::atomic<bool> stopping{false};
   std::atomic<bool> cameras_on{true};
+  // The camera's next nominal capture time per sensor and the frames it reached in the
+  // measured window (its thread's, read after it is joined).
+  std::vector<TimePoint> camera_next;
+  std::uint64_t camera_offered = 0;
+  std::atomic<std::uint64_t> pushed_offered{0};  // external frames accepted after the warm-up
   std::atomic<bool> accepting{false};  // external frames: between run() start and release end
   std::atomic<bool> stop_requested{false};
   std::atomic<bool> stop_now_requested{false};  // stop_now(): no draining
@@ -354,9 +360,12 @@ struct Runtime::Impl {
       } else if (releasing) {
         sched.on_frame(e.index, e.frame, now);
         ++frames;
-        if (options.external_frames) {
-          std::lock_guard rl(report_mu);
-          report.frame_release_us.push_back(to_us(clock.now() - e.t));
+        std::lock_guard rl(report_mu);
+        if (options.external_frames) report.frame_release_us.push_back(to_us(clock.now() - e.t));
+        if (e.t >= scenario.warmup) {
+          ++report.frames_released;
+          report.release_late_us.push_back(to_us(now - e.t));
+          if (now - e.t > period_of(sched.sensor_rate(e.index))) ++report.frames_behind;
         }
       }
     }
@@ -386,8 +395,8 @@ struct Runtime::Impl {
   // for the kernel to run it, and wakes it only when its next timer moved earlier. A thread
   // that ordinary threads could preempt while it holds the lock (not real-time while the
   // runtime's threads are) posts the frame to the global synchronizer instead.
-  void arrive(int sensor, std::uint64_t frame) {
-    InEvent e{InEvent::Frame, sensor, frame, clock.now(), UnitStatus::Completed, {}};
+  void arrive(int sensor, std::uint64_t frame, TimePoint captured) {
+    InEvent e{InEvent::Frame, sensor, frame, captured, UnitStatus::Completed, {}};
     const bool may_run = !realtime_on.load(std::memory_order_acquire) || realtime_thread();
     if (may_run && sched_mu.try_lock()) {
       std::unique_lock lock(sched_mu, std::adopt_lock);
@@ -647,9 +656,13 @@ struct Runtime::Impl {
     }
   }
 
+  // Releases each sensor's frames at their nominal capture times. Releasing costs no model
+  // work here (Backend::on_frame only names the frame; its tensor is made off this thread),
+  // so the camera keeps the sensors' rates whatever the lanes are doing; a frame released
+  // late is still counted against its nominal time (RuntimeReport::release_late_us).
   void camera_main() {
     const std::size_t n = scenario.sensors.size();
-    std::vector<TimePoint> next(n);
+    std::vector<TimePoint>& next = camera_next;
     std::vector<std::uint64_t> frame(n, 0);
     for (std::size_t s = 0; s < n; ++s) next[s] = scenario.sensors[s].phase;
     while (cameras_on.load(std::memory_order_acquire)) {
@@ -661,8 +674,9 @@ struct Runtime::Impl {
           std::chrono::duration_cast<std::chrono::steady_clock::duration>(clock.origin() +
                                                                           next[s])));
       if (!cameras_on.load(std::memory_order_acquire)) return;
+      if (next[s] >= scenario.warmup && next[s] < scenario.duration) ++camera_offered;
       backend.on_frame(static_cast<int>(s), frame[s]);
-      arrive(static_cast<int>(s), frame[s]);
+      arrive(static_cast<int>(s), frame[s], next[s]);
       ++frame[s];
       double rate = 0;
       {
@@ -671,6 +685,25 @@ struct Runtime::Impl {
       }
       next[s] += period_of(rate);
     }
+  }
+
+  // Frames offered in the measured window: those the camera reached, and the nominal
+  // capture times it had not reached when releases ended (it fell behind, or slept through
+  // the end); pushed frames: those accepted. Caller holds sched_mu, the camera is joined.
+  void count_offered() {
+    std::lock_guard rl(report_mu);
+    if (options.external_frames) {
+      report.frames_offered = pushed_offered.load();
+      return;
+    }
+    std::uint64_t offered = camera_offered;
+    const TimePoint until = std::min(releases_end, scenario.duration);
+    for (std::size_t s = 0; s < camera_next.size(); ++s) {
+      const Duration period = period_of(sched.sensor_rate(static_cast<int>(s)));
+      for (TimePoint t = camera_next[s]; t < until && period > Duration{0}; t += period)
+        if (t >= scenario.warmup) ++offered;
+    }
+    report.frames_offered = offered;
   }
 
   void interference_main(double intensity, std::atomic<bool>& on) {
@@ -770,6 +803,7 @@ struct Runtime::Impl {
     }
     clock.reset();
     std::thread camera;
+    camera_next.assign(scenario.sensors.size(), kNever);
     if (options.external_frames) {
       accepting.store(true, std::memory_order_release);
     } else {
@@ -803,6 +837,7 @@ struct Runtime::Impl {
         const bool stop_now = stop_now_requested.load();
         if (releasing && (now >= scenario.duration || stop_requested.load() || stop_now)) {
           releasing = false;
+          releases_end = std::min(now, scenario.duration);
           cameras_on.store(false, std::memory_order_release);
           accepting.store(false, std::memory_order_release);
           sched.apply_events(std::min(now, scenario.duration - Duration{1}));
@@ -873,6 +908,7 @@ struct Runtime::Impl {
       sched.finish(end);
       report.end = end;
       report.stats = sched.stats();
+      count_offered();
     }
     if (options.realtime) munlockall();
     // decision_us_since() may read the report from another thread until now.
@@ -904,7 +940,9 @@ bool Runtime::push_frame(int sensor, std::uint64_t frame, const FrameView* pixel
     m.backend.on_external_frame(sensor, frame, *pixels);
   else
     m.backend.on_frame(sensor, frame);
-  m.arrive(sensor, frame);
+  const TimePoint now = m.clock.now();
+  if (now >= m.scenario.warmup) m.pushed_offered.fetch_add(1, std::memory_order_relaxed);
+  m.arrive(sensor, frame, now);
   return true;
 }
 

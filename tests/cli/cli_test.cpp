@@ -346,6 +346,48 @@ TEST_F(Cli, RealComparePredictsFromTheProfileAndFromTheRunsOwnCosts) {
   EXPECT_FALSE(contains(plain.out, own_costs)) << plain.out;
 }
 
+// A device that is asked for and is not there is an error naming it (exit 2), before
+// anything runs: never a silent run somewhere else.
+TEST_F(Cli, ADeviceThatIsNotThereIsAnErrorNeverACpuRun) {
+  const std::string tiny = quote(data("tiny.yaml"));
+  expect_bad_input("compare " + tiny + " --device cuda", "--device cuda: the sim backend");
+  expect_bad_input("run " + tiny + " --backend synthetic --device cuda:1",
+                   "--device cuda:1: the synthetic backend");
+  expect_bad_input("compare " + tiny + " --backend synthetic --policies edf --device gpu",
+                   "--device gpu");
+}
+
+// A real run says how many frames its sensors offered, how many it released and how late:
+// in summary.json (frames) and in a table after the comparison.
+TEST_F(Cli, RealRunCountsFramesOfferedAndReleased) {
+  const fs::path out = dir_ / "frames";
+  const RunResult r = red("compare " + scenario("case-async.yaml") +
+                              " --backend synthetic --no-realtime --set duration_s=2 "
+                              "--policies edf,red --out " +
+                              quote(out.string()),
+                          "timeout 300");
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "late p99 ms")) << r.out;
+  const json j = json::parse(read_text(out / "summary.json"));
+  for (const json& p : j.at("policies")) {
+    SCOPED_TRACE(p.at("name").get<std::string>());
+    const json& f = p.at("frames");
+    EXPECT_GT(f.at("offered").get<std::int64_t>(), 0);
+    EXPECT_LE(f.at("released").get<std::int64_t>(), f.at("offered").get<std::int64_t>());
+    EXPECT_LE(f.at("released_late_ms").at("p50").get<double>(),
+              f.at("released_late_ms").at("p99").get<double>());
+    EXPECT_LE(f.at("behind_a_period").get<std::int64_t>(), f.at("released").get<std::int64_t>());
+  }
+  // Both policies were offered the same frames: the workload is the scenario's, not the run's.
+  EXPECT_EQ(j.at("policies")[0].at("frames").at("offered"),
+            j.at("policies")[1].at("frames").at("offered"));
+  // A simulation has no such figures (it releases every frame at its capture time).
+  const fs::path sim = dir_ / "frames-sim";
+  ASSERT_EQ(red("simulate " + quote(data("tiny.yaml")) + " --out " + quote(sim.string())).code, 0);
+  EXPECT_FALSE(json::parse(read_text(sim / "summary.json")).at("policies")[0].contains("frames"));
+}
+
 // Plain nodes cost what the scenario says: there is nothing to fit from the run's units, so
 // the run still succeeds with the prediction from the profile alone.
 TEST_F(Cli, RealCompareOfPlainNodesHasNoPredictionFromTheRunsCosts) {

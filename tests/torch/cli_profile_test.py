@@ -49,9 +49,26 @@ def main():
     check(len(units["encoder"]) == 2 and len(units["coarse/lane"]) == 1,
           "encoder and heads at batch 1..2, coarse at batch 1")
     check(all(e["samples"] == 2 for u in units.values() for e in u), "samples = runs")
+    m = doc["measurement"]
+    check(m["timing"] == "host wall clock" and m["warmup_min"] == 0 and m["device_warmup_s"] == 0,
+          "how the units were timed and warmed is recorded", json.dumps(m))
     mem = doc["memory"]
     check(mem["separate"]["parameter_bytes"] > mem["shared"]["parameter_bytes"] > 0,
           "memory figures for shared and separate")
+
+    # Warm-up until stable: at least --warmup untimed runs per unit and batch size, recorded.
+    warm_json = os.path.join(scratch, "warm.json")
+    rc, out, err = run(red, "--input", "3,32,64", "--heads", "lane", "--no-separate", "--runs",
+                       "6", "--warmup", "2", "--max-batch", "2", "--quiet", "--out", warm_json)
+    check(rc == 0, "profile with a warm-up (exit 0)", out, err)
+    with open(warm_json) as f:
+        warm = json.load(f)
+    check(all(e["warmup_runs"] >= 2 and e["samples"] == 6 for u in warm["units"].values()
+              for e in u), "each unit and batch size warmed at least --warmup runs",
+          json.dumps(warm["units"])[:400])
+    wm = warm["measurement"]
+    check(wm["warmup_min"] == 2 and wm["window"] == 2 and wm["warmup_max"] >= 2 and
+          0 <= wm["unstable"] <= 5, "the warm-up rule is recorded", json.dumps(wm))
 
     rc, out, err = run(red, "--input", "3,32,64", "--no-separate", "--runs", "1", "--warmup",
                        "0", "--max-batch", "1", "--quiet")
@@ -133,6 +150,26 @@ def main():
           "--calibrate-rounds", "3"], "at least 1 s of the 2 s of --calibrate-s (got 3)"),
         (["--from", os.path.join(scratch, "missing.json"), "--calibrate", scenario], "missing.json"),
     ]
+    # The calibration runs where it is told to, or where the profile was measured: a device
+    # that is not there is an error naming it, never a calibration on the CPU (it once ran
+    # every "CUDA" calibration on the CPU and exited 0).
+    with open(out_json) as f:
+        gpu_doc = json.load(f)
+    gpu_doc["device"] = "cuda:0"
+    gpu_profile = os.path.join(scratch, "gpu-profile.json")
+    with open(gpu_profile, "w") as f:
+        json.dump(gpu_doc, f)
+    has_cuda = subprocess.run([sys.executable, "-c",
+                               "import torch, sys; sys.exit(0 if torch.cuda.is_available() else 1)"],
+                              capture_output=True).returncode == 0
+    # A CPU profile calibrated on a GPU mixes devices; without a GPU, the GPU is not there.
+    bad.append((["--from", out_json, "--calibrate", scenario, "--device", "cuda"], "cuda"))
+    if not has_cuda:
+        bad.append((["--from", gpu_profile, "--calibrate", scenario], "cuda"))
+        bad.append((["--device", "cuda", "--input", "3,32,64"], "'cuda'"))
+    else:
+        bad.append((["--from", gpu_profile, "--calibrate", scenario, "--device", "cpu"],
+                    "measured on cuda:0"))
     for args, message in bad:
         rc, out, err = run(red, *args)
         check(rc == 2 and message in err, f"bad input {args} -> exit 2 naming the problem", out,

@@ -362,10 +362,7 @@ void register_node(CLI::App& app, int& exit_code) {
                   "torch (real inference) or synthetic (spends profiled unit times)")
       ->check(CLI::IsMember({"torch", "synthetic"}))
       ->capture_default_str();
-  cmd->add_option("--device", a->real.device, "LibTorch device: cpu, cuda, cuda:N")
-      ->capture_default_str();
-  cmd->add_option("--threads", a->real.threads, "LibTorch intra-op threads per lane")
-      ->check(CLI::NonNegativeNumber);
+  add_device_options(cmd, a->real);
   cmd->add_flag("--realtime", a->realtime, "Try SCHED_FIFO, CPU affinity and mlockall");
   cmd->add_option("--watchdog-x", a->real.watchdog_x,
                   "Fail a unit still running after this many times its profiled p99 with the "

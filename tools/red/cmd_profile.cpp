@@ -48,10 +48,12 @@ struct ProfileArgs {
   std::string model = "builtin";
   std::string heads;
   std::string input = "3,192,384";
-  std::string device = "cpu";
+  /// cpu, cuda or cuda:N; unset: cpu, or with --from the device that profile was measured on
+  std::optional<std::string> device;
   int threads = -1;  // -1: every hardware thread
   int runs = torchb::ProfileOptions{}.runs;
   int warmup = torchb::ProfileOptions{}.warmup;
+  int warmup_max = torchb::ProfileOptions{}.warmup_max;
   int max_batch = torchb::ProfileOptions{}.max_batch;
   int coarse_max_batch = torchb::ProfileOptions{}.coarse_max_batch;
   std::uint64_t seed = 1;
@@ -108,7 +110,7 @@ Expected<torchb::ModelOptions> model_options(const ProfileArgs& a) {
   auto shape = parse_shape(a.input);
   if (!shape) return shape.error();
   m.input = *shape;
-  m.device = a.device;
+  m.device = a.device.value_or("cpu");
   if (a.threads < -1) return Error{"", 0, "--threads must be >= 0"};
   m.threads = a.threads >= 0 ? a.threads : static_cast<int>(std::thread::hardware_concurrency());
   m.seed = a.seed;
@@ -185,6 +187,21 @@ void print_table(const Profile& p, const std::vector<std::string>& heads) {
           model_bytes(*p.shared_memory) / sep);
     }
   }
+  if (p.measurement) {
+    const Measurement& m = *p.measurement;
+    fmt::print(
+        "timed by {}; warm-up: at least {} run(s) per unit and batch size, more until the "
+        "first {} timed are within {:.0f} % of the rest (at most {}){}\n",
+        m.timing, m.warmup_min, m.window, 100 * m.tolerance, m.warmup_max,
+        m.device_warmup_s > 0
+            ? fmt::format("; the device kept busy {:.1f} s first", m.device_warmup_s)
+            : std::string());
+    if (m.unstable > 0)
+      std::cerr << fmt::format(
+          "red profile: warning: {} unit/batch size pair(s) were still getting faster after {} "
+          "warm-up runs: their figures may be high (a busy or throttling machine?)\n",
+          m.unstable, m.warmup_max);
+  }
   fmt::print("profiled in {:.1f} s\n", p.profile_wall_s);
 }
 
@@ -201,6 +218,14 @@ Expected<std::vector<CalibrationRun> > read_units_csv(const std::string& dir, co
   for (auto& [policy, units] : *rows)
     runs.push_back(CalibrationRun{policy, std::move(units), {}, false});
   return runs;
+}
+
+/// The device the calibration's real runs use: --device, else (with --from) the device the
+/// profile was measured on, else cpu.
+std::string calibration_device(const ProfileArgs& a, const Profile& isolated) {
+  if (a.device) return *a.device;
+  const std::string measured_on = profile_device(isolated);
+  return measured_on.empty() ? "cpu" : measured_on;
 }
 
 /// Plays the scenario for real with each calibration policy on the measured profile and fits
@@ -248,9 +273,22 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
   // units being slow (docs/FIDELITY.md): in turns spread over the calibration, every
   // policy meets the machine's slow and fast stretches alike.
   s->duration = s->warmup + from_ms(1000.0 * a.calibrate_s / rounds);
+  // The calibration's runs are made where the profile was measured: the same device (a
+  // profile of a GPU calibrated on the CPU would say the GPU's units cost the CPU's times)
+  // and the same threads when they were given.
   RealRunOptions real;
   real.seed = s->seed;
   real.keep_units = true;
+  real.device = calibration_device(a, isolated);
+  real.threads = a.threads > 0 ? a.threads : 0;
+  if (auto e = check_device(real)) return *e;
+  const std::string measured_on = profile_device(isolated);
+  const auto kind = [](const std::string& d) { return d.substr(0, d.find(':')); };
+  if (!measured_on.empty() && kind(measured_on) != kind(real.device))
+    return Error{a.from, 0,
+                 "the profile was measured on " + measured_on + "; calibrating it on " +
+                     real.device + " would mix two devices' costs (--device " + measured_on +
+                     ", or measure a profile on " + real.device + ")"};
   auto backend = make_backend(*s, isolated, real);
   if (!backend) return backend.error();
   code = kRunFailure;
@@ -328,13 +366,14 @@ int run_profile(const ProfileArgs& a) {
   torchb::ProfileOptions o;
   o.runs = a.runs;
   o.warmup = a.warmup;
+  o.warmup_max = a.warmup_max;
   o.max_batch = a.max_batch;
   o.coarse_max_batch = a.coarse_max_batch;
   o.separate = !a.no_separate;
-  if (o.runs < 1 || o.warmup < 0 || o.max_batch < 1 || o.coarse_max_batch < 1) {
+  if (o.runs < 1 || o.warmup < 0 || o.warmup_max < 0 || o.max_batch < 1 || o.coarse_max_batch < 1) {
     print_error(Error{"", 0,
-                      "need --runs >= 1, --warmup >= 0, --max-batch >= 1 and "
-                      "--coarse-max-batch >= 1"});
+                      "need --runs >= 1, --warmup >= 0, --warmup-max >= 0, --max-batch >= 1 "
+                      "and --coarse-max-batch >= 1"});
     return kBadInput;
   }
   std::vector<std::string> heads;
@@ -385,12 +424,20 @@ void register_profile(CLI::App& app, int& exit_code) {
                   "Heads to profile, e.g. lane,seg,steer,det (default: all)");
   cmd->add_option("--input", args->input, "Input C,H,W of the built-in model")
       ->capture_default_str();
-  cmd->add_option("--device", args->device, "cpu, cuda or cuda:N")->capture_default_str();
+  cmd->add_option("--device", args->device,
+                  "cpu, cuda or cuda:N (default: cpu; with --from, the device that profile was "
+                  "measured on). A device that is not there is an error, never a CPU run");
   cmd->add_option("--threads", args->threads,
                   "LibTorch intra-op threads (default: every hardware thread; 0: LibTorch's own)");
   cmd->add_option("--runs", args->runs, "Timed runs per unit and batch size")
       ->capture_default_str();
-  cmd->add_option("--warmup", args->warmup, "Untimed runs first")->capture_default_str();
+  cmd->add_option("--warmup", args->warmup,
+                  "Untimed runs at least per unit and batch size; more until its time is stable "
+                  "(0: none)")
+      ->capture_default_str();
+  cmd->add_option("--warmup-max", args->warmup_max,
+                  "Untimed runs at most per unit and batch size (then timed even if not stable)")
+      ->capture_default_str();
   cmd->add_option("--max-batch", args->max_batch, "Encoder and heads at batch sizes 1..B")
       ->capture_default_str();
   cmd->add_option("--coarse-max-batch", args->coarse_max_batch,

@@ -197,6 +197,15 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
 // random numbers, §10); on a real backend the same releases. Returns the exit code.
 int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool table) {
   install_stop_signals();
+  {
+    // The device first: a device that is not there is an error, never a CPU run.
+    RealRunOptions asked = a.real;
+    asked.backend = a.backend;
+    if (auto e = check_device(asked)) {
+      print_error(*e);
+      return kBadInput;
+    }
+  }
   auto s = load(a.scenario);
   if (!s) {
     print_error(s.error());
@@ -340,6 +349,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       handoffs.push_back(std::move(report.handoff_us));
       report.handoff_us = {};
       report.frame_release_us = {};
+      report.release_late_us = {};
       reports.push_back(std::move(report));
     }
     if (traces.back() && traces.back()->truncated())
@@ -373,6 +383,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
              s->name, sim ? "sim" : backend->name(), seed, p->source, s->device.lanes,
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
+  fmt::print("{}", releases_table(metrics));
   std::string prediction;
   std::vector<HtmlTable> prediction_html;
   if (!sim && stop_signal() == 0)
@@ -469,11 +480,7 @@ void add_common(CLI::App* cmd, RunArgs& a) {
 
 // Options of the real backends (compare --backend torch, run).
 void add_real(CLI::App* cmd, RunArgs& a) {
-  cmd->add_option("--device", a.real.device, "LibTorch device: cpu, cuda, cuda:N")
-      ->capture_default_str();
-  cmd->add_option("--threads", a.real.threads,
-                  "LibTorch intra-op threads per lane (0: hardware threads / lanes)")
-      ->check(CLI::NonNegativeNumber);
+  add_device_options(cmd, a.real);
   cmd->add_flag("--no-realtime", a.no_realtime, "Do not try SCHED_FIFO, CPU affinity, mlockall");
   cmd->add_option("--watchdog-x", a.real.watchdog_x,
                   "Fail a unit running past this many times its profiled p99 with the reason "

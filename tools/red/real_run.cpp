@@ -22,13 +22,57 @@
 #include "signals.hpp"
 
 #ifdef RED_HAVE_TORCH
+#include "red/torch/model.hpp"
 #include "red/torch/torch_backend.hpp"
 #endif
 
 namespace red::cli {
 
+void add_device_options(CLI::App* cmd, RealRunOptions& o) {
+  cmd->add_option("--device", o.device,
+                  "Where the torch backend runs: cpu, cuda or cuda:N (no fallback: a device "
+                  "that is not there is an error)")
+      ->capture_default_str();
+  cmd->add_option("--threads", o.threads,
+                  "LibTorch intra-op threads per lane (0: the hardware threads shared among "
+                  "the lanes)")
+      ->check(CLI::NonNegativeNumber);
+}
+
+std::optional<Error> check_device(const RealRunOptions& o) {
+  if (o.device == "cpu") return std::nullopt;
+  if (o.backend != "torch")
+    return Error{"", 0,
+                 "--device " + o.device + ": the " + o.backend +
+                     " backend has no device (it runs on the CPU); --device is for --backend "
+                     "torch"};
+#ifdef RED_HAVE_TORCH
+  if (auto d = torchb::parse_device(o.device); !d) return d.error();
+  return std::nullopt;
+#else
+  return Error{"", 0,
+               "--device " + o.device +
+                   ": this red was built without LibTorch (install libtorch-dev, or build "
+                   "against a CUDA LibTorch: docs/GPU.md)"};
+#endif
+}
+
+std::string profile_device(const Profile& p) {
+  if (p.source != "measured") return {};
+  return p.device.substr(0, p.device.find(' '));
+}
+
 Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile& p,
                                                 const RealRunOptions& o) {
+  if (auto e = check_device(o)) return *e;
+  // A profile of another kind of device (a CPU profile for a GPU run, or the reverse) puts
+  // the scheduler's estimates and the watchdog's limits off by a device's factor.
+  const std::string measured_on = profile_device(p);
+  const auto kind = [](const std::string& d) { return d.substr(0, d.find(':')); };
+  if (o.backend == "torch" && !measured_on.empty() && kind(measured_on) != kind(o.device))
+    std::cerr << "red: warning: the profile was measured on " << measured_on << ", this run is on "
+              << o.device << ": its unit costs are another device's (red profile --device "
+              << o.device << ")\n";
   if (o.backend == "synthetic") {
     SyntheticBackend::Options so;
     so.spin = true;  // occupy the lane's core like real compute does
@@ -77,6 +121,22 @@ class MeasuringNotice final : public Observer {
   bool said_ = false;
 };
 
+double round_us_to_ms(double us) {
+  return std::round(us) / 1000;
+}
+
+// The frames a run's sensors offered and released, and how late (RuntimeReport).
+PolicyMetrics::Releases releases_of(const RuntimeReport& r) {
+  PolicyMetrics::Releases out;
+  out.offered = static_cast<std::int64_t>(r.frames_offered);
+  out.released = static_cast<std::int64_t>(r.frames_released);
+  out.behind = static_cast<std::int64_t>(r.frames_behind);
+  out.late_p50_ms = round_us_to_ms(percentile(r.release_late_us, 0.5));
+  out.late_p99_ms = round_us_to_ms(percentile(r.release_late_us, 0.99));
+  out.late_max_ms = round_us_to_ms(percentile(r.release_late_us, 1.0));
+  return out;
+}
+
 }  // namespace
 
 Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::string& policy,
@@ -114,6 +174,8 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   std::int64_t peak = 0;
   for (const RuntimeSample& x : report.samples) peak = std::max(peak, x.rss_bytes);
   if (peak > 0) run.metrics.peak_rss_mb = std::round(static_cast<double>(peak) / 1e5) / 10;
+  run.metrics.releases = releases_of(report);
+  if (auto w = releases_warning(run.metrics)) std::cerr << "red: warning: " << *w << '\n';
   run.jobs = metrics.take_jobs();
   run.units = metrics.take_units();
   run.result.end = report.end;

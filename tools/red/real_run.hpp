@@ -2,6 +2,8 @@
 /// \file
 /// Real runs (`red run`, `red compare --backend torch`): the runtime on a real backend.
 
+#include <CLI/CLI.hpp>
+
 #include <memory>
 #include <optional>
 #include <string>
@@ -33,7 +35,24 @@ struct RealRunOptions {
   RowSink* rows = nullptr;  ///< gets every row as it is made (a streamed jobs.csv, units.csv)
 };
 
-/// A backend by name for the scenario; Error when unknown or when it cannot load.
+/// Registers --device and --threads on a command that makes a backend (run, compare, node),
+/// with one wording everywhere.
+void add_device_options(CLI::App* cmd, RealRunOptions& o);
+
+/// Whether the device `o` asks for is there for its backend in this build: cpu always;
+/// cuda and cuda:N only for the torch backend, with a LibTorch that has CUDA and sees that
+/// GPU. Checked before anything is measured; Error (exit 2) names the device otherwise.
+/// Nothing falls back to the CPU.
+std::optional<Error> check_device(const RealRunOptions& o);
+
+/// The device a measured profile was taken on ("cpu", "cuda:0"), read from Profile::device;
+/// empty for the built-in default.
+std::string profile_device(const Profile& p);
+
+/// The one place a real backend is made (run, compare, node, profile --calibrate): the
+/// device checked first (check_device), the threads shared among the lanes, a warning on
+/// stderr when `p` was measured on another kind of device. Error when unknown or when it
+/// cannot load.
 Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile& p,
                                                 const RealRunOptions& o);
 

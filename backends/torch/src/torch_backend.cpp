@@ -15,6 +15,7 @@
 #include <optional>
 #include <stdexcept>
 #include <utility>
+#include <vector>
 
 #include "red/core/rng.hpp"
 #include "red/torch/model.hpp"
@@ -110,6 +111,7 @@ class TorchBackend final : public Backend {
   void warm_up(int /*lane*/) noexcept override {
     try {
       c10::InferenceMode guard;
+      if (!scenario_.sensors.empty()) (void)synthetic_frame(0, 0);  // the frame pool, once
       const int largest = std::max(1, scenario_.scheduler.max_batch);
       for (int batch = 1; batch <= largest; ++batch) {
         const at::Tensor input = model_->make_input(batch, scenario_.seed);
@@ -135,13 +137,13 @@ class TorchBackend final : public Backend {
     features_.clear();
   }
 
+  // A synthetic camera frame: one of the sensor's pool of frames made before the run, on the
+  // model's device (deterministic pixels for (sensor, frame)). Releasing a frame then makes
+  // no tensor and copies nothing to the device on the camera's thread, so the camera never
+  // waits for device work (a GPU's queue) and keeps the sensors' rates at any load.
   void on_frame(int sensor, std::uint64_t frame) override {
-    c10::InferenceMode guard;
-    // A synthetic camera frame: deterministic pixels for (sensor, frame), in memory.
-    const std::uint64_t seed =
-        hash_combine(hash_combine(scenario_.seed, static_cast<std::uint64_t>(sensor)), frame);
     auto input = std::make_shared<FrameInput>();
-    input->tensor = model_->make_input(1, seed);
+    input->tensor = synthetic_frame(sensor, frame);
     frames_.put(sensor, frame, std::move(input));
   }
 
@@ -191,6 +193,18 @@ class TorchBackend final : public Backend {
             .div_(255.0);
     if (px.channels != in[0]) t = t.mean(0, true).expand({in[0], in[1], in[2]});
     return t.unsqueeze(0).contiguous().to(model_->device());
+  }
+
+  at::Tensor synthetic_frame(int sensor, std::uint64_t frame) {
+    std::call_once(pool_once_, [this] {
+      c10::InferenceMode guard;
+      pool_.resize(scenario_.sensors.size());
+      for (std::size_t s = 0; s < pool_.size(); ++s)
+        for (std::uint64_t i = 0; i < kPoolFrames; ++i)
+          pool_[s].push_back(model_->make_input(
+              1, hash_combine(hash_combine(scenario_.seed, static_cast<std::uint64_t>(s)), i)));
+    });
+    return pool_[static_cast<std::size_t>(sensor)][frame % kPoolFrames];
   }
 
   at::Tensor frame(int sensor, std::uint64_t id) const {
@@ -308,6 +322,9 @@ class TorchBackend final : public Backend {
   std::unique_ptr<Model> model_;
   std::vector<int> head_map_;  // scenario head index -> model head index
   std::string name_;
+  static constexpr std::uint64_t kPoolFrames = 4;  // synthetic frames per sensor
+  std::once_flag pool_once_;
+  std::vector<std::vector<at::Tensor>> pool_;  // per sensor, made once (synthetic_frame)
   Window<std::shared_ptr<FrameInput>> frames_;
   Window<Features> features_;
   thread_local static at::Tensor last_;  // keeps the latest output alive until the next

@@ -82,6 +82,15 @@ struct PolicyMetrics {
   std::map<std::string, std::int64_t> failure_reasons;
   /// Runtime only: the process's peak resident set while the run was sampled (MB).
   std::optional<double> peak_rss_mb;
+  /// Runtime only: the sensors' frames in the measured window, offered and released, and
+  /// how late they were released (release - nominal capture time). The simulator releases
+  /// every frame at its capture time.
+  struct Releases {
+    std::int64_t offered = 0, released = 0;
+    std::int64_t behind = 0;  ///< released later than one period of their sensor
+    double late_p50_ms = 0, late_p99_ms = 0, late_max_ms = 0;
+  };
+  std::optional<Releases> releases;
   /// Set when the latency and frame-age percentiles are estimates (more completed jobs than
   /// BoundedDistribution keeps exactly): the relative error of each percentile.
   std::optional<double> percentile_error;

@@ -61,6 +61,14 @@ std::string units_csv(const Scenario& s, const std::vector<PolicyRows<UnitRow>>&
 std::string comparison_table(const std::vector<PolicyMetrics>& policies,
                              const std::string& baseline);
 
+/// Real runs: the frames each policy's sensors offered and the run released, and how late
+/// (release - nominal capture time); empty when no policy has those figures (simulations).
+std::string releases_table(const std::vector<PolicyMetrics>& policies);
+
+/// A sentence saying that a real run's releases fell behind its sensors (frames offered but
+/// never released, or released more than a period late), or nullopt when they kept up.
+std::optional<std::string> releases_warning(const PolicyMetrics& m);
+
 /// Writes `text` to `dir/name`, creating `dir`. Error names the path.
 std::optional<Error> write_file(const std::string& dir, const std::string& name,
                                 const std::string& text);

@@ -91,6 +91,16 @@ struct RuntimeReport {
   std::vector<double> decision_us;    ///< time of scheduling decisions (dispatch()), sampled
   std::vector<double> handoff_us;  ///< unit completion -> next unit started on that lane, sampled
   std::vector<double> frame_release_us;  ///< external frame pushed -> handed to the scheduler
+  /// Frames in the measured window (capture time after the warm-up, before releases ended):
+  /// offered by the sensors (the camera's nominal capture times, or the frames pushed), and
+  /// released to the scheduler. Fewer released than offered: the run fell behind its sensors
+  /// and the rest were never released (docs/REPORTS.md, "Frames offered and released").
+  std::uint64_t frames_offered = 0;
+  std::uint64_t frames_released = 0;
+  /// Of the released frames: release - nominal capture time (pushed frames: - arrival), one
+  /// per frame, in μs; and how many came later than one period of their sensor.
+  std::vector<double> release_late_us;
+  std::uint64_t frames_behind = 0;
   /// Frames released by the thread that brought them (camera, push_frame) because the
   /// scheduler's lock was free, without waking the global synchronizer.
   std::uint64_t direct_releases = 0;
