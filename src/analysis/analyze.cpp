@@ -371,7 +371,7 @@ std::string analysis_json(const Analysis& a) {
   }
   j["response_bound"] = rj;
   j["wall_s"] = a.wall_s;
-  return j.dump(2) + "\n";
+  return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
 HtmlTable verdict_html_table(const std::vector<Analysis>& per_policy) {

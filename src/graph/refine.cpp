@@ -125,7 +125,10 @@ Duration coarse_critical_path(const OperationSpec& op, const CostModel& costs) {
 Duration resolve_deadline(const OperationSpec& op, const CostModel& costs) {
   if (op.deadline.critical_path_x) {
     const double cp = static_cast<double>(coarse_critical_path(op, costs).count());
-    return Duration{static_cast<std::int64_t>(cp * *op.deadline.critical_path_x)};
+    // Within [1 us, 1e18 ns], as a fixed deadline is (the loader bounds the factor; a
+    // profile's costs could still make the product overflow).
+    return Duration{
+        static_cast<std::int64_t>(std::clamp(cp * *op.deadline.critical_path_x, 1e3, 1e18))};
   }
   return op.deadline.fixed;
 }

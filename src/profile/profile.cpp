@@ -219,20 +219,27 @@ void only_keys(const json& obj, std::initializer_list<const char*> allowed,
   }
 }
 
+// A value as an error message shows it: its JSON, cut to a line (a value may be megabytes).
+std::string shown(const json& v) {
+  std::string text = v.dump(-1, ' ', false, json::error_handler_t::replace);
+  if (text.size() > 60) text = text.substr(0, 57) + "...";
+  return text;
+}
+
 double num(const json& v, const std::string& where) {
-  if (!v.is_number()) bad(where + ": must be a number, got " + v.dump());
+  if (!v.is_number()) bad(where + ": must be a number, got " + shown(v));
   const double x = v.get<double>();
-  if (!std::isfinite(x) || x < 0.0) bad(where + ": must be a finite number >= 0, got " + v.dump());
+  if (!std::isfinite(x) || x < 0.0) bad(where + ": must be a finite number >= 0, got " + shown(v));
   return x;
 }
 
 std::int64_t whole(const json& v, const std::string& where) {
-  if (!v.is_number_integer()) bad(where + ": must be an integer, got " + v.dump());
+  if (!v.is_number_integer()) bad(where + ": must be an integer, got " + shown(v));
   return v.get<std::int64_t>();
 }
 
 std::string str(const json& v, const std::string& where) {
-  if (!v.is_string()) bad(where + ": must be a string, got " + v.dump());
+  if (!v.is_string()) bad(where + ": must be a string, got " + shown(v));
   return v.get<std::string>();
 }
 
@@ -371,7 +378,7 @@ Calibration parse_calibration(const json& c) {
     out.clear();
     for (const json& x : v) {
       const double f = num(x, at);
-      if (f < 0.05 || f > 20.0) bad(at + ": factors must lie in [0.05, 20], got " + x.dump());
+      if (f < 0.05 || f > 20.0) bad(at + ": factors must lie in [0.05, 20], got " + shown(x));
       out.push_back(f);
     }
   };
@@ -433,9 +440,37 @@ int line_of_byte(const std::string& text, std::size_t byte) {
 }  // namespace
 
 Expected<Profile> parse_profile(const std::string& text, const std::string& file) {
+  // Deep nesting would exhaust the parser's stack (it recurses): refused before parsing.
+  if (auto e = check_json_depth(text, file)) return *e;
   json doc;
+  // A key given twice in one object: JSON parsers keep one of the two silently.
+  std::vector<std::set<std::string>> keys;
+  std::string duplicate;
+  const json::parser_callback_t note_keys = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) {
+      keys.emplace_back();
+    } else if (event == json::parse_event_t::object_end) {
+      if (!keys.empty()) keys.pop_back();
+    } else if (event == json::parse_event_t::key && !keys.empty() && duplicate.empty() &&
+               !keys.back().insert(parsed.get<std::string>()).second) {
+      duplicate = parsed.get<std::string>();
+    }
+    return true;
+  };
   try {
-    doc = json::parse(text);
+    doc = json::parse(text, note_keys);
+    if (!duplicate.empty()) {
+      // The line of the key's second appearance in the text.
+      const std::string quoted = json(duplicate).dump();
+      const std::size_t first = text.find(quoted);
+      const std::size_t second =
+          first == std::string::npos ? first : text.find(quoted, first + quoted.size());
+      const std::size_t at = second == std::string::npos ? 0 : second;
+      const int line = 1 + static_cast<int>(std::count(
+                               text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+      return Error{file, second == std::string::npos ? 0 : line,
+                   "duplicate key " + quoted + " (an object names each key once)"};
+    }
   } catch (const json::parse_error& e) {
     // nlohmann's message is "[json.exception.parse_error.101] parse error at line L, column
     // C: what"; the Error carries the line itself, so only "what" is kept.
@@ -443,9 +478,13 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
     if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
     if (what.rfind("parse error", 0) == 0)
       if (const auto p = what.find(": "); p != std::string::npos) what = what.substr(p + 2);
+    // The parser quotes what it last read, which may be megabytes of one token.
+    if (what.size() > 200) what = what.substr(0, 197) + "...";
     return Error{file, line_of_byte(text, e.byte), "JSON syntax error: " + what};
   } catch (const std::exception& e) {
-    return Error{file, 0, std::string("cannot parse the profile: ") + e.what()};
+    std::string what = e.what();  // may quote a whole token (number overflow parsing '…')
+    if (what.size() > 200) what = what.substr(0, 197) + "...";
+    return Error{file, 0, "cannot parse the profile: " + what};
   }
   try {
     if (!doc.is_object()) bad("a profile must be a JSON object");
@@ -455,7 +494,7 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
               "profile");
     const json& schema = need(doc, "schema", "profile");
     if (!schema.is_number_integer() || schema.get<std::int64_t>() != Profile::kSchema)
-      bad(fmt::format("unsupported profile schema {} (this build reads schema {})", schema.dump(),
+      bad(fmt::format("unsupported profile schema {} (this build reads schema {})", shown(schema),
                       Profile::kSchema));
     Profile p;
     if (doc.contains("source")) p.source = str(doc["source"], "source");

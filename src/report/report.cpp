@@ -132,7 +132,7 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
     if (i < phases.size()) p["phases"] = phases_json(phases[i]);
     j["policies"].push_back(std::move(p));
   }
-  return j.dump(2) + "\n";
+  return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
 std::string jobs_csv_header() {

@@ -22,6 +22,7 @@
 #include <initializer_list>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <sstream>
 #include <string_view>
 #include <utility>
@@ -164,6 +165,21 @@ double positive(const Val& v) {
 
 // Rates must give a period that fits the nanosecond timeline with room to spare:
 // between one frame a day and a million frames a second.
+// A deadline is at least 1 us (less rounds towards nothing a clock can tell apart) and at
+// most 1e12 ms; critical_path_x within [1e-3, 1e6] (beyond, the product with a critical
+// path overflows or vanishes).
+constexpr Duration kMinDeadline = std::chrono::microseconds{1};
+// How large a workload may be (docs/SCENARIOS.md, "Limits"): beyond, a run's memory (about
+// 0.6 KB per job in the simulator) or its threads (one per lane) would exceed a machine's.
+constexpr std::int64_t kMaxLanes = 256;
+constexpr std::int64_t kMaxReleaseCount = 1'000'000;
+constexpr double kMaxReleases = 1e7;  // jobs over the whole run, every operation
+constexpr std::size_t kMaxOperations = 100'000;
+constexpr std::size_t kMaxNodes = 1'000'000;  // nodes over every operation's definitions
+
+std::optional<Error> check_size(const Scenario& s);
+constexpr double kMinCriticalPathX = 1e-3;
+constexpr double kMaxCriticalPathX = 1e6;
 constexpr double kMinRateHz = 1.0 / 86400.0;
 constexpr double kMaxRateHz = 1e6;
 
@@ -328,6 +344,8 @@ class Loader {
   void add_nodes(OperationSpec& op, const Val& v) const;
   std::vector<ReadEdge> read_edges(const OperationSpec& op, const Val& v) const;
   DeadlineSpec parse_deadline(const Val& v) const;
+  /// A fixed deadline in ms (deadline_ms), within [1 us, 1e12 ms].
+  Duration deadline_value(const Val& v) const;
   void check_graph(const OperationSpec& op, const std::vector<ReadEdge>& edges,
                    int fallback_line) const;
   int active_index(const std::string& name) const;
@@ -352,7 +370,7 @@ std::string Loader::resolve_path(const std::string& p) const {
 
 void Loader::parse_device(const Val& v) {
   const Fields f(v, {"lanes", "sync_cost_us"});
-  if (const Val* x = f.get("lanes")) s_.device.lanes = small_int(*x, 1);
+  if (const Val* x = f.get("lanes")) s_.device.lanes = static_cast<int>(integer(*x, 1, kMaxLanes));
   if (const Val* x = f.get("sync_cost_us")) {
     const double us = non_negative(*x);
     s_.device.sync_cost = ms_value(*x, us / 1e3);
@@ -484,10 +502,23 @@ DeadlineSpec Loader::parse_deadline(const Val& v) const {
   DeadlineSpec d;
   if (v.node.IsMap()) {
     const Fields f(v, {"critical_path_x"});
-    d.critical_path_x = positive(f.need("critical_path_x"));
+    const Val& x = f.need("critical_path_x");
+    d.critical_path_x = positive(x);
+    if (*d.critical_path_x < kMinCriticalPathX || *d.critical_path_x > kMaxCriticalPathX)
+      fail(x.line, at(x.what) +
+                       fmt::format("must lie in [{:g}, {:g}] (times the critical path)",
+                                   kMinCriticalPathX, kMaxCriticalPathX) +
+                       got(x.node));
   } else {
-    d.fixed = ms_value(v, positive(v));
+    d.fixed = deadline_value(v);
   }
+  return d;
+}
+
+Duration Loader::deadline_value(const Val& v) const {
+  const Duration d = ms_value(v, positive(v));
+  if (d < kMinDeadline)
+    fail(v.line, at(v.what) + "is too small: a deadline is at least 0.001 ms (1 us)" + got(v.node));
   return d;
 }
 
@@ -535,7 +566,7 @@ NodeSpec Loader::parse_node(const Entry& entry) const {
     fail(line,
          at(v.what) + "needs head and sensor (an inference node) or cost_ms / cost (a plain task)");
   }
-  if (const Val* d = f.get("deadline_ms")) n.deadline = ms_value(*d, positive(*d));
+  if (const Val* d = f.get("deadline_ms")) n.deadline = deadline_value(*d);
   return n;
 }
 
@@ -608,7 +639,7 @@ Loader::Parsed Loader::parse_operation(const Val& v, const std::string& named_ba
   if (rate) op.rate_hz = red::rate(*rate);
   if (release) {
     const Fields r(*release, {"count"});
-    op.release_count = small_int(r.need("count"), 1);
+    op.release_count = static_cast<int>(integer(r.need("count"), 1, kMaxReleaseCount));
   }
   if (!trigger && !rate && !release)
     fail(f.line(),
@@ -901,6 +932,7 @@ Scenario Loader::run(const YAML::Node& root) {
   }
   if (const Val* x = top.get("events")) parse_events(*x);
   s_.initial.resize(s_.names_.size());  // operations added by events start absent
+  if (auto e = check_size(s_)) fail(0, e->message);
   return std::move(s_);
 }
 
@@ -908,7 +940,7 @@ Scenario Loader::run(const YAML::Node& root) {
 
 std::optional<Duration> scaled(Duration d, double factor) {
   const double x = static_cast<double>(d.count()) * factor;
-  if (!(x < 9e18)) return std::nullopt;
+  if (!(x <= 1e18)) return std::nullopt;
   return Duration{static_cast<std::int64_t>(std::llround(x))};
 }
 
@@ -936,13 +968,69 @@ bool rewrite_operations(Scenario& s, Edit edit) {
   return true;
 }
 
+/// nullopt when the workload is within the limits (kMax*); else why not. The jobs a run
+/// releases are bounded by each operation's highest rate (its own, or its trigger sensor's
+/// over every rate change) times the duration, or its release count.
+std::optional<Error> check_size(const Scenario& s) {
+  if (s.initial.size() > kMaxOperations)
+    return Error{s.file, 0,
+                 fmt::format("{} operations: at most {} (docs/SCENARIOS.md, \"Limits\")",
+                             s.initial.size(), kMaxOperations)};
+  std::vector<double> sensor_rate(s.sensors.size(), 0.0);
+  for (std::size_t i = 0; i < s.sensors.size(); ++i) sensor_rate[i] = s.sensors[i].rate_hz;
+  std::vector<const OperationSpec*> snapshots;
+  for (const auto& op : s.initial)
+    if (op) snapshots.push_back(op.get());
+  for (const EventSpec& ev : s.events) {
+    for (const auto& [sensor, rate] : ev.sensor_rates)
+      sensor_rate[static_cast<std::size_t>(sensor)] =
+          std::max(sensor_rate[static_cast<std::size_t>(sensor)], rate);
+    for (const auto& [index, op] : ev.changes)
+      if (op) snapshots.push_back(op.get());
+  }
+  std::size_t nodes = 0;
+  std::vector<double> releases(s.initial.size(), 0.0);
+  const double seconds = to_s(s.duration);
+  for (const OperationSpec* op : snapshots) {
+    nodes += op->nodes.size();
+    double r = 0;
+    if (op->release_count)
+      r = *op->release_count;
+    else if (op->trigger_sensor >= 0)
+      r = sensor_rate[static_cast<std::size_t>(op->trigger_sensor)] * seconds;
+    else
+      r = op->rate_hz * seconds;
+    for (std::size_t i = 0; i < s.names_.size(); ++i)
+      if (s.names_[i] == op->name) releases[i] = std::max(releases[i], r);
+  }
+  if (nodes > kMaxNodes)
+    return Error{s.file, 0,
+                 fmt::format("{} nodes over every operation's definitions: at most {} "
+                             "(docs/SCENARIOS.md, \"Limits\")",
+                             nodes, kMaxNodes)};
+  const double total = std::accumulate(releases.begin(), releases.end(), 0.0);
+  if (!(total <= kMaxReleases))
+    return Error{s.file, 0,
+                 fmt::format("about {:.3g} jobs in {:g} s: at most {:g} per run (shorten "
+                             "duration_s or lower the rates; docs/SCENARIOS.md, \"Limits\")",
+                             total, seconds, kMaxReleases)};
+  return std::nullopt;
+}
+
 }  // namespace
 
 Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::string& file) {
+  // YAML is UTF-8 text, and every name read here reaches UTF-8 outputs (summary.json).
+  if (auto e = check_utf8(yaml_text, file)) return *e;
   try {
     YAML::Node root;
     try {
-      root = YAML::Load(yaml_text);
+      std::vector<YAML::Node> docs = YAML::LoadAll(yaml_text);
+      if (docs.size() > 1)
+        return Error{file, mark_line(docs[1]),
+                     "a second YAML document: a scenario file holds one (remove the '---' "
+                     "and what follows, or split it into two files)"};
+      if (!docs.empty()) root = docs.front();
     } catch (const YAML::ParserException& e) {
       return Error{file, e.mark.line >= 0 ? e.mark.line + 1 : 0, "YAML syntax error: " + e.msg};
     }
@@ -983,20 +1071,26 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
     const bool ok = rewrite_operations(out, [&](OperationSpec& op) {
       if (op.deadline.critical_path_x) {
         *op.deadline.critical_path_x *= value;
-        if (!std::isfinite(*op.deadline.critical_path_x)) return false;
+        if (!(*op.deadline.critical_path_x >= kMinCriticalPathX &&
+              *op.deadline.critical_path_x <= kMaxCriticalPathX))
+          return false;
       }
       const auto fixed = scaled(op.deadline.fixed, value);
-      if (!fixed) return false;
+      if (!fixed || (op.deadline.fixed > Duration{0} && *fixed < kMinDeadline)) return false;
       op.deadline.fixed = *fixed;
       for (auto& n : op.nodes) {
         if (!n.deadline) continue;
         const auto d = scaled(*n.deadline, value);
-        if (!d) return false;
+        if (!d || *d < kMinDeadline) return false;
         n.deadline = *d;
       }
       return true;
     });
-    if (!ok) return bad("a deadline would become too large");
+    if (!ok)
+      return bad(
+          fmt::format("a deadline would leave its range (at least 0.001 ms, at most 1e12 ms; "
+                      "critical_path_x within [{:g}, {:g}])",
+                      kMinCriticalPathX, kMaxCriticalPathX));
   } else if (key == "rate_scale") {
     if (!(value > 0.0)) return bad("must be > 0");
     for (auto& sensor : out.sensors) sensor.rate_hz *= value;
@@ -1018,8 +1112,8 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
     if (value < 0.0 || value > 1e12) return bad("must be in [0, 1e12]");
     out.scheduler.gamma = from_ms(value);
   } else if (key == "lanes") {
-    if (value < 1.0 || value > 1e6 || value != std::floor(value))
-      return bad("must be an integer >= 1");
+    if (value < 1.0 || value > static_cast<double>(kMaxLanes) || value != std::floor(value))
+      return bad(fmt::format("must be an integer in [1, {}]", kMaxLanes));
     out.device.lanes = static_cast<int>(value);
   } else if (key == "duration_s") {
     if (!(value > 0.0)) return bad("must be > 0");
@@ -1041,6 +1135,7 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
                              "qoe_lambda, gamma_ms, lanes, rate_scale, duration_s, seed)",
                              key, value, key)};
   }
+  if (auto e = check_size(out)) return bad(e->message);
   s = std::move(out);
   return std::nullopt;
 }

@@ -586,6 +586,20 @@ TEST_F(Cli, BadSetValue) {
                    "not a number");
 }
 
+// Numbers and lists the command line once accepted silently (issue 39): hex, NaN, a negative
+// count, a policy listed twice, an empty list, a sweep of NaN steps or of a billion values.
+TEST_F(Cli, NumbersAndListsThatMeantNothingAreRefused) {
+  const std::string tiny = quote(data("tiny.yaml"));
+  expect_bad_input("simulate " + tiny + " --set rate_scale=0x10", "not a number");
+  expect_bad_input("simulate " + tiny + " --set rate_scale=nan", "not a number");
+  expect_bad_input("sweep " + tiny + " --set rate_scale=1:2:nan", "finite decimal numbers");
+  expect_bad_input("sweep " + tiny + " --set rate_scale=1:2:1e-9", "more than 10000 values");
+  expect_bad_input("run " + tiny + " --backend synthetic --watchdog-x nan", "--watchdog-x");
+  expect_bad_input("simulate " + tiny + " --trace-events -1", "--trace-events");
+  expect_bad_input("compare " + tiny + " --policies red,red", "'red' is listed twice");
+  expect_bad_input("compare " + tiny + " --policies ''", "--policies: empty list");
+}
+
 TEST_F(Cli, NegativeSeedIsRejected) {
   expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --seed -1", "--seed");
   expect_bad_input("sweep " + quote(data("tiny.yaml")) + " --set deadline_scale=1 --seed -1",

@@ -357,7 +357,7 @@ void register_node(CLI::App& app, int& exit_code) {
   cmd->add_option("--remap", a->remaps, "Rename a topic, ROS 2 style: from:=to (repeatable)");
   cmd->add_option("--duration", a->duration_s,
                   "Stop releasing after this many seconds (default: until SIGINT/SIGTERM)")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_positive());
   cmd->add_option("--backend", a->backend,
                   "torch (real inference) or synthetic (spends profiled unit times)")
       ->check(CLI::IsMember({"torch", "synthetic"}))
@@ -367,7 +367,7 @@ void register_node(CLI::App& app, int& exit_code) {
   cmd->add_option("--watchdog-x", a->real.watchdog_x,
                   "Fail a unit still running after this many times its profiled p99 with the "
                   "reason 'timeout' (0: no watchdog)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(finite_non_negative())
       ->capture_default_str();
   cmd->add_option("--out", a->out, "Write summary.json, jobs.csv, units.csv here at the end");
   cmd->callback([a, &exit_code] { exit_code = run_node(*a); });
@@ -385,9 +385,18 @@ void register_camera(CLI::App& app, int& exit_code) {
   cmd->add_option("--from", a->o.from_dir,
                   "Publish the PNG/JPEG images of this directory (name order, looped; their own "
                   "size) instead of synthetic frames");
-  cmd->add_option("--count", a->count, "Stop after this many frames (default: never)");
+  cmd->add_option("--count", a->count, "Stop after this many frames (default: never)")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            const bool digits =
+                !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+            return digits && text.find_first_not_of('0') != std::string::npos
+                       ? std::string()
+                       : "must be a whole number >= 1, not '" + text + "'";
+          },
+          "COUNT >= 1"));
   cmd->add_option("--duration", a->duration_s, "Stop after this many seconds")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_positive());
   cmd->add_option("--stamps-topic", a->o.stamps_topic,
                   "Also publish each frame's header (std_msgs/msg/Header, reliable) here: a "
                   "probe counts frames without receiving their pixels");

@@ -189,7 +189,7 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     html.push_back(std::move(t));
   }
   doc["policies"] = std::move(policies);
-  return doc.dump(2) + "\n";
+  return doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
 // Runs the given policies on one scenario and prints and writes the results. In the
@@ -470,6 +470,7 @@ void add_common(CLI::App* cmd, RunArgs& a) {
       ->check(CLI::IsMember({"per-edge", "on-demand"}));
   cmd->add_option("--trace-events", a.trace_events,
                   "Most events in trace.json, over all policies (0: no trace.json)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_option("--timeline", a.timeline,
                   "Window of the timeline drawn under --out, FROM:TO in seconds (default: the "
@@ -485,7 +486,7 @@ void add_real(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--watchdog-x", a.real.watchdog_x,
                   "Fail a unit running past this many times its profiled p99 with the reason "
                   "'timeout' (0: no watchdog)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(finite_non_negative())
       ->capture_default_str();
 }
 
@@ -507,19 +508,27 @@ void register_compare(CLI::App& app, int& exit_code) {
       app.add_subcommand("compare", "Every policy on the identical workload, side by side");
   add_common(cmd, *a);
   add_real(cmd, *a);
-  cmd->add_option("--policies", a->policies,
-                  "Comma-separated presets (default: fifo,mono,edf,red-fg,red-ida,red,red-robust)");
+  CLI::Option* policies = cmd->add_option(
+      "--policies", a->policies,
+      "Comma-separated presets (default: fifo,mono,edf,red-fg,red-ida,red,red-robust)");
   cmd->add_option("--backend", a->backend,
                   "sim (simulator), torch (real LibTorch inference) or synthetic (real time, "
                   "profiled unit times)")
       ->check(CLI::IsMember({"sim", "torch", "synthetic"}));
-  cmd->callback([a, &exit_code] {
-    const auto names = a->policies.empty() ? default_presets() : split_list(a->policies);
-    if (names.empty()) {
-      print_error(Error{"", 0, "--policies: empty list"});
+  cmd->callback([a, policies, &exit_code] {
+    const auto names = policies->count() == 0 ? default_presets() : split_list(a->policies);
+    if (names.empty() || (policies->count() > 0 && a->policies.empty())) {
+      print_error(Error{"", 0, "--policies: empty list (leave the option out for every preset)"});
       exit_code = kBadInput;
       return;
     }
+    for (std::size_t i = 0; i < names.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (names[i] == names[j]) {
+          print_error(Error{"", 0, "--policies: '" + names[i] + "' is listed twice"});
+          exit_code = kBadInput;
+          return;
+        }
     exit_code = run_policies(*a, names, true);
   });
 }

@@ -31,6 +31,9 @@ struct SweepArgs {
   std::optional<std::string> out;
 };
 
+// The most values one sweep runs (each a simulation of every policy).
+constexpr std::size_t kMaxSweepValues = 10000;
+
 // Parses "key=a:b:step" or "key=v1,v2,..." into key and values.
 Expected<std::pair<std::string, std::vector<double>>> parse_sweep(const std::string& spec) {
   const auto eq = spec.find('=');
@@ -40,9 +43,9 @@ Expected<std::pair<std::string, std::vector<double>>> parse_sweep(const std::str
   const std::string rest = spec.substr(eq + 1);
   std::vector<double> values;
   auto number = [&](const std::string& t, double& v) {
-    char* end = nullptr;
-    v = std::strtod(t.c_str(), &end);
-    return !t.empty() && end != nullptr && *end == '\0';
+    const std::optional<double> x = decimal_number(t);
+    if (x) v = *x;
+    return x.has_value();
   };
   if (rest.find(':') != std::string::npos) {
     std::vector<std::string> parts;
@@ -55,7 +58,14 @@ Expected<std::pair<std::string, std::vector<double>>> parse_sweep(const std::str
     double a = 0, b = 0, step = 0;
     if (parts.size() != 3 || !number(parts[0], a) || !number(parts[1], b) ||
         !number(parts[2], step) || step <= 0 || b < a)
-      return Error{"", 0, "--set " + key + ": expected a:b:step with a <= b and step > 0"};
+      return Error{"", 0,
+                   "--set " + key +
+                       ": expected a:b:step, finite decimal numbers with a <= b and "
+                       "step > 0"};
+    if ((b - a) / step + 1 > kMaxSweepValues)
+      return Error{"", 0,
+                   fmt::format("--set {}: {}:{}:{} gives more than {} values", key, parts[0],
+                               parts[1], parts[2], kMaxSweepValues)};
     for (int i = 0;; ++i) {
       const double v = a + step * i;
       if (v > b + step * 1e-9) break;
@@ -67,6 +77,8 @@ Expected<std::pair<std::string, std::vector<double>>> parse_sweep(const std::str
       if (!number(t, v)) return Error{"", 0, "--set " + key + ": '" + t + "' is not a number"};
       values.push_back(v);
     }
+    if (values.size() > kMaxSweepValues)
+      return Error{"", 0, fmt::format("--set {}: more than {} values", key, kMaxSweepValues)};
   }
   if (values.empty()) return Error{"", 0, "--set " + key + ": no values"};
   return std::pair{key, values};
@@ -280,7 +292,9 @@ void register_sweep(CLI::App& app, int& exit_code) {
         }
         j["policies"].push_back(row);
       }
-      if (auto e = write_file(*a->out, "sweep.json", j.dump(2) + "\n")) {
+      if (auto e = write_file(
+              *a->out, "sweep.json",
+              j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n")) {
         print_error(*e);
         exit_code = kRunFailure;
         return;

@@ -3,9 +3,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "red/report/html.hpp"
 #include "red/report/plots.hpp"
@@ -14,6 +17,33 @@
 #include "red/scenario/loader.hpp"
 
 namespace red::cli {
+
+std::optional<double> decimal_number(const std::string& text) {
+  double v = 0;
+  const char* last = text.data() + text.size();
+  // Plain decimal notation only (std::chars_format::general: no "0x", no leading '+').
+  const auto [ptr, ec] = std::from_chars(text.data(), last, v, std::chars_format::general);
+  if (text.empty() || ec != std::errc{} || ptr != last || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
+CLI::Validator finite_positive() {
+  return CLI::Validator(
+      [](std::string& text) {
+        const auto v = decimal_number(text);
+        return v && *v > 0 ? std::string() : "must be a finite number > 0, not '" + text + "'";
+      },
+      "NUMBER > 0");
+}
+
+CLI::Validator finite_non_negative() {
+  return CLI::Validator(
+      [](std::string& text) {
+        const auto v = decimal_number(text);
+        return v && *v >= 0 ? std::string() : "must be a finite number >= 0, not '" + text + "'";
+      },
+      "NUMBER >= 0");
+}
 
 std::vector<std::string> split_list(const std::string& s) {
   std::vector<std::string> out;
@@ -38,11 +68,12 @@ Expected<Scenario> load(const ScenarioArgs& a) {
     if (eq == std::string::npos) return Error{"", 0, "--set '" + kv + "': expected key=value"};
     const std::string key = kv.substr(0, eq);
     const std::string val = kv.substr(eq + 1);
-    char* end = nullptr;
-    const double v = std::strtod(val.c_str(), &end);
-    if (val.empty() || end == nullptr || *end != '\0')
-      return Error{"", 0, "--set " + key + ": '" + val + "' is not a number"};
-    if (auto err = apply_override(s.value(), key, v)) return *err;
+    const std::optional<double> v = decimal_number(val);
+    if (!v)
+      return Error{"", 0,
+                   "--set " + key + ": '" + val +
+                       "' is not a number (a finite decimal such as 1.5 or 2e-3)"};
+    if (auto err = apply_override(s.value(), key, *v)) return *err;
   }
   for (const std::string& w : a.with) {
     PolicyOptions check;

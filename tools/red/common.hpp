@@ -45,6 +45,15 @@ Expected<Scenario> load(const ScenarioArgs& a);
 /// Splits "a,b,c".
 std::vector<std::string> split_list(const std::string& s);
 
+/// A finite decimal number ("0.5", "1e-3", "-2"), or nullopt: no hex ("0x10"), no "nan" or
+/// "inf", nothing before or after the number. What --set values and sweep ranges accept.
+std::optional<double> decimal_number(const std::string& text);
+
+/// CLI11 checks of a finite decimal number > 0, or >= 0 (CLI11's PositiveNumber and
+/// NonNegativeNumber let "nan" through).
+CLI::Validator finite_positive();
+CLI::Validator finite_non_negative();
+
 /// What write_outputs writes besides summary.json, jobs.csv, units.csv and the plots.
 struct OutputOptions {
   /// The timeline of each run, in the order of `runs` (null entries are left out); empty:

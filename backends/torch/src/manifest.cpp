@@ -1,5 +1,7 @@
 #include "red/torch/manifest.hpp"
 
+#include "red/core/file.hpp"
+
 #include <yaml-cpp/yaml.h>
 
 #include <array>
@@ -49,10 +51,19 @@ class Parser {
   // `text` null: read the file itself.
   Expected<Manifest> parse(const std::string* text) {
     YAML::Node root;
+    std::string read;
+    if (text == nullptr) {
+      auto r = read_file(file_);
+      if (!r) return Error{file_, 0, "cannot open the model manifest: " + r.error().message};
+      read = std::move(*r);
+      text = &read;
+    }
+    if (auto e = check_utf8(*text, file_)) return *e;
     try {
-      root = text != nullptr ? YAML::Load(*text) : YAML::LoadFile(file_);
-    } catch (const YAML::BadFile&) {
-      return Error{file_, 0, "cannot open the model manifest"};
+      std::vector<YAML::Node> docs = YAML::LoadAll(*text);
+      if (docs.size() > 1)
+        return Error{file_, line_of(docs[1]), "a second YAML document: a manifest holds one"};
+      if (!docs.empty()) root = docs.front();
     } catch (const YAML::ParserException& e) {
       return Error{file_, e.mark.line >= 0 ? e.mark.line + 1 : 0, "YAML syntax error: " + e.msg};
     }
