@@ -44,12 +44,20 @@ void print_operation(const Scenario& s, const OperationSpec& op, int index,
     fmt::print("    depends on the newest job of {}\n", s.operation_name(op.depends_on));
   fmt::print("    {:<10} {:<24} {:>7} {:>12} {:>7} {:>12}\n", "node", "runs", "coarse H",
              "coarse d ms", "fine H", "fine d ms");
+  // Each node's height in the coarse graph and of its head (not encoder) in the fine one,
+  // in one pass over the units (the last unit of a node wins, as the listing always did).
+  std::vector<int> coarse_height(op.nodes.size(), 0);
+  std::vector<int> fine_height(op.nodes.size(), 0);
+  for (const RefinedUnit& u : coarse->units)
+    if (u.node >= 0 && static_cast<std::size_t>(u.node) < op.nodes.size())
+      coarse_height[static_cast<std::size_t>(u.node)] = u.height;
+  for (const RefinedUnit& u : fine->units)
+    if (u.node >= 0 && static_cast<std::size_t>(u.node) < op.nodes.size() &&
+        u.kind != UnitKind::Encoder)
+      fine_height[static_cast<std::size_t>(u.node)] = u.height;
   for (std::size_t v = 0; v < op.nodes.size(); ++v) {
-    int ch = 0, fh = 0;
-    for (const RefinedUnit& u : coarse->units)
-      if (u.node == static_cast<int>(v)) ch = u.height;
-    for (const RefinedUnit& u : fine->units)
-      if (u.node == static_cast<int>(v) && u.kind != UnitKind::Encoder) fh = u.height;
+    const int ch = coarse_height[v];
+    const int fh = fine_height[v];
     fmt::print("    {:<10} {:<24} {:>7} {:>12.3f} {:>7} {:>12.3f}{}\n", op.nodes[v].name,
                describe_node(s, op.nodes[v]), ch,
                to_ms(coarse->static_offset[static_cast<std::size_t>(ch)]), fh,
