@@ -96,9 +96,9 @@ Expected<c10::Device> parse_device(const std::string& text) {
     // device_count() is size_t up to LibTorch 2.6 and c10::DeviceIndex later.
     const auto visible = static_cast<std::size_t>(torch::cuda::device_count());
     if (static_cast<std::size_t>(index) >= visible) {
-      return Error{"", 0,
-                   "device '" + text + "': only " + std::to_string(visible) +
-                       " CUDA device(s) visible"};
+      return Error{
+          "", 0,
+          "device '" + text + "': only " + std::to_string(visible) + " CUDA device(s) visible"};
     }
     return c10::Device(c10::kCUDA, static_cast<c10::DeviceIndex>(index));
   }
