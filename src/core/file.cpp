@@ -89,6 +89,38 @@ std::optional<Error> check_utf8(std::string_view text, const std::string& path) 
   return std::nullopt;
 }
 
+int second_yaml_document_line(std::string_view text) {
+  const auto marker = [](std::string_view line, std::string_view m) {
+    return line.substr(0, 3) == m &&
+           (line.size() == 3 || line[3] == ' ' || line[3] == '\t' || line[3] == '\r');
+  };
+  bool content = false;  // the first document has begun (content or its `---`)
+  bool ended = false;    // a `...` closed it
+  int number = 0;
+  for (std::size_t start = 0; start <= text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view line = text.substr(start, end - start);
+    ++number;
+    start = end + 1;
+    if (marker(line, "---")) {
+      if (content) return number;
+      content = true;
+      continue;
+    }
+    if (marker(line, "...")) {
+      ended = content;
+      continue;
+    }
+    const std::size_t first = line.find_first_not_of(" \t\r");
+    if (first == std::string_view::npos || line[first] == '#') continue;
+    if (!content && line[first] == '%') continue;  // a directive before the document
+    if (ended) return number;
+    content = true;
+  }
+  return 0;
+}
+
 std::optional<Error> check_json_depth(std::string_view text, const std::string& path,
                                       int max_depth) {
   int depth = 0;

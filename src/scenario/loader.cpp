@@ -1049,12 +1049,11 @@ Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::strin
   try {
     YAML::Node root;
     try {
-      std::vector<YAML::Node> docs = YAML::LoadAll(yaml_text);
-      if (docs.size() > 1)
-        return Error{file, mark_line(docs[1]),
+      root = YAML::Load(yaml_text);
+      if (const int second = second_yaml_document_line(yaml_text); second > 0)
+        return Error{file, second,
                      "a second YAML document: a scenario file holds one (remove the '---' "
                      "and what follows, or split it into two files)"};
-      if (!docs.empty()) root = docs.front();
     } catch (const YAML::ParserException& e) {
       return Error{file, e.mark.line >= 0 ? e.mark.line + 1 : 0, "YAML syntax error: " + e.msg};
     }

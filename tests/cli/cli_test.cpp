@@ -600,6 +600,21 @@ TEST_F(Cli, NumbersAndListsThatMeantNothingAreRefused) {
   expect_bad_input("compare " + tiny + " --policies ''", "--policies: empty list");
 }
 
+// Output that cannot be written is a failure naming the reason (exit 1), never an exit 0
+// with the table gone: standard output on a full device.
+TEST_F(Cli, AStandardOutputThatCannotBeWrittenIsAnError) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full here";
+  const std::string to_full = R"(sh -c 'exec "$0" "$@" >/dev/full')";
+  for (const std::string& args : {"validate " + quote(data("tiny.yaml")),
+                                  "compare " + quote(data("tiny.yaml")) + " --policies edf,red"}) {
+    SCOPED_TRACE(args);
+    const RunResult r = red(args, to_full);
+    ASSERT_TRUE(r.exited) << r.err;
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_TRUE(contains(r.err, "standard output: No space left on device")) << r.err;
+  }
+}
+
 TEST_F(Cli, NegativeSeedIsRejected) {
   expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --seed -1", "--seed");
   expect_bad_input("sweep " + quote(data("tiny.yaml")) + " --set deadline_scale=1 --seed -1",

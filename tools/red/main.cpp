@@ -1,8 +1,14 @@
 /// \file
 /// `red`: validate, simulate, compare, sweep, profile (§12).
 
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <string>
+#include <system_error>
+
+#include <unistd.h>
 
 #include "commands.hpp"
 #include "real_run.hpp"
@@ -10,6 +16,11 @@
 
 int main(int argc, char** argv) {
   red::cli::use_one_malloc_arena();
+  // Off a terminal, standard output keeps up to 1 MiB before writing: a write that fails
+  // then fails at the final flush (or in fmt::print, which throws), with errno still saying
+  // why, rather than in a background flush whose reason is gone by the end.
+  static char out_buffer[1 << 20];
+  if (isatty(STDOUT_FILENO) == 0) std::setvbuf(stdout, out_buffer, _IOFBF, sizeof out_buffer);
   CLI::App app{"RED: real-time scheduling of multi-task DNN inference for robots"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "red " + std::string(red::kVersion));
@@ -47,6 +58,11 @@ int main(int argc, char** argv) {
   }
   try {
     app.parse(argc, argv);
+  } catch (const std::system_error& e) {
+    // fmt::print throws when standard output cannot take what it writes (a full disk,
+    // /dev/full, a closed pipe): the result is lost, which is a failure, not a crash.
+    std::cerr << "red: standard output: " << e.code().message() << " (the output is lost)\n";
+    return red::cli::kRunFailure;
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
@@ -57,6 +73,17 @@ int main(int argc, char** argv) {
     // Bad usage: CLI11 explains; RED's exit code for bad input is 2 (§12).
     app.exit(e);
     return red::cli::kBadInput;
+  }
+  // What stdout still buffers goes now, so that a table that could not be written is an
+  // error (exit 1) naming the reason, not an exit 0 with the table gone.
+  errno = 0;
+  const bool flushed = std::fflush(stdout) == 0;  // std::cout writes through stdout
+  const int reason = errno;
+  if (!flushed || std::ferror(stdout) || !std::cout.flush()) {
+    errno = reason;
+    std::cerr << "red: standard output: " << (errno != 0 ? std::strerror(errno) : "write failed")
+              << " (the output is lost)\n";
+    return exit_code == red::cli::kOk ? red::cli::kRunFailure : exit_code;
   }
   return exit_code;
 }

@@ -112,7 +112,7 @@ class MeasuringNotice final : public Observer {
   void on_job_release(const JobRecord& j) override {
     if (said_ || !j.counted) return;
     said_ = true;
-    std::cerr << "red: " << policy_
+    std::cerr << "red: policy " << policy_
               << ": warm-up over, measuring (SIGINT or SIGTERM ends the run early)\n";
   }
 

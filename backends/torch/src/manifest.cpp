@@ -60,10 +60,9 @@ class Parser {
     }
     if (auto e = check_utf8(*text, file_)) return *e;
     try {
-      std::vector<YAML::Node> docs = YAML::LoadAll(*text);
-      if (docs.size() > 1)
-        return Error{file_, line_of(docs[1]), "a second YAML document: a manifest holds one"};
-      if (!docs.empty()) root = docs.front();
+      root = YAML::Load(*text);
+      if (const int second = second_yaml_document_line(*text); second > 0)
+        return Error{file_, second, "a second YAML document: a manifest holds one"};
     } catch (const YAML::ParserException& e) {
       return Error{file_, e.mark.line >= 0 ? e.mark.line + 1 : 0, "YAML syntax error: " + e.msg};
     }

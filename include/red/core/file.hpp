@@ -28,6 +28,11 @@ Expected<std::string> read_file(const std::string& path, std::size_t max_bytes =
 /// reaches UTF-8 outputs (summary.json, trace.json).
 std::optional<Error> check_utf8(std::string_view text, const std::string& path);
 
+/// The line where a second YAML document starts in `text` (a `---` line after content or
+/// after a first `---`, or content after a `...` line), or 0 when it holds one. Read from the
+/// text, not by a parser: yaml-cpp's LoadAll loops forever on some malformed input.
+int second_yaml_document_line(std::string_view text);
+
 /// nullopt when no bracket of the JSON `text` nests deeper than `max_depth` (brackets in
 /// strings do not count); else an Error naming `path` and the line where it does. Checked
 /// before parsing, so that a deeply nested value cannot exhaust the parser's stack.

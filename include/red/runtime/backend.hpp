@@ -114,7 +114,10 @@ class Backend {
   [[nodiscard]] virtual std::string_view name() const noexcept = 0;
   /// Called once on each lane's thread before it runs anything (e.g. to bind a stream).
   virtual void init_lane(int /*lane*/) {}
-  /// A synthetic camera captured frame `frame` of `sensor`: produce its pixels in memory.
+  /// A synthetic camera captured frame `frame` of `sensor`: have its pixels ready for the
+  /// units that read it. Called on the camera thread right before the frame's release: keep
+  /// it cheap (no model work, no copy to a device; make the tensor when a unit first reads
+  /// it, or take it from a pool made before the run), or the camera falls behind.
   virtual void on_frame(int /*sensor*/, std::uint64_t /*frame*/) {}
   /// An external frame arrived with its pixels: keep them as frame `frame` of `sensor`
   /// (called from the thread that received it, before the frame's release: keep it cheap;
