@@ -6,6 +6,7 @@
 
 #include "red/scenario/loader.hpp"
 
+#include "limits.hpp"
 #include "red/core/file.hpp"
 #include "red/sched/policy.hpp"
 
@@ -33,6 +34,8 @@
 
 namespace red {
 namespace {
+
+using namespace limits;  // the bounds of every value read (limits.hpp)
 
 /// The only exception the loader raises; never leaves this file.
 struct Failure {
@@ -164,26 +167,6 @@ double positive(const Val& v) {
   if (!(x > 0.0)) fail(v.line, at(v.what) + "must be > 0" + got(v.node));
   return x;
 }
-
-// Rates must give a period that fits the nanosecond timeline with room to spare:
-// between one frame a day and a million frames a second.
-// A deadline is at least 1 us (less rounds towards nothing a clock can tell apart) and at
-// most 1e12 ms; critical_path_x within [1e-3, 1e6] (beyond, the product with a critical
-// path overflows or vanishes).
-constexpr Duration kMinDeadline = std::chrono::microseconds{1};
-// How large a workload may be (docs/SCENARIOS.md, "Limits"): beyond, a run's memory (about
-// 0.6 KB per job in the simulator) or its threads (one per lane) would exceed a machine's.
-constexpr std::int64_t kMaxLanes = 256;
-constexpr std::int64_t kMaxReleaseCount = 1'000'000;
-constexpr double kMaxReleases = 1e7;  // jobs over the whole run, every operation
-constexpr std::size_t kMaxOperations = 100'000;
-constexpr std::size_t kMaxNodes = 1'000'000;  // nodes over every operation's definitions
-
-std::optional<Error> check_size(const Scenario& s);
-constexpr double kMinCriticalPathX = 1e-3;
-constexpr double kMaxCriticalPathX = 1e6;
-constexpr double kMinRateHz = 1.0 / 86400.0;
-constexpr double kMaxRateHz = 1e6;
 
 double rate(const Val& v) {
   const double x = positive(v);
@@ -990,55 +973,6 @@ bool rewrite_operations(Scenario& s, Edit edit) {
     for (auto& [index, p] : ev.changes)
       if (!redo(p)) return false;
   return true;
-}
-
-/// nullopt when the workload is within the limits (kMax*); else why not. The jobs a run
-/// releases are bounded by each operation's highest rate (its own, or its trigger sensor's
-/// over every rate change) times the duration, or its release count.
-std::optional<Error> check_size(const Scenario& s) {
-  if (s.initial.size() > kMaxOperations)
-    return Error{s.file, 0,
-                 fmt::format("{} operations: at most {} (docs/SCENARIOS.md, \"Limits\")",
-                             s.initial.size(), kMaxOperations)};
-  std::vector<double> sensor_rate(s.sensors.size(), 0.0);
-  for (std::size_t i = 0; i < s.sensors.size(); ++i) sensor_rate[i] = s.sensors[i].rate_hz;
-  std::vector<const OperationSpec*> snapshots;
-  for (const auto& op : s.initial)
-    if (op) snapshots.push_back(op.get());
-  for (const EventSpec& ev : s.events) {
-    for (const auto& [sensor, rate] : ev.sensor_rates)
-      sensor_rate[static_cast<std::size_t>(sensor)] =
-          std::max(sensor_rate[static_cast<std::size_t>(sensor)], rate);
-    for (const auto& [index, op] : ev.changes)
-      if (op) snapshots.push_back(op.get());
-  }
-  std::size_t nodes = 0;
-  std::vector<double> releases(s.initial.size(), 0.0);
-  const double seconds = to_s(s.duration);
-  for (const OperationSpec* op : snapshots) {
-    nodes += op->nodes.size();
-    double r = 0;
-    if (op->release_count)
-      r = *op->release_count;
-    else if (op->trigger_sensor >= 0)
-      r = sensor_rate[static_cast<std::size_t>(op->trigger_sensor)] * seconds;
-    else
-      r = op->rate_hz * seconds;
-    for (std::size_t i = 0; i < s.names_.size(); ++i)
-      if (s.names_[i] == op->name) releases[i] = std::max(releases[i], r);
-  }
-  if (nodes > kMaxNodes)
-    return Error{s.file, 0,
-                 fmt::format("{} nodes over every operation's definitions: at most {} "
-                             "(docs/SCENARIOS.md, \"Limits\")",
-                             nodes, kMaxNodes)};
-  const double total = std::accumulate(releases.begin(), releases.end(), 0.0);
-  if (!(total <= kMaxReleases))
-    return Error{s.file, 0,
-                 fmt::format("about {:.3g} jobs in {:g} s: at most {:g} per run (shorten "
-                             "duration_s or lower the rates; docs/SCENARIOS.md, \"Limits\")",
-                             total, seconds, kMaxReleases)};
-  return std::nullopt;
 }
 
 }  // namespace

@@ -282,12 +282,10 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
   real.device = calibration_device(a, isolated);
   real.threads = a.threads > 0 ? a.threads : 0;
   if (auto e = check_device(real)) return *e;
-  const std::string measured_on = profile_device(isolated);
-  const auto kind = [](const std::string& d) { return d.substr(0, d.find(':')); };
-  if (!measured_on.empty() && kind(measured_on) != kind(real.device))
+  if (const auto measured_on = measured_elsewhere(isolated, real.device))
     return Error{a.from, 0,
-                 "the profile was measured on " + measured_on + "; calibrating it on " +
-                     real.device + " would mix two devices' costs (--device " + measured_on +
+                 "the profile was measured on " + *measured_on + "; calibrating it on " +
+                     real.device + " would mix two devices' costs (--device " + *measured_on +
                      ", or measure a profile on " + real.device + ")"};
   auto backend = make_backend(*s, isolated, real);
   if (!backend) return backend.error();

@@ -27,22 +27,27 @@ std::optional<double> decimal_number(const std::string& text) {
   return v;
 }
 
-CLI::Validator finite_positive() {
+namespace {
+
+// A CLI11 check that the text is a finite decimal number for which `ok` holds.
+CLI::Validator finite_number(bool (*ok)(double), const std::string& what) {
   return CLI::Validator(
-      [](std::string& text) {
+      [ok, what](std::string& text) {
         const auto v = decimal_number(text);
-        return v && *v > 0 ? std::string() : "must be a finite number > 0, not '" + text + "'";
+        return v && ok(*v) ? std::string()
+                           : "must be a finite number " + what + ", not '" + text + "'";
       },
-      "NUMBER > 0");
+      "NUMBER " + what);
+}
+
+}  // namespace
+
+CLI::Validator finite_positive() {
+  return finite_number([](double v) { return v > 0; }, "> 0");
 }
 
 CLI::Validator finite_non_negative() {
-  return CLI::Validator(
-      [](std::string& text) {
-        const auto v = decimal_number(text);
-        return v && *v >= 0 ? std::string() : "must be a finite number >= 0, not '" + text + "'";
-      },
-      "NUMBER >= 0");
+  return finite_number([](double v) { return v >= 0; }, ">= 0");
 }
 
 std::vector<std::string> split_list(const std::string& s) {

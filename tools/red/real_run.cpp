@@ -62,15 +62,21 @@ std::string profile_device(const Profile& p) {
   return p.device.substr(0, p.device.find(' '));
 }
 
+std::optional<std::string> measured_elsewhere(const Profile& p, const std::string& device) {
+  const std::string measured_on = profile_device(p);
+  const auto kind = [](const std::string& d) { return d.substr(0, d.find(':')); };
+  if (measured_on.empty() || kind(measured_on) == kind(device)) return std::nullopt;
+  return measured_on;
+}
+
 Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile& p,
                                                 const RealRunOptions& o) {
   if (auto e = check_device(o)) return *e;
   // A profile of another kind of device (a CPU profile for a GPU run, or the reverse) puts
   // the scheduler's estimates and the watchdog's limits off by a device's factor.
-  const std::string measured_on = profile_device(p);
-  const auto kind = [](const std::string& d) { return d.substr(0, d.find(':')); };
-  if (o.backend == "torch" && !measured_on.empty() && kind(measured_on) != kind(o.device))
-    std::cerr << "red: warning: the profile was measured on " << measured_on << ", this run is on "
+  const auto measured_on = measured_elsewhere(p, o.device);
+  if (o.backend == "torch" && measured_on)
+    std::cerr << "red: warning: the profile was measured on " << *measured_on << ", this run is on "
               << o.device << ": its unit costs are another device's (red profile --device "
               << o.device << ")\n";
   if (o.backend == "synthetic") {
@@ -131,9 +137,11 @@ PolicyMetrics::Releases releases_of(const RuntimeReport& r) {
   out.offered = static_cast<std::int64_t>(r.frames_offered);
   out.released = static_cast<std::int64_t>(r.frames_released);
   out.behind = static_cast<std::int64_t>(r.frames_behind);
-  out.late_p50_ms = round_us_to_ms(percentile(r.release_late_us, 0.5));
-  out.late_p99_ms = round_us_to_ms(percentile(r.release_late_us, 0.99));
-  out.late_max_ms = round_us_to_ms(percentile(r.release_late_us, 1.0));
+  std::vector<double> late = r.release_late_us;
+  std::sort(late.begin(), late.end());
+  out.late_p50_ms = round_us_to_ms(percentile_sorted(late, 0.5));
+  out.late_p99_ms = round_us_to_ms(percentile_sorted(late, 0.99));
+  out.late_max_ms = round_us_to_ms(percentile_sorted(late, 1.0));
   return out;
 }
 

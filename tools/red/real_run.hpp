@@ -49,6 +49,10 @@ std::optional<Error> check_device(const RealRunOptions& o);
 /// empty for the built-in default.
 std::string profile_device(const Profile& p);
 
+/// The device `p` was measured on when it is another kind than `device` (a CPU profile
+/// for a GPU run, or the reverse); nullopt when they match or `p` was not measured.
+std::optional<std::string> measured_elsewhere(const Profile& p, const std::string& device);
+
 /// The one place a real backend is made (run, compare, node, profile --calibrate): the
 /// device checked first (check_device), the threads shared among the lanes, a warning on
 /// stderr when `p` was measured on another kind of device. Error when unknown or when it

@@ -107,13 +107,15 @@ class Profiler {
     int warmed = options_.warmup;
     std::deque<Duration> samples;
     for (int i = 0; i < options_.runs; ++i) samples.push_back(timer_.time(fn));
-    const int w = options_.warmup > 0 ? std::min(options_.window, options_.runs / 3) : 0;
-    const auto window = static_cast<std::ptrdiff_t>(w);
-    while (
-        w > 0 &&
-        static_cast<double>(median_of(samples.begin(), samples.begin() + window).count()) >
-            (1.0 + options_.tolerance) *
-                static_cast<double>(median_of(samples.begin() + window, samples.end()).count())) {
+    const int w = window();
+    // Cold: the first w timed runs are slower than the rest by more than the tolerance.
+    const auto cold = [&] {
+      const auto first = samples.begin() + w;
+      const double head = static_cast<double>(median_of(samples.begin(), first).count());
+      const double rest = static_cast<double>(median_of(first, samples.end()).count());
+      return head > (1.0 + options_.tolerance) * rest;
+    };
+    while (w > 0 && cold()) {
       if (warmed + w > options_.warmup_max) {
         ++unstable_;
         break;
@@ -156,7 +158,7 @@ class Profiler {
     m.warmup_min = options_.warmup;
     m.warmup_max = std::max(options_.warmup, options_.warmup_max);
     m.tolerance = options_.tolerance;
-    m.window = options_.warmup > 0 ? std::min(options_.window, options_.runs / 3) : 0;
+    m.window = window();
     m.device_warmup_s = std::round(device_warmup_s * 1000) / 1000;
     m.unstable = unstable_;
     return m;
@@ -164,6 +166,10 @@ class Profiler {
 
  private:
   void sync() const { timer_.sync(); }
+  /// Timed runs compared at a time: a third of them at most; none without a warm-up.
+  [[nodiscard]] int window() const {
+    return options_.warmup > 0 ? std::min(options_.window, options_.runs / 3) : 0;
+  }
 
   ProfileOptions options_;
   const ProgressFn& progress_;
