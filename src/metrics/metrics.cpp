@@ -24,7 +24,6 @@ double qoe_score(Duration response, Duration deadline, double lambda) {
 MetricsCollector::MetricsCollector(const Scenario& s, double qoe_lambda, bool keep_units)
     : scenario_(s), lambda_(qoe_lambda), keep_units_(keep_units) {
   busy_.assign(static_cast<std::size_t>(s.device.lanes), Duration{0});
-  started_.assign(static_cast<std::size_t>(s.device.lanes), TimePoint{0});
   head_outputs_.assign(s.model.heads.size(), 0);
 }
 
@@ -110,12 +109,13 @@ void MetricsCollector::on_merge_wait(int /*sensor*/, TimePoint now, TimePoint /*
 }
 
 void MetricsCollector::on_unit_start(const Dispatch& d) {
-  started_[static_cast<std::size_t>(d.lane)] = d.start;
   for (const Member& m : d.members) ++spent_[m.job].running;
 }
 
 void MetricsCollector::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus s) {
-  const TimePoint start = started_[static_cast<std::size_t>(d.lane)];
+  // The start it ran from (a unit queued behind another starts when that one ends: the
+  // scheduler moves its start then).
+  const TimePoint start = d.start;
   const TimePoint from = std::max(start, scenario_.warmup);
   const Duration share =
       end > from ? (end - from) / static_cast<std::int64_t>(d.members.size()) : Duration{0};

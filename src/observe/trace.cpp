@@ -8,7 +8,7 @@ namespace red {
 
 TraceObserver::TraceObserver(const Scenario& s, TraceOptions options)
     : scenario_(s), options_(options) {
-  open_.assign(static_cast<std::size_t>(std::max(1, s.device.lanes)), -1);
+  open_.assign(static_cast<std::size_t>(std::max(1, s.device.lanes)), {});
 }
 
 TraceObserver::~TraceObserver() = default;
@@ -80,10 +80,10 @@ void TraceObserver::on_job_end(const JobRecord& job) {
 void TraceObserver::on_unit_start(const Dispatch& d) {
   see(d.start);
   const auto lane = static_cast<std::size_t>(d.lane);
-  if (lane >= open_.size()) open_.resize(lane + 1, -1);
+  if (lane >= open_.size()) open_.resize(lane + 1);
   const bool sync = options_.sync_slices && d.start > d.decided_at;
   if (!room(sync ? 2 : 1, d.decided_at)) {
-    open_[lane] = -1;
+    open_[lane].push_back(-1);
     return;
   }
   UnitRec u;
@@ -103,19 +103,22 @@ void TraceObserver::on_unit_start(const Dispatch& d) {
   for (const Member& m : d.members)
     members_.push_back(
         {m.job_seq, m.operation, m.node, m.graph != nullptr ? spec_index(m.graph) : 0});
-  open_[lane] = static_cast<std::int64_t>(units_.size());
+  open_[lane].push_back(static_cast<std::int64_t>(units_.size()));
   units_.push_back(u);
 }
 
 void TraceObserver::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus s) {
   see(end);
   const auto lane = static_cast<std::size_t>(d.lane);
-  if (lane >= open_.size() || open_[lane] < 0) return;
-  UnitRec& u = units_[static_cast<std::size_t>(open_[lane])];
+  if (lane >= open_.size() || open_[lane].empty()) return;
+  const std::int64_t i = open_[lane].front();
+  open_[lane].pop_front();  // a lane ends its units in the order it was given them
+  if (i < 0) return;
+  UnitRec& u = units_[static_cast<std::size_t>(i)];
+  u.start = std::min(d.start, end);  // a queued unit's start moved when the one before ended
   u.end = end;
   u.status = s;
   u.open = false;
-  open_[lane] = -1;
 }
 
 void TraceObserver::on_merge_wait(int sensor, TimePoint now, TimePoint until) {

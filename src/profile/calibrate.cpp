@@ -133,12 +133,15 @@ Expected<Profile> calibrate_profile(const Profile& isolated, const Scenario& s,
   std::vector<Sample> samples;
   std::vector<double> handoffs;
   std::vector<double> round_trips;
+  std::vector<double> queued_gaps;
   for (std::size_t ri = 0; ri < runs.size(); ++ri) {
     const std::vector<UnitRow>& rows = runs[ri].units;
     const std::vector<int> busy = busy_others(rows);
     for (double h : runs[ri].handoff_us)
       if (h >= 0.0 && h < 5000.0)
         (runs[ri].round_trips ? round_trips : handoffs).push_back(h * 1e3);
+    for (double g : runs[ri].queued_gap_us)
+      if (g >= 0.0 && g < 5000.0) queued_gaps.push_back(g * 1e3);
     for (std::size_t i = 0; i < rows.size(); ++i) {
       const UnitRow& r = rows[i];
       if (r.status != UnitStatus::Completed || r.end <= r.start) continue;
@@ -217,6 +220,7 @@ Expected<Profile> calibrate_profile(const Profile& isolated, const Scenario& s,
   cal.factors = std::move(factors);
   cal.lane_factors = lane_factors;
   if (!handoffs.empty()) cal.handoff = ns(median_of(handoffs));
+  if (!queued_gaps.empty()) cal.queued_gap = ns(median_of(queued_gaps));
   if (!round_trips.empty()) p.sync_round_trip = ns(median_of(round_trips));
 
   auto table_of = [&](std::vector<double> v) {
@@ -304,6 +308,8 @@ std::string calibration_table(const Profile& isolated, const Profile& calibrated
     out += fmt::format("lane factor by other lanes busy at start: {}\n", lf);
     out += fmt::format("hand-off without a round trip: {:.1f} us; round trip: {:.1f} us\n",
                        to_us(k.handoff), to_us(calibrated.sync_round_trip));
+    if (k.queued_gap > Duration{0})
+      out += fmt::format("gap before a unit queued on its lane: {:.1f} us\n", to_us(k.queued_gap));
   }
   return out;
 }

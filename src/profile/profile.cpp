@@ -347,7 +347,7 @@ Calibration parse_calibration(const json& c) {
   if (!c.is_object()) bad(where + ": must be an object");
   only_keys(c,
             {"scenario", "policies", "seconds_per_policy", "interference", "block_ms", "run_blocks",
-             "factors", "lane_factors", "handoff_us", "residual"},
+             "factors", "lane_factors", "handoff_us", "queued_gap_us", "residual"},
             where);
   Calibration k;
   if (c.contains("scenario")) k.scenario = str(c["scenario"], where + ".scenario");
@@ -388,6 +388,8 @@ Calibration parse_calibration(const json& c) {
     if (k.lane_factors.empty()) k.lane_factors.push_back(1.0);
   }
   if (c.contains("handoff_us")) k.handoff = micros(c["handoff_us"], where + ".handoff_us");
+  if (c.contains("queued_gap_us"))
+    k.queued_gap = micros(c["queued_gap_us"], where + ".queued_gap_us");
   if (c.contains("residual")) {
     const json& r = c["residual"];
     if (!r.is_object()) bad(where + ".residual: must be an object of units");
@@ -583,6 +585,7 @@ std::string profile_to_json(const Profile& p) {
     c["factors"] = k.factors;
     c["lane_factors"] = k.lane_factors;
     c["handoff_us"] = to_us(k.handoff);
+    if (k.queued_gap > Duration{0}) c["queued_gap_us"] = to_us(k.queued_gap);
     ordered res = ordered::object();
     for (const auto& [name, tables] : k.residual) {
       ordered arr = ordered::array();

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstring>
+#include <deque>
 #include <fstream>
 #include <latch>
 #include <mutex>
@@ -20,6 +21,7 @@
 
 #include "red/core/assert.hpp"
 #include "red/core/clock.hpp"
+#include "red/sim/cost_sampler.hpp"
 
 namespace red {
 
@@ -98,14 +100,6 @@ constexpr std::uint8_t kWatchIdle = 0;      // no unit running
 constexpr std::uint8_t kWatchRunning = 1;   // running, limit in Handler::limit_ns
 constexpr std::uint8_t kWatchTimedOut = 2;  // failed by the watchdog; the call is still out
 
-// A unit's watchdog limit: its profiled p99 at batch size `batch` (sizes past the largest
-// measured scale linearly).
-Duration p99_at(const UnitProfile* u, int batch) {
-  if (u == nullptr || u->max_batch() == 0) return Duration{0};
-  const Duration p = u->at(batch).p99;
-  return batch > u->max_batch() ? p * batch / u->max_batch() : p;
-}
-
 struct InEvent {
   enum Kind : std::uint8_t { Frame, Complete } kind;
   int index;  // sensor or lane
@@ -113,6 +107,7 @@ struct InEvent {
   TimePoint t;  // a completion's end; a frame's nominal capture time (pushed: its arrival)
   UnitStatus status;
   std::string reason;
+  TimePoint started = kNever;  // a completion: its start as the device read it, if known
 };
 
 }  // namespace
@@ -124,6 +119,10 @@ struct Runtime::Impl {
   SteadyClock clock;
   Scheduler sched;
   SyncMode sync;
+  // §6 on a GPU lane: units are enqueued on the backend's lanes and waited for
+  // (Backend::enqueue, Backend::wait); with on-demand synchronization a handler queues up
+  // to the scheduler's queue_depth units, so the device does not wait for the host.
+  bool async;
 
   // The scheduler is driven by one thread at a time: the global synchronizer, a handler
   // taking a local decision (on-demand), or a thread releasing the frame it brought.
@@ -150,7 +149,8 @@ struct Runtime::Impl {
     std::condition_variable cv;
     std::atomic<std::uint64_t> assigned{0};  // bumped on every assignment
     const Dispatch* work = nullptr;
-    TimePoint prev_end = kNever;  // end of the unit this assignment follows, if immediate
+    std::deque<const Dispatch*> queue;  // asynchronous lanes: assignments not yet taken
+    TimePoint prev_end = kNever;        // end of the unit this assignment follows, if immediate
     std::atomic<HandlerState> state{HandlerState::Idle};
     // Watchdog. The handler runs a copy of its dispatch: once the watchdog has failed a
     // unit, the scheduler may hand the lane its next dispatch while the call is still out.
@@ -197,11 +197,13 @@ struct Runtime::Impl {
       : scenario(s),
         backend(b),
         options(o),
-        sched(s, p, std::move(policy), SchedulerConfig::from(s, p)),
-        sync(sched.policy().options().sync) {
+        sched(s, p, std::move(policy), config_of(s, p, b)),
+        sync(sched.policy().options().sync),
+        async(b.asynchronous()) {
     report.decision_us.reserve(options.max_timing_samples);
     recent_decision_us.reserve(kRecentDecisions);
     report.handoff_us.reserve(options.max_timing_samples);
+    if (async) report.queued_gap_us.reserve(options.max_timing_samples);
     report.lock_wait_us.reserve(options.max_timing_samples);
     round_events.reserve(64);
     round_completed.reserve(static_cast<std::size_t>(s.device.lanes));
@@ -210,6 +212,20 @@ struct Runtime::Impl {
   }
 
   bool watchdog_on() const noexcept { return options.watchdog_x > 0; }
+
+  // The scheduler's settings for this backend: a synchronous backend runs one unit per lane
+  // at a time; an asynchronous one queues the scenario's device.queue_depth (default 2).
+  static SchedulerConfig config_of(const Scenario& s, const Profile& p, const Backend& b) {
+    SchedulerConfig c = SchedulerConfig::from(s, p);
+    c.queue_depth = b.asynchronous() ? s.device.queue_depth.value_or(2) : 1;
+    return c;
+  }
+
+  // A steady_clock time a backend reported, on this run's clock (kNever when not given).
+  TimePoint on_clock(std::chrono::steady_clock::time_point t) const noexcept {
+    if (t == std::chrono::steady_clock::time_point{}) return kNever;
+    return TimePoint{std::chrono::duration_cast<Duration>(t.time_since_epoch()) - clock.origin()};
+  }
 
   // Keeps a uniform sample of at most max_timing_samples values (reservoir sampling,
   // Algorithm R); `seen` counts every value offered. Caller holds report_mu.
@@ -257,33 +273,7 @@ struct Runtime::Impl {
 
   // Profiled p99 of what `d` runs (the watchdog's base), allocation-free.
   Duration p99_of(const Dispatch& d) const {
-    const Member& m = d.members.front();
-    const RefinedGraph& g = *m.graph;
-    const RefinedUnit& u = g.units[static_cast<std::size_t>(m.unit)];
-    auto head = [this](int h, int batch) {
-      return h >= 0 && static_cast<std::size_t>(h) < head_profiles.size()
-                 ? p99_at(head_profiles[static_cast<std::size_t>(h)], batch)
-                 : Duration{0};
-    };
-    switch (d.kind) {
-      case UnitKind::Encoder:
-        return p99_at(encoder_profile, d.batch);
-      case UnitKind::Head:
-        return head(d.head, d.batch);
-      case UnitKind::Coarse:
-        return p99_at(encoder_profile, d.batch) + head(u.head, d.batch);
-      case UnitKind::Plain: {
-        const NodeSpec& n = g.spec->nodes[static_cast<std::size_t>(m.node)];
-        return n.cost ? n.cost->p99 * d.batch : Duration{0};
-      }
-      case UnitKind::Mono: {
-        Duration t = p99_at(encoder_profile, 1) * static_cast<std::int64_t>(g.sensors.size());
-        for (const NodeSpec& n : g.spec->nodes)
-          t += n.is_plain() ? (n.cost ? n.cost->p99 : Duration{0}) : head(n.head, 1);
-        return t;
-      }
-    }
-    return Duration{0};
+    return profiled_cost(d, encoder_profile, head_profiles, &LatencyStats::p99);
   }
 
   Duration watchdog_limit(const Dispatch& d) const {
@@ -354,7 +344,7 @@ struct Runtime::Impl {
     std::uint64_t frames = 0;
     for (InEvent& e : round_events) {
       if (e.kind == InEvent::Complete) {
-        sched.on_complete(e.index, now, e.status, e.reason);
+        sched.on_complete(e.index, now, e.status, e.reason, e.started);
         round_completed.push_back(e.index);  // within the reserved capacity (one per lane)
         completed_at = std::min(completed_at, e.t);
       } else if (releasing) {
@@ -440,6 +430,7 @@ struct Runtime::Impl {
     {
       std::lock_guard lock(h.mu);
       h.work = d;
+      if (async) h.queue.push_back(d);
       h.prev_end = prev_end;
       h.state.store(HandlerState::Assigned, std::memory_order_release);
       h.assigned.fetch_add(1, std::memory_order_release);
@@ -656,6 +647,239 @@ struct Runtime::Impl {
     }
   }
 
+  // A unit an asynchronous lane holds: the handler's copy of its dispatch (the scheduler
+  // may reuse its slot once the watchdog has failed it), when it was enqueued, and a failure
+  // to enqueue it (then it is not waited for).
+  struct Held {
+    Dispatch d;
+    TimePoint enqueued{0};
+    TimePoint began = kNever;  // when it became the oldest (the one before it ended)
+    bool queued = false;       // enqueued while the unit before it was still held
+    bool enqueue_failed = false;
+    UnitStatus status = UnitStatus::Completed;
+    std::string reason;
+  };
+
+  // Enqueues one dispatch on an asynchronous lane (§6 on a GPU lane): the backend returns
+  // without waiting for the device.
+  void enqueue_unit(int lane, std::deque<Held>& held, const Dispatch& d, TimePoint prev_end,
+                    Duration& enqueue_cost) {
+    Held& u = held.emplace_back();
+    u.d = d;
+    u.queued = held.size() > 1;
+    u.enqueued = clock.now();
+    if (!u.queued) u.began = u.enqueued;
+    if (!u.queued && prev_end != kNever) {
+      std::lock_guard lock(report_mu);
+      record(report.handoff_us, report.handoffs, to_us(u.enqueued - prev_end));
+    }
+    try {
+      backend.enqueue(lane, u.d);
+    } catch (const OutOfMemoryError& e) {
+      u.enqueue_failed = true;
+      u.status = UnitStatus::OutOfMemory;
+      u.reason = e.what();
+    } catch (const std::exception& e) {
+      u.enqueue_failed = true;
+      u.status = UnitStatus::Failed;
+      u.reason = e.what();
+    } catch (...) {
+      u.enqueue_failed = true;
+      u.status = UnitStatus::Failed;
+      u.reason = "unknown exception";
+    }
+    // What an enqueue costs the host (launching a unit's kernels), smoothed: the next
+    // unit is decided at least twice that before the lane runs dry.
+    enqueue_cost = (enqueue_cost * 7 + (clock.now() - u.enqueued)) / 8;
+  }
+
+  // When the units `held` are expected to end: the oldest's start plus their profiled p50.
+  TimePoint expected_end(const std::deque<Held>& held) const {
+    TimePoint t = held.front().began;
+    for (const Held& u : held)
+      t += profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
+    return t;
+  }
+
+  // On-demand, at a unit boundary of `lane` (caller holds sched_mu): the units the lane's
+  // queue has room for, decided now and handed to the caller to enqueue after it lets go
+  // of the lock (what is decided counts as dispatched).
+  void decide_ahead(int lane, TimePoint now, std::vector<const Dispatch*>& out) {
+    while (sched.has_room_ahead(lane)) {
+      const TimePoint t0 = clock.now();
+      const auto ds = sched.dispatch_ahead(now, lane);
+      if (ds.empty()) return;
+      const TimePoint t1 = clock.now();
+      sched.on_start(lane, now);  // moved to the device's start when it runs
+      out.push_back(ds.front());
+      std::lock_guard lock(report_mu);
+      record(report.decision_us, report.decisions, to_us(t1 - t0));
+      ++report.enqueued_ahead;
+    }
+  }
+
+  // The handler of an asynchronous lane (Backend::asynchronous()): the same state machine
+  // as handler_main, over the units the lane holds. It enqueues what it is given and, under
+  // on-demand synchronization, decides at each unit boundary (an enqueue, a completion) the
+  // units its queue has room for, so the next unit is on the device before the one before
+  // it ends; then it waits for the oldest. Every completion reaches the scheduler in the
+  // lane's order: under on-demand the handler reports each itself (a failure too, then
+  // wakes the global synchronizer, which decides the lane's next run); under per-edge it
+  // posts each to the global synchronizer and holds one unit at a time.
+  void async_handler_main(int lane) {
+    Handler& h = *handlers[static_cast<std::size_t>(lane)];
+    if (options.realtime) {
+      sched_param sp{};
+      sp.sched_priority = options.rt_priority;
+      (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+      const cpu_set_t set = lane_cores(static_cast<std::size_t>(lane));
+      (void)pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
+    }
+    backend.init_lane(lane);
+    backend.warm_up(lane);
+    warmed->count_down();
+    std::uint64_t seen = 0;
+    const auto depth = static_cast<std::size_t>(sched.config().queue_depth);  // constant
+    std::deque<Held> held;                                                    // oldest first
+    std::vector<const Dispatch*> taken;  // assignments and own decisions to enqueue
+    TimePoint prev_end = kNever;         // end of the unit before, while the lane is busy
+    Duration enqueue_cost{0};            // what an enqueue costs the host, smoothed
+    bool answer_due = false;
+    for (;;) {
+      if (held.empty()) {
+        h.state.store(HandlerState::Idle, std::memory_order_release);
+        const Duration spin =
+            answer_due ? std::max(options.spin, options.answer_spin) : options.spin;
+        answer_due = false;
+        spin_then_park(h.mu, h.cv, clock, spin, kNever, [&] {
+          return h.assigned.load(std::memory_order_acquire) != seen ||
+                 stopping.load(std::memory_order_acquire);
+        });
+        if (h.assigned.load(std::memory_order_acquire) == seen) return;  // stopping
+        if (stopping.load(std::memory_order_acquire)) return;
+      }
+      if (!stopping.load(std::memory_order_acquire)) {
+        // What the global synchronizer assigned (it assigns only to an idle lane; once the
+        // run stops, what it assigned is reported unfinished, as on a synchronous lane).
+        std::lock_guard lock(h.mu);
+        seen = h.assigned.load(std::memory_order_acquire);
+        taken.insert(taken.end(), h.queue.begin(), h.queue.end());
+        h.queue.clear();
+        if (held.empty() && prev_end == kNever) prev_end = h.prev_end;
+      }
+      if (!taken.empty()) h.state.store(HandlerState::Assigned, std::memory_order_release);
+      for (const Dispatch* d : taken) enqueue_unit(lane, held, *d, prev_end, enqueue_cost);
+      taken.clear();
+      if (held.empty()) continue;
+      if (sync == SyncMode::OnDemand && !stopping.load() && held.size() < depth) {
+        // The lane's queue is filled when what it holds is about to end (the lead), not at
+        // once: a release meanwhile is seen before the next unit is chosen.
+        const Duration lead = std::max(sched.config().ahead_lead, enqueue_cost * 2);
+        const TimePoint at = expected_end(held) - lead;
+        // Parked until a spin before it, then spinning (a wake-up can take longer).
+        auto stop = [&] { return stopping.load(std::memory_order_acquire); };
+        if (at - options.spin > clock.now())
+          spin_then_park(h.mu, h.cv, clock, Duration{0}, at - options.spin, stop);
+        while (clock.now() < at && !stop()) std::this_thread::yield();
+        lock_spinning(sched_mu, clock, options.spin);
+        std::unique_lock lock(sched_mu, std::adopt_lock);
+        decide_ahead(lane, advance_now(clock.now()), taken);
+        const bool wake = must_wake_global();
+        lock.unlock();
+        if (wake) wake_global();
+        for (const Dispatch* d : taken) enqueue_unit(lane, held, *d, prev_end, enqueue_cost);
+        taken.clear();
+      }
+      // Wait for the oldest, watched from now (the units before it have ended).
+      Held& u = held.front();
+      h.state.store(HandlerState::Running, std::memory_order_release);
+      if (watchdog_on()) {
+        const TimePoint limit = clock.now() + watchdog_limit(u.d);
+        h.limit_ns.store(limit.count(), std::memory_order_release);
+        h.watch.store(kWatchRunning);
+        if (limit.count() < global_wake_at.load()) wake_global();
+      }
+      UnitDone done;
+      if (u.enqueue_failed) {
+        done.status = u.status;
+        done.reason = std::move(u.reason);
+      } else {
+        try {
+          done = backend.wait(lane);
+        } catch (const std::exception& e) {  // the contract says report, not throw: still
+          done.status = UnitStatus::Failed;
+          done.reason = e.what();
+        }
+      }
+      const TimePoint end = std::min(clock.now(), on_clock(done.ended));
+      const TimePoint started = on_clock(done.started);
+      if (u.queued && started != kNever && prev_end != kNever) {
+        std::lock_guard rl(report_mu);
+        record(report.queued_gap_us, report.queued_gaps,
+               to_us(std::max(Duration{0}, started - prev_end)));
+      }
+      const bool timed_out = watchdog_on() && h.watch.exchange(kWatchIdle) == kWatchTimedOut;
+      held.pop_front();
+      if (!held.empty()) held.front().began = end;  // in the lane's order, it starts now
+      if (timed_out) {
+        // The watchdog failed this unit's jobs and took it off the lane towards the
+        // scheduler; its late result is ignored.
+        std::lock_guard rl(report_mu);
+        ++report.late_returns;
+        report.out_of_service += end - TimePoint{h.timed_out_ns.load(std::memory_order_acquire)};
+        prev_end = kNever;
+        continue;
+      }
+      const UnitStatus status = done.status;
+      std::string reason = status == UnitStatus::OutOfMemory ? "out of memory: " + done.reason
+                                                             : std::move(done.reason);
+      h.state.store(status == UnitStatus::Completed ? HandlerState::Completed
+                    : status == UnitStatus::Failed  ? HandlerState::Failed
+                                                    : HandlerState::OutOfMemory,
+                    std::memory_order_release);
+      if (status != UnitStatus::Completed) {
+        std::lock_guard rl(report_mu);
+        ++report.failures;
+        ++report.failure_reasons[reason];
+      }
+      prev_end = end;
+      if (sync == SyncMode::OnDemand && !stopping.load()) {
+        // The local synchronizer reports the completion and takes the decision at this
+        // unit boundary; a failure ends the run, and the global synchronizer is woken to
+        // decide what the lane runs next.
+        const bool waited = lock_spinning(sched_mu, clock, options.spin);
+        std::unique_lock lock(sched_mu, std::adopt_lock);
+        const TimePoint locked = waited ? clock.now() : end;
+        const TimePoint now = advance_now(end);
+        sched.on_complete(lane, now, status, reason, started);
+        sched.advance(now);
+        if (status == UnitStatus::Completed) {
+          // Every idle lane gets work (this one too, when it holds nothing more).
+          // (The unit behind it, if any, is decided later, by the lead.)
+          if (const Dispatch* own = decide(now, lane, std::span<const int>(&lane, 1), end))
+            taken.push_back(own);
+        }
+        const bool wake = status != UnitStatus::Completed || must_wake_global();
+        lock.unlock();
+        {
+          std::lock_guard rl(report_mu);
+          ++report.local_decisions;
+          if (waited) record(report.lock_wait_us, report.lock_waits, to_us(locked - end));
+        }
+        if (wake) wake_global();
+        for (const Dispatch* d : taken) enqueue_unit(lane, held, *d, prev_end, enqueue_cost);
+        taken.clear();
+        if (held.empty()) prev_end = kNever;
+        continue;
+      }
+      // Per-edge (and every completion once the run is stopping): to the global
+      // synchronizer, in the lane's order.
+      post({InEvent::Complete, lane, 0, end, status, std::move(reason), started});
+      prev_end = kNever;
+      answer_due = held.empty();
+    }
+  }
+
   // Releases each sensor's frames at their nominal capture times. Releasing costs no model
   // work here (Backend::on_frame only names the frame; its tensor is made off this thread),
   // so the camera keeps the sensors' rates whatever the lanes are doing; a frame released
@@ -784,7 +1008,8 @@ struct Runtime::Impl {
     for (int l = 0; l < scenario.device.lanes; ++l) handlers.push_back(std::make_unique<Handler>());
     warmed.emplace(scenario.device.lanes);
     for (int l = 0; l < scenario.device.lanes; ++l)
-      handlers[static_cast<std::size_t>(l)]->thread = std::thread([this, l] { handler_main(l); });
+      handlers[static_cast<std::size_t>(l)]->thread =
+          std::thread([this, l] { async ? async_handler_main(l) : handler_main(l); });
     // Memory is locked after the warm-up pass, when the pages the run uses are resident.
     warmed->wait();
     report.resident_bytes_warm = resident_bytes();
@@ -900,7 +1125,7 @@ struct Runtime::Impl {
         for (std::vector<InEvent>* events : {&round_events, &inbox})
           for (InEvent& e : *events)
             if (e.kind == InEvent::Complete && sched.running(e.index) != nullptr)
-              sched.on_complete(e.index, advance_now(e.t), e.status, e.reason);
+              sched.on_complete(e.index, advance_now(e.t), e.status, e.reason, e.started);
         round_events.clear();
         inbox.clear();
       }

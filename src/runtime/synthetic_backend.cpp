@@ -10,7 +10,22 @@ SyntheticBackend::SyntheticBackend(const Scenario& s, const Profile& p, std::uin
                                    Options o)
     : sampler_(s, p, seed), options_(std::move(o)) {}
 
+SyntheticBackend::~SyntheticBackend() {
+  for (auto& w : workers_) {
+    {
+      std::lock_guard lock(w->mu);
+      w->stop = true;
+    }
+    w->cv.notify_all();
+    w->thread.join();
+  }
+}
+
 void SyntheticBackend::run(int /*lane*/, const Dispatch& d) {
+  spend(d);
+}
+
+void SyntheticBackend::spend(const Dispatch& d) {
   runs_.fetch_add(1, std::memory_order_relaxed);
   if (options_.inject) {
     const int what = options_.inject(d);
@@ -32,6 +47,69 @@ void SyntheticBackend::run(int /*lane*/, const Dispatch& d) {
     }
   } else {
     std::this_thread::sleep_until(until);
+  }
+}
+
+SyntheticBackend::Worker& SyntheticBackend::worker(int lane) {
+  std::lock_guard lock(workers_mu_);
+  const auto l = static_cast<std::size_t>(lane);
+  if (workers_.size() <= l) workers_.resize(l + 1);
+  if (!workers_[l]) {
+    workers_[l] = std::make_unique<Worker>();
+    Worker& w = *workers_[l];
+    // Started from the lane's handler: it inherits the handler's scheduling class and cores,
+    // as a backend's compute threads do.
+    w.thread = std::thread([this, &w] { worker_main(w); });
+  }
+  return *workers_[l];
+}
+
+void SyntheticBackend::enqueue(int lane, const Dispatch& d) {
+  if (!options_.asynchronous) {
+    run(lane, d);
+    return;
+  }
+  Worker& w = worker(lane);
+  {
+    std::lock_guard lock(w.mu);
+    w.queued.push_back(d);  // the unit keeps its own copy: `d` is only borrowed
+  }
+  w.cv.notify_all();
+}
+
+UnitDone SyntheticBackend::wait(int lane) {
+  if (!options_.asynchronous) return {};
+  Worker& w = worker(lane);
+  std::unique_lock lock(w.mu);
+  w.cv.wait(lock, [&] { return !w.done.empty(); });
+  UnitDone u = std::move(w.done.front());
+  w.done.pop_front();
+  return u;
+}
+
+void SyntheticBackend::worker_main(Worker& w) {
+  std::unique_lock lock(w.mu);
+  for (;;) {
+    w.cv.wait(lock, [&] { return w.stop || !w.queued.empty(); });
+    if (w.queued.empty()) return;  // stopping, nothing left
+    const Dispatch d = std::move(w.queued.front());
+    w.queued.pop_front();
+    lock.unlock();
+    UnitDone u;
+    u.started = std::chrono::steady_clock::now();
+    try {
+      spend(d);
+    } catch (const OutOfMemoryError& e) {
+      u.status = UnitStatus::OutOfMemory;
+      u.reason = e.what();  // the runtime says "out of memory: "
+    } catch (const std::exception& e) {
+      u.status = UnitStatus::Failed;
+      u.reason = e.what();
+    }
+    u.ended = std::chrono::steady_clock::now();
+    lock.lock();
+    w.done.push_back(std::move(u));
+    w.cv.notify_all();
   }
 }
 

@@ -366,8 +366,10 @@ std::string Loader::resolve_path(const std::string& p) const {
 }
 
 void Loader::parse_device(const Val& v) {
-  const Fields f(v, {"lanes", "sync_cost_us"});
+  const Fields f(v, {"lanes", "sync_cost_us", "queue_depth"});
   if (const Val* x = f.get("lanes")) s_.device.lanes = static_cast<int>(integer(*x, 1, kMaxLanes));
+  if (const Val* x = f.get("queue_depth"))
+    s_.device.queue_depth = static_cast<int>(integer(*x, 1, kMaxQueueDepth));
   if (const Val* x = f.get("sync_cost_us")) {
     const double us = non_negative(*x);
     s_.device.sync_cost = ms_value(*x, us / 1e3);
@@ -1072,6 +1074,10 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
     if (value < 1.0 || value > static_cast<double>(kMaxLanes) || value != std::floor(value))
       return bad(fmt::format("must be an integer in [1, {}]", kMaxLanes));
     out.device.lanes = static_cast<int>(value);
+  } else if (key == "queue_depth") {
+    if (value < 1.0 || value > static_cast<double>(kMaxQueueDepth) || value != std::floor(value))
+      return bad(fmt::format("must be an integer in [1, {}]", kMaxQueueDepth));
+    out.device.queue_depth = static_cast<int>(value);
   } else if (key == "duration_s") {
     if (!(value > 0.0)) return bad("must be > 0");
     if (value > 1e9) return bad("is too large (at most 1e9 s)");
@@ -1089,7 +1095,8 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
   } else {
     return Error{"", 0,
                  fmt::format("override {}={}: unknown key '{}' (allowed: deadline_scale, "
-                             "qoe_lambda, gamma_ms, lanes, rate_scale, duration_s, seed)",
+                             "qoe_lambda, gamma_ms, lanes, queue_depth, rate_scale, duration_s, "
+                             "seed)",
                              key, value, key)};
   }
   if (auto e = check_size(out)) return bad(e->message);

@@ -118,13 +118,13 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
   Duration due{0};
   if (blocking)
     for (const Lane& l : lanes) {
-      if (!l.busy) continue;
-      for (const Member& mb : l.d.members) {
-        const Job& j = job(mb.slot);
-        if (!j.live || j.id != mb.job) continue;
-        const auto u = static_cast<std::size_t>(mb.unit);
-        due += residual(j, u, now, k) / std::max(1, j.u[u].share);
-      }
+      for (int q = 0; q < l.count; ++q)
+        for (const Member& mb : l.at(q).members) {
+          const Job& j = job(mb.slot);
+          if (!j.live || j.id != mb.job) continue;
+          const auto u = static_cast<std::size_t>(mb.unit);
+          due += residual(j, u, now, k) / std::max(1, j.u[u].share);
+        }
     }
   for (std::size_t i = 0; i < by_deadline.size(); ++i) {
     Job& j = job(by_deadline[i]);
@@ -203,13 +203,16 @@ int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k, int margi
   gap_begin.assign(lanes.size(), now);
   gap_end.assign(lanes.size(), now);
   for (std::size_t l = 0; l < lanes.size(); ++l) {
-    if (!lanes[l].busy) continue;
-    for (const Member& mb : lanes[l].d.members) {
-      const Job& j = job(mb.slot);
-      if (!j.live || j.id != mb.job) continue;
-      lane_free[l] =
-          std::max(lane_free[l],
-                   now + padded(residual(j, static_cast<std::size_t>(mb.unit), now, k), margin));
+    // The running unit, then each queued behind it (a lane runs them one after another).
+    for (int q = 0; q < lanes[l].count; ++q) {
+      const TimePoint from_t = lane_free[l];
+      for (const Member& mb : lanes[l].at(q).members) {
+        const Job& j = job(mb.slot);
+        if (!j.live || j.id != mb.job) continue;
+        lane_free[l] = std::max(
+            lane_free[l],
+            from_t + padded(residual(j, static_cast<std::size_t>(mb.unit), now, k), margin));
+      }
     }
   }
   for (std::size_t i = 0; i < by_deadline.size(); ++i) {

@@ -53,12 +53,18 @@ SchedulerConfig SchedulerConfig::from(const Scenario& s) {
   c.level_cost = s.scheduler.level_cost;
   c.warmup = s.warmup;
   if (s.device.sync_cost) c.sync_cost = *s.device.sync_cost;
+  if (s.device.queue_depth) c.queue_depth = *s.device.queue_depth;
   return c;
 }
 
 SchedulerConfig SchedulerConfig::from(const Scenario& s, const Profile& p) {
   SchedulerConfig c = from(s);
   c.sync_cost = s.device.sync_cost ? *s.device.sync_cost : p.sync_round_trip;
+  // A GPU runs its lanes asynchronously: one unit queued behind the running one keeps the
+  // device from waiting for the host between units (§6).
+  if (!s.device.queue_depth && p.source == "measured" && !p.device.empty() &&
+      p.device.rfind("cpu", 0) != 0)
+    c.queue_depth = 2;
   return c;
 }
 
@@ -452,6 +458,7 @@ int Scheduler::Impl::alloc_task() {
   k.member_at.clear();
   k.wait_until = TimePoint{0};
   k.ready_pos = -1;
+  k.lane_only = -1;
   return t;
 }
 
@@ -692,6 +699,35 @@ int Scheduler::Impl::batch_limit(const Task& k) const {
   return std::min(s.config_.max_batch, p != nullptr ? p->max_batch() : 1);
 }
 
+void Scheduler::Impl::ready_in_lane_order(int lane_index) {
+  const Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
+  for (int q = 0; q < lane.count; ++q)
+    for (const Member& mb : lane.at(q).members) {
+      Job& j = job(mb.slot);
+      if (!j.live || j.ended || j.id != mb.job) continue;
+      if (j.u[static_cast<std::size_t>(mb.unit)].state != UState::Running) continue;
+      for (int sx : j.g->units[static_cast<std::size_t>(mb.unit)].succs) {
+        UnitRt& su = j.u[static_cast<std::size_t>(sx)];
+        if (su.state != UState::Blocked || su.pending != 1 ||
+            j.g->units[static_cast<std::size_t>(sx)].kind == UnitKind::Encoder)
+          continue;
+        su.pending = 0;
+        su.early = true;
+        make_ready(mb.slot, sx);
+        task(su.task).lane_only = lane_index;
+        j.dirty = true;
+      }
+    }
+}
+
+void Scheduler::Impl::set_start(Dispatch& d, TimePoint start) {
+  d.start = start;
+  for (const Member& mb : d.members) {
+    Job& j = job(mb.slot);
+    if (j.live && j.id == mb.job) j.u[static_cast<std::size_t>(mb.unit)].start = start;
+  }
+}
+
 bool Scheduler::Impl::on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const {
   if (opt.sync != SyncMode::OnDemand || lane.completed_at != now || !lane.run_open) return false;
   for (auto [slot, unit] : k.members) {
@@ -715,11 +751,12 @@ TimePoint Scheduler::Impl::latest_batch_end(const Task& k) const {
 }
 
 int Scheduler::Impl::choose_lane(const Task& k, TimePoint now) const {
+  if (ahead_lane >= 0) return ahead_lane;  // dispatch_ahead: the lane is given
   int fallback = -1;
   bool fallback_open = true;
   for (std::size_t i = 0; i < lanes.size(); ++i) {
     const Lane& l = lanes[i];
-    if (l.busy) continue;
+    if (l.busy()) continue;
     if (on_demand_continuation(l, k, now)) return static_cast<int>(i);
     const bool open = l.run_open && l.completed_at == now;
     if (fallback < 0 || (fallback_open && !open)) {
@@ -732,7 +769,7 @@ int Scheduler::Impl::choose_lane(const Task& k, TimePoint now) const {
 
 void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint deadline) {
   Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
-  Dispatch& d = lane.d;
+  Dispatch& d = lane.next_slot();
   const Task& first = task(batch.front());
   d.id = ++dispatch_seq;
   d.lane = lane_index;
@@ -745,7 +782,8 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
   d.deadline = deadline;
   d.decided_at = now;
   d.start = now;
-  d.round_trip = !on_demand_continuation(lane, first, now);
+  // Queued behind the lane's running unit by its own handler: no round trip.
+  d.round_trip = ahead_lane < 0 && !on_demand_continuation(lane, first, now);
   // A round trip starts a new run: the handler is handed these jobs' work (§6).
   if (d.round_trip) lane.run_jobs.clear();
   lane.run_open = false;
@@ -812,7 +850,7 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
     free_task(t);
   }
   d.task_begin.push_back(static_cast<int>(d.members.size()));
-  lane.busy = true;
+  ++lane.count;
   ++s.stats_.dispatches;
   if (d.round_trip) ++s.stats_.round_trips;
   out.push_back(&d);
@@ -834,6 +872,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
     for (int t : ready) {
       Task& tk = task(t);
       if (tk.wait_until > now) continue;
+      if (tk.lane_only >= 0 && tk.lane_only != ahead_lane) continue;  // behind a busy lane
       if (ranks_from_tasks() && by_job_deadline(tk)) {
         // EDF by job deadline reads only the earliest job deadline and the least member
         // key, both kept beside the task (TaskRank): no look into the jobs. The task's own
@@ -896,6 +935,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
       lane_index = choose_lane(k, now);
       if (lane_index < 0) return false;
       rt = round_trip_cost(
+          ahead_lane < 0 &&
           !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
       // §5 hopeless, on the drop estimate and with the round trip this dispatch pays. An
       // overload-aware policy (rank=overload) aborts only while overloaded: with the lanes
@@ -1039,12 +1079,8 @@ void Scheduler::on_frame(int sensor, std::uint64_t frame, TimePoint now) {
 
 void Scheduler::on_start(int lane, TimePoint start) {
   Impl& m = *impl_;
-  Dispatch& d = m.lanes[static_cast<std::size_t>(lane)].d;
-  d.start = start;
-  for (const Member& mb : d.members) {
-    Job& j = m.job(mb.slot);
-    if (j.live && j.id == mb.job) j.u[static_cast<std::size_t>(mb.unit)].start = start;
-  }
+  Dispatch& d = m.lanes[static_cast<std::size_t>(lane)].newest();
+  m.set_start(d, start);
   for (Observer* ob : m.observers) ob->on_unit_start(d);
 }
 
@@ -1057,15 +1093,18 @@ void Scheduler::stop_releases() {
 }
 
 void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
-                            std::string_view reason) {
+                            std::string_view reason, TimePoint started) {
   Impl& m = *impl_;
   Lane& lane = m.lanes[static_cast<std::size_t>(lane_index)];
-  RED_ASSERT(lane.busy);
-  lane.busy = false;
+  RED_ASSERT(lane.busy());
+  Dispatch& d = lane.oldest();
+  lane.pop();  // the slot stays as it is until a later dispatch reuses it
   lane.completed_at = now;
   // §6: a transition other than Completed ends the run; the next dispatch pays a round trip.
   lane.run_open = status == UnitStatus::Completed;
-  const Dispatch& d = lane.d;
+  if (started != kNever) m.set_start(d, std::min(started, now));
+  // A unit queued behind this one starts now, in the lane's order.
+  if (lane.busy() && lane.oldest().start < now) m.set_start(lane.oldest(), now);
   for (Observer* ob : m.observers) ob->on_unit_end(d, now, status);
   for (const Member& mb : d.members) {
     Job& j = m.job(mb.slot);
@@ -1090,6 +1129,12 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
     --j.unfinished;
     for (int sx : j.g->units[static_cast<std::size_t>(mb.unit)].succs) {
       UnitRt& su = j.u[static_cast<std::size_t>(sx)];
+      if (su.early) {
+        // Ready already, for this lane: now for any.
+        su.early = false;
+        if (su.state == UState::Queued && su.task >= 0) m.task(su.task).lane_only = -1;
+        continue;
+      }
       if (--su.pending == 0 && su.state == UState::Blocked) m.make_ready(mb.slot, sx);
     }
     if (j.unfinished == 0) {
@@ -1155,7 +1200,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (m.opt.admission == Admission::Shed && m.released_since_admission) m.admit(now);
   m.released_since_admission = false;
   int idle = 0;
-  for (const Lane& l : m.lanes) idle += l.busy ? 0 : 1;
+  for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
   if (idle > 0 && !m.ready.empty()) {
     ++stats_.decisions;
     // §5 max_inflight: an operation at its limit skips its next release, so finishing its
@@ -1199,8 +1244,14 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
     m.min_wait = std::min(m.min_wait, k.wait_until);
     ++i;
   }
-  for (Observer* ob : m.observers)
-    ob->on_decision(now, static_cast<int>(m.ready.size()), idle, waiting);
+  if (!m.observers.empty()) {
+    // Ready for any lane: a task ready only behind a busy lane's unit (queue_depth > 1)
+    // cannot take an idle lane.
+    int ready = static_cast<int>(m.ready.size());
+    if (config_.queue_depth > 1)
+      for (int t : m.ready) ready -= m.task(t).lane_only >= 0 ? 1 : 0;
+    for (Observer* ob : m.observers) ob->on_decision(now, ready, idle, waiting);
+  }
   return {m.out.data(), m.out.size()};
 }
 
@@ -1220,10 +1271,9 @@ void Scheduler::finish(TimePoint end) {
   // Units still running when the run ends get their row, cut at the end (REPORTS.md: one
   // row per unit that started).
   for (Lane& l : m.lanes) {
-    if (!l.busy) continue;
-    l.busy = false;
-    for (Observer* ob : m.observers)
-      ob->on_unit_end(l.d, std::max(end, l.d.start), UnitStatus::Unfinished);
+    for (; l.busy(); l.pop())
+      for (Observer* ob : m.observers)
+        ob->on_unit_end(l.oldest(), std::max(end, l.oldest().start), UnitStatus::Unfinished);
   }
   for (std::size_t i = 0; i < m.jobs.size(); ++i) {
     Job& j = m.jobs[i];
@@ -1258,7 +1308,28 @@ const RefinedGraph* Scheduler::graph(int operation) const {
 
 const Dispatch* Scheduler::running(int lane) const {
   const auto& l = impl_->lanes[static_cast<std::size_t>(lane)];
-  return l.busy ? &l.d : nullptr;
+  return l.busy() ? &l.at(0) : nullptr;
+}
+
+bool Scheduler::has_room_ahead(int lane) const {
+  const auto& l = impl_->lanes[static_cast<std::size_t>(lane)];
+  return l.busy() && l.count < config_.queue_depth;
+}
+
+std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
+  Impl& m = *impl_;
+  m.out.clear();
+  if (!has_room_ahead(lane)) return m.out;
+  ++m.stamp;  // a scheduling point: deadlines are re-assigned from now
+  ++stats_.decisions;
+  // The round's overload state (admission, the demand test) is the last dispatch()'s: a
+  // lane's own decision right after it, or at its unit boundary after a completion that
+  // dispatch() has seen.
+  m.ready_in_lane_order(lane);
+  m.ahead_lane = lane;
+  (void)m.pick(now);
+  m.ahead_lane = -1;
+  return m.out;
 }
 
 TimePoint Scheduler::unit_deadline(int slot, int unit, TimePoint now) {

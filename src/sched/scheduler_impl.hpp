@@ -27,6 +27,9 @@ struct UnitRt {
   int task = -1;
   int share = 1;  // members of the dispatch running it (its cost is shared among them)
   TimePoint start{0};
+  // Made ready before its one predecessor ended, for the lane that holds that predecessor
+  // (dispatch_ahead: the lane runs its units in order); its completion then counts nothing.
+  bool early = false;
 };
 
 inline constexpr std::size_t kEstimates = 4;  // EstimateKind values
@@ -114,6 +117,9 @@ struct Task {
   bool in_waits = false;  // listed in Impl::waits (it began a merge wait)
   int ready_pos = -1;
   Duration cost{0};
+  // Ready only for this lane (-1: any): its member waits on a unit that lane holds, and runs
+  // after it there in the lane's order (UnitRt::early).
+  int lane_only = -1;
 };
 
 // Over a task's members, kept as they join and leave (their jobs' fields do not change):
@@ -153,9 +159,30 @@ struct SensorState {
   TimePoint time{0};
 };
 
+// A lane holds up to queue_depth dispatches in the order they were given: the oldest runs,
+// the others are queued behind it on the device (§6 on a GPU lane: what is enqueued counts
+// as dispatched). A slot's Dispatch stays where it is until its unit completes, so the
+// pointers dispatch() returns stay valid.
 struct Lane {
-  bool busy = false;
-  Dispatch d;
+  static constexpr int kMaxDepth = SchedulerConfig::kMaxQueueDepth;
+  std::array<Dispatch, kMaxDepth> slots;
+  int head = 0;   // the oldest dispatch's slot
+  int count = 0;  // dispatches held (0: idle)
+  [[nodiscard]] bool busy() const noexcept { return count > 0; }
+  [[nodiscard]] Dispatch& at(int i) noexcept {
+    return slots[static_cast<std::size_t>((head + i) % kMaxDepth)];
+  }
+  [[nodiscard]] const Dispatch& at(int i) const noexcept {
+    return slots[static_cast<std::size_t>((head + i) % kMaxDepth)];
+  }
+  [[nodiscard]] Dispatch& oldest() noexcept { return at(0); }
+  [[nodiscard]] Dispatch& newest() noexcept { return at(count - 1); }
+  // The slot the next dispatch goes to (count < kMaxDepth).
+  [[nodiscard]] Dispatch& next_slot() noexcept { return at(count); }
+  void pop() noexcept {
+    head = (head + 1) % kMaxDepth;
+    --count;
+  }
   TimePoint completed_at = kNever;
   // §6 on-demand: the jobs of the run this lane's handler was handed. Their ready units
   // follow back to back; the run ends on a round trip or a transition other than Completed.
@@ -497,6 +524,13 @@ struct Scheduler::Impl {
   int choose_lane(const Task& k, TimePoint now) const;
 
   void start_dispatch(int lane_index, TimePoint now, TimePoint deadline);
+  // Sets when a dispatched unit starts, on the dispatch and its members' units.
+  void set_start(Dispatch& d, TimePoint start);
+  // dispatch_ahead(): the lane that pick() fills (its queue), -1 for dispatch().
+  int ahead_lane = -1;
+  // dispatch_ahead(): the successors that wait only on a unit `lane` holds become ready for
+  // that lane alone (not encoders: they merge across lanes).
+  void ready_in_lane_order(int lane);
 
   // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
   bool pick(TimePoint now);

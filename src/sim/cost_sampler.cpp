@@ -125,6 +125,42 @@ Duration CostSampler::sample(const Dispatch& d, TimePoint start, int busy_others
   return Duration{static_cast<std::int64_t>(std::llround(static_cast<double>(base.count()) * f))};
 }
 
+Duration profiled_cost(const Dispatch& d, const UnitProfile* encoder,
+                       const std::vector<const UnitProfile*>& heads, Duration LatencyStats::*stat) {
+  auto at = [stat](const UnitProfile* u, int batch) {
+    if (u == nullptr || u->max_batch() == 0) return Duration{0};
+    const Duration p = u->at(batch).*stat;
+    return batch > u->max_batch() ? p * batch / u->max_batch() : p;
+  };
+  auto head = [&](int h, int batch) {
+    return h >= 0 && static_cast<std::size_t>(h) < heads.size()
+               ? at(heads[static_cast<std::size_t>(h)], batch)
+               : Duration{0};
+  };
+  const Member& m = d.members.front();
+  const RefinedGraph& g = *m.graph;
+  const RefinedUnit& u = g.units[static_cast<std::size_t>(m.unit)];
+  switch (d.kind) {
+    case UnitKind::Encoder:
+      return at(encoder, d.batch);
+    case UnitKind::Head:
+      return head(d.head, d.batch);
+    case UnitKind::Coarse:
+      return at(encoder, d.batch) + head(u.head, d.batch);
+    case UnitKind::Plain: {
+      const NodeSpec& n = g.spec->nodes[static_cast<std::size_t>(m.node)];
+      return n.cost ? plain_stats(*n.cost).*stat * d.batch : Duration{0};
+    }
+    case UnitKind::Mono: {
+      Duration t = at(encoder, 1) * static_cast<std::int64_t>(g.sensors.size());
+      for (const NodeSpec& n : g.spec->nodes)
+        t += n.is_plain() ? (n.cost ? plain_stats(*n.cost).*stat : Duration{0}) : head(n.head, 1);
+      return t;
+    }
+  }
+  return Duration{0};
+}
+
 Duration CostSampler::uncalibrated(const Dispatch& d) const {
   RED_ASSERT(!d.members.empty());
   const Member& m = d.members.front();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <queue>
 #include <vector>
 
@@ -11,7 +12,9 @@ namespace red {
 
 namespace {
 
-enum class EvKind : std::uint8_t { Complete, Frame };
+// Ahead: a lane's handler decides the unit it queues behind what it holds (§6 on a GPU
+// lane; SchedulerConfig::ahead_lead).
+enum class EvKind : std::uint8_t { Complete, Frame, Ahead };
 
 struct Ev {
   TimePoint t;
@@ -42,7 +45,14 @@ Simulator::Simulator(const Scenario& scenario, const Profile& profile,
       handoff_(options.costs != nullptr && options.costs->calibration
                    ? options.costs->calibration->handoff
                : profile.calibration ? profile.calibration->handoff
-                                     : Duration{0}) {}
+                                     : Duration{0}),
+      queued_gap_(options.costs != nullptr && options.costs->calibration
+                      ? options.costs->calibration->queued_gap
+                  : profile.calibration ? profile.calibration->queued_gap
+                                        : Duration{0}),
+      encoder_(profile.find("encoder")) {
+  for (const std::string& h : scenario.model.heads) heads_.push_back(profile.find("head/" + h));
+}
 
 SimResult Simulator::run() {
   SimResult r;
@@ -63,12 +73,48 @@ SimResult Simulator::run() {
     base[s] = scenario_.sensors[s].phase;
     q.push({base[s] + jitter(s, 0), seq++, EvKind::Frame, static_cast<int>(s), 0});
   }
-  std::vector<std::uint64_t> running(static_cast<std::size_t>(scenario_.device.lanes), 0);
+  TimePoint now{0};
+  const auto nlanes = static_cast<std::size_t>(scenario_.device.lanes);
+  // Per lane: the dispatches it holds, oldest first (one, or up to the queue depth), with
+  // their starts and profiled p50, and when the last of them ends.
+  struct HeldUnit {
+    std::uint64_t id;
+    TimePoint start;
+    Duration p50;
+  };
+  std::vector<std::deque<HeldUnit>> held(nlanes);
+  std::vector<TimePoint> lane_end(nlanes, TimePoint{0});
+  // §6 on a GPU lane: with on-demand synchronization, a lane's handler queues its next unit
+  // behind what it holds `ahead_lead` before that is expected to end (the runtime's rule).
+  const bool ahead = scheduler_.config().queue_depth > 1 &&
+                     scheduler_.policy().options().sync == SyncMode::OnDemand;
+  std::vector<int> touched;  // lanes whose handler decides its queue this round
+  touched.reserve(nlanes);
+  auto plan_ahead = [&](int lane) {
+    const auto& h = held[static_cast<std::size_t>(lane)];
+    if (!ahead || h.empty() || !scheduler_.has_room_ahead(lane)) return;
+    TimePoint at = h.front().start - scheduler_.config().ahead_lead;
+    for (const HeldUnit& u : h) at += u.p50;
+    q.push({std::max(at, now), seq++, EvKind::Ahead, lane, h.back().id});
+  };
+  auto start_unit = [&](Dispatch& d, TimePoint start) {
+    scheduler_.on_start(d.lane, start);
+    int busy_others = 0;
+    for (std::size_t l = 0; l < nlanes; ++l)
+      busy_others += static_cast<int>(!held[l].empty() && static_cast<int>(l) != d.lane);
+    const TimePoint end = start + sampler_.sample(d, start, busy_others);
+    const auto l = static_cast<std::size_t>(d.lane);
+    held[l].push_back(
+        {d.id, start,
+         ahead ? profiled_cost(d, encoder_, heads_, &LatencyStats::p50) : Duration{0}});
+    lane_end[l] = end;
+    q.push({end, seq++, EvKind::Complete, d.lane, d.id});
+    ++r.unit_events;
+  };
 
   const TimePoint stop_releases = scenario_.duration;
   const TimePoint hard_stop = scenario_.duration + options_.drain_limit;
   bool releasing = true;
-  TimePoint now{0};
   for (;;) {
     const TimePoint t_ext = q.empty() ? kNever : q.top().t;
     const TimePoint t_int = scheduler_.next_wakeup();
@@ -88,12 +134,18 @@ SimResult Simulator::run() {
       q.pop();
       ++r.events;
       if (e.kind == EvKind::Complete) {
-        if (running[static_cast<std::size_t>(e.index)] != e.value) continue;
-        running[static_cast<std::size_t>(e.index)] = 0;
+        auto& h = held[static_cast<std::size_t>(e.index)];
+        if (h.empty() || h.front().id != e.value) continue;
+        h.pop_front();
         ++r.unit_events;
         scheduler_.on_complete(e.index, now, UnitStatus::Completed);
+        plan_ahead(e.index);
+      } else if (e.kind == EvKind::Ahead) {
+        // Still holding what it held when this was planned, with room: decide now.
+        const auto& h = held[static_cast<std::size_t>(e.index)];
+        if (!h.empty() && h.back().id == e.value) touched.push_back(e.index);
       } else {
-        if (!releasing) continue;
+        if (!releasing) continue;  // a frame
         const auto s = static_cast<std::size_t>(e.index);
         scheduler_.on_frame(e.index, e.value, now);
         base[s] += period_of(scheduler_.sensor_rate(e.index));
@@ -103,16 +155,25 @@ SimResult Simulator::run() {
     scheduler_.advance(now);
     for (Dispatch* d : scheduler_.dispatch(now)) {
       // A calibrated profile measured the hand-off without a round trip too.
-      const TimePoint start = now + (d->round_trip ? sync_cost_ : handoff_);
-      scheduler_.on_start(d->lane, start);
-      int busy_others = 0;
-      for (std::size_t l = 0; l < running.size(); ++l)
-        busy_others += static_cast<int>(running[l] != 0 && static_cast<int>(l) != d->lane);
-      const TimePoint end = start + sampler_.sample(*d, start, busy_others);
-      running[static_cast<std::size_t>(d->lane)] = d->id;
-      q.push({end, seq++, EvKind::Complete, d->lane, d->id});
-      ++r.unit_events;
+      start_unit(*d, now + (d->round_trip ? sync_cost_ : handoff_));
+      plan_ahead(d->lane);
     }
+    // A lane whose lead came fills its queue: a queued unit starts when the one before it
+    // ends (plus the device's gap between two queued units), or once its handler has
+    // decided and enqueued it, whichever is later. Nothing to queue now: it tries again at
+    // its next unit boundary.
+    for (int l : touched) {
+      bool queued = false;
+      while (scheduler_.has_room_ahead(l)) {
+        const auto ds = scheduler_.dispatch_ahead(now, l);
+        if (ds.empty()) break;
+        start_unit(*ds.front(),
+                   std::max(now + handoff_, lane_end[static_cast<std::size_t>(l)] + queued_gap_));
+        queued = true;
+      }
+      if (queued) plan_ahead(l);
+    }
+    touched.clear();
     ++r.events;
   }
   r.end = releasing ? std::min(now, stop_releases) : std::max(now, stop_releases);

@@ -55,7 +55,7 @@ UnitRow row(int lane, TimePoint start, Duration dur, UnitKind kind, int head, bo
 // Run A: one lane, encoder (10 ms) then the lane head (2 ms), the machine 1.5x slower
 // between 2 s and 4 s. Encoders follow a 20 us round trip, heads a 5 us direct hand-off.
 CalibrationRun run_a(const Scenario& s) {
-  CalibrationRun run{"edf", {}, {}, false};
+  CalibrationRun run{"edf", {}, {}, false, {}};
   const int lane_head = 0;
   TimePoint t{0};
   for (int i = 0; i < 120; ++i) {
@@ -78,7 +78,7 @@ CalibrationRun run_a(const Scenario& s) {
 
 // Run B: two lanes computing at once, each unit 1.3x slower than alone.
 CalibrationRun run_b() {
-  CalibrationRun run{"red", {}, {}, false};
+  CalibrationRun run{"red", {}, {}, false, {}};
   for (int lane = 0; lane < 2; ++lane) {
     TimePoint t{milliseconds{lane * 3}};
     for (int i = 0; i < 60; ++i) {
@@ -142,7 +142,7 @@ TEST(Calibrate, ARareOutlierStaysRareInTheDraws) {
   // the residual's draws must be slow as often as the runs were (1 in 401), and its mean
   // the runs' mean, not a tail spread from the 95th percentile up to the outlier.
   const Scenario s = scenario(1);
-  CalibrationRun run{"edf", {}, {}, false};
+  CalibrationRun run{"edf", {}, {}, false, {}};
   TimePoint t{0};
   double sum = 0;
   for (int i = 0; i <= 400; ++i) {
@@ -213,7 +213,7 @@ TEST(Calibrate, RejectsBadCalibrationJson) {
 
 TEST(Calibrate, TooFewUnitsIsAnError) {
   const Scenario s = scenario(1);
-  auto p = calibrate_profile(default_profile(), s, {CalibrationRun{"edf", {}, {}, false}});
+  auto p = calibrate_profile(default_profile(), s, {CalibrationRun{"edf", {}, {}, false, {}}});
   ASSERT_FALSE(p.has_value());
   EXPECT_NE(p.error().message.find("too few"), std::string::npos);
 }

@@ -35,6 +35,7 @@ struct Source {
   std::string label;
   std::string path;        ///< bundled: the file
   std::uint64_t seed = 0;  ///< random: the generator's seed
+  int queue_depth = 0;     ///< > 0: lanes hold this many units (§6 on a GPU lane)
 };
 
 // How gtest prints a parameter (instead of its bytes).
@@ -55,6 +56,12 @@ const std::vector<Source>& sources() {
       out.push_back({std::filesystem::path(f).stem().string(), f, 0});
     for (std::uint64_t seed = 101; seed <= 106; ++seed)
       out.push_back({"random-" + std::to_string(seed), "", seed});
+    // Asynchronous lanes: a unit queued behind the running one (dispatch_ahead).
+    out.push_back({"minibench-tight-queued", files.empty() ? "" : files.back(), 0, 2});
+    for (const std::string& f : files)
+      if (std::filesystem::path(f).stem() == "minibench-tight") out.back().path = f;
+    for (std::uint64_t seed = 101; seed <= 104; ++seed)
+      out.push_back({"random-" + std::to_string(seed) + "-queued", "", seed, 2});
     return out;
   }();
   return v;
@@ -71,8 +78,10 @@ std::string random_yaml(std::uint64_t seed) {
 }
 
 Expected<Scenario> load(const Source& src) {
-  if (!src.path.empty()) return load_scenario(src.path);
-  return parse_scenario(random_yaml(src.seed), src.label + ".yaml");
+  auto s = !src.path.empty() ? load_scenario(src.path)
+                             : parse_scenario(random_yaml(src.seed), src.label + ".yaml");
+  if (s && src.queue_depth > 0) s->device.queue_depth = src.queue_depth;
+  return s;
 }
 
 using Param = std::tuple<std::string, Source>;

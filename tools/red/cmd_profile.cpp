@@ -216,7 +216,7 @@ Expected<std::vector<CalibrationRun> > read_units_csv(const std::string& dir, co
   }
   std::vector<CalibrationRun> runs;
   for (auto& [policy, units] : *rows)
-    runs.push_back(CalibrationRun{policy, std::move(units), {}, false});
+    runs.push_back(CalibrationRun{policy, std::move(units), {}, false, {}});
   return runs;
 }
 
@@ -303,6 +303,7 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
     auto r = run_real(*s, isolated, n, **backend, real, {}, &report);
     if (!r) return r.error();
     runs.push_back(calibration_run(*s, n, r->units, std::move(report.handoff_us)));
+    runs.back().queued_gap_us = std::move(report.queued_gap_us);
   }
   CalibrationOptions o;
   o.seconds_per_policy = a.calibrate_s;

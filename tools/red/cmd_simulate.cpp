@@ -58,9 +58,9 @@ std::optional<SyncMode> parse_sync(const std::string& v) {
 // tell the simulator's own error from the machine's. nullopt where the run kept no units
 // (no --out) or completed too few model units to fit (plain nodes cost what the scenario says).
 std::optional<Profile> run_costs(const Scenario& s, const Profile& p, const PolicyRun& r,
-                                 const std::vector<double>& handoff_us,
-                                 std::optional<SyncMode> sync) {
-  CalibrationRun run = calibration_run(s, r.metrics.name, r.units, handoff_us, sync);
+                                 const Handoffs& handoffs, std::optional<SyncMode> sync) {
+  CalibrationRun run = calibration_run(s, r.metrics.name, r.units, handoffs.handoff_us, sync);
+  run.queued_gap_us = handoffs.queued_gap_us;
   if (run.units.empty()) return std::nullopt;
   auto c = calibrate_profile(p, s, {std::move(run)});
   if (!c) return std::nullopt;
@@ -76,8 +76,8 @@ std::optional<Profile> run_costs(const Scenario& s, const Profile& p, const Poli
 // `html` gets the same tables for index.html.
 std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t seed,
                              const std::vector<PolicyRun>& real,
-                             const std::vector<std::vector<double>>& handoffs,
-                             std::optional<SyncMode> sync, std::vector<HtmlTable>& html) {
+                             const std::vector<Handoffs>& handoffs, std::optional<SyncMode> sync,
+                             std::vector<HtmlTable>& html) {
   constexpr int kCalibratedSeeds = 5;
   const int seeds = p.calibration ? kCalibratedSeeds : 1;
   auto median = [](std::vector<double> v) {
@@ -162,7 +162,7 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
                                  {"mean_ms", r.metrics.latency.mean},
                                  {"qoe", r.metrics.qoe}}},
                                {"sim", to_json(x)}};
-    static const std::vector<double> kNone;
+    static const Handoffs kNone;
     if (const auto c = run_costs(s, p, r, i < handoffs.size() ? handoffs[i] : kNone, sync)) {
       Predicted y = predict(r.metrics.name, kCalibratedSeeds, &*c);
       if (!y.miss.empty()) {
@@ -288,6 +288,10 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     }
     backend = std::move(b.value());
   }
+  // Asynchronous lanes (--async, or a GPU) hold the scenario's queue depth, 2 unless it sets
+  // one: the scheduler, the simulator and the prediction beside a real run all plan so.
+  if ((a.real.asynchronous || (backend && backend->asynchronous())) && !s->device.queue_depth)
+    s->device.queue_depth = 2;
   std::unique_ptr<CsvRowStream> stream;
   std::optional<RowQueue> queue;
   if (!sim && a.out) {
@@ -303,8 +307,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     real.rows = &*queue;
   }
   std::vector<PolicyRun> runs;
-  std::vector<RuntimeReport> reports;         // real runs: what the runtime measured, per policy
-  std::vector<std::vector<double>> handoffs;  // real runs: the hand-offs timed (a bounded sample)
+  std::vector<RuntimeReport> reports;  // real runs: what the runtime measured, per policy
+  std::vector<Handoffs> handoffs;      // real runs: the hand-offs timed (a bounded sample)
   // Observers beside the metrics: the timeline (only when it will be written) and the
   // progress line (only on a terminal, only for runs longer than a few seconds).
   std::vector<std::unique_ptr<TraceObserver>> traces;
@@ -346,8 +350,9 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       // compare of many policies does not keep them all; the hand-offs feed the prediction
       // from the run's own costs.
       report.decision_us = {};
-      handoffs.push_back(std::move(report.handoff_us));
+      handoffs.push_back({std::move(report.handoff_us), std::move(report.queued_gap_us)});
       report.handoff_us = {};
+      report.queued_gap_us = {};
       report.frame_release_us = {};
       report.release_late_us = {};
       reports.push_back(std::move(report));

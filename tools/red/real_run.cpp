@@ -37,6 +37,10 @@ void add_device_options(CLI::App* cmd, RealRunOptions& o) {
                   "LibTorch intra-op threads per lane (0: the hardware threads shared among "
                   "the lanes)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--async", o.asynchronous,
+                "Run each lane asynchronously on the CPU too: units are enqueued on a lane's "
+                "worker and waited for, and an on-demand policy queues the next unit while "
+                "one runs (device.queue_depth; always so on a GPU; docs/GPU.md)");
 }
 
 std::optional<Error> check_device(const RealRunOptions& o) {
@@ -82,6 +86,7 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
   if (o.backend == "synthetic") {
     SyntheticBackend::Options so;
     so.spin = true;  // occupy the lane's core like real compute does
+    so.asynchronous = o.asynchronous;
     return std::unique_ptr<Backend>(std::make_unique<SyntheticBackend>(s, p, o.seed, so));
   }
   if (o.backend == "torch") {
@@ -90,7 +95,7 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
     // measures), so lanes running side by side do not oversubscribe the cores.
     const int hw = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
     const int threads = o.threads > 0 ? o.threads : std::max(1, hw / std::max(1, s.device.lanes));
-    return torchb::make_torch_backend(s, o.device, threads);
+    return torchb::make_torch_backend(s, o.device, threads, o.asynchronous);
 #else
     return Error{"", 0,
                  "this red was built without LibTorch (install libtorch-dev and rebuild), "
@@ -195,7 +200,7 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
 CalibrationRun calibration_run(const Scenario& s, const std::string& policy,
                                const std::vector<UnitRow>& units, std::vector<double> handoff_us,
                                std::optional<SyncMode> sync) {
-  CalibrationRun run{policy, {}, std::move(handoff_us), false};
+  CalibrationRun run{policy, {}, std::move(handoff_us), false, {}};
   const auto opts = policy_options(s, policy, sync);
   run.round_trips = opts && opts->sync == SyncMode::PerEdge;
   for (const UnitRow& u : units)
@@ -225,6 +230,12 @@ void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
       "red:   scheduler lock: {} local decision(s) waited for it (p99 {:.2f} us); {} frame(s) "
       "released by the thread that brought them; global synchronizer woke {} time(s)\n",
       r.lock_waits, percentile(r.lock_wait_us, 0.99), r.direct_releases, r.wakeups);
+  if (r.enqueued_ahead > 0 || r.queued_gaps > 0)
+    std::cerr << fmt::format(
+        "red:   asynchronous lanes: {} unit(s) queued behind a running one; end -> start of "
+        "the queued unit p50 {:.2f} us, p99 {:.2f} us ({} gaps)\n",
+        r.enqueued_ahead, percentile(r.queued_gap_us, 0.5), percentile(r.queued_gap_us, 0.99),
+        r.queued_gaps);
   std::int64_t peak = 0;
   for (const RuntimeSample& x : r.samples) peak = std::max(peak, x.rss_bytes);
   auto mb = [](std::int64_t b) { return static_cast<double>(b) / 1e6; };

@@ -19,11 +19,21 @@
 
 namespace red::cli {
 
+/// The hand-offs a real run timed (RuntimeReport): completion -> next start on a lane, and
+/// on an asynchronous lane the gap before a unit already queued.
+struct Handoffs {
+  std::vector<double> handoff_us;
+  std::vector<double> queued_gap_us;
+};
+
 /// Options of a real run.
 struct RealRunOptions {
   std::string backend = "torch";  ///< torch or synthetic
   std::string device = "cpu";     ///< LibTorch device (cpu, cuda, cuda:N)
   int threads = 0;                ///< LibTorch intra-op threads (0: default)
+  /// Asynchronous lanes on the CPU (enqueue, then wait: the stand-in of a GPU lane); a GPU
+  /// always runs them so.
+  bool asynchronous = false;
   bool realtime = true;
   std::uint64_t seed = 1;
   std::optional<SyncMode> sync;                     ///< overrides the policy's synchronization mode

@@ -1,6 +1,7 @@
 #include "red/torch/torch_backend.hpp"
 
 #include <ATen/ATen.h>
+#include <c10/core/Event.h>
 #include <c10/core/InferenceMode.h>
 #include <c10/core/Stream.h>
 #include <c10/core/impl/DeviceGuardImplInterface.h>
@@ -9,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <deque>
+#include <exception>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -19,6 +21,7 @@
 
 #include "red/core/rng.hpp"
 #include "red/torch/model.hpp"
+#include "unit_timer.hpp"  // RED_TORCH_EVENT_TIMING
 
 namespace red::torchb {
 
@@ -80,15 +83,42 @@ struct FrameInput {
   at::Tensor tensor;
 };
 
+// A unit enqueued on an asynchronous lane and not yet waited for (TorchBackend::wait()).
+struct Pending {
+  // The lane's stream on a GPU; none for the CPU stand-in, whose unit ran on enqueue.
+  std::optional<c10::Stream> stream;
+  // Device events around the unit: what wait() synchronizes and times (only with a LibTorch
+  // whose c10::Event can synchronize and time, RED_TORCH_EVENT_TIMING).
+  std::optional<c10::Event> start;
+  std::optional<c10::Event> end;
+  // Every tensor the unit reads or writes, held until the device is done with it: the host
+  // may drop a frame or an encoder output (made on another lane's stream) while the unit
+  // still reads it, and the caching allocator would hand its block to that stream again.
+  std::vector<at::Tensor> keep;
+  UnitDone done;  // the CPU stand-in: how the unit ended
+};
+
 class TorchBackend final : public Backend {
  public:
-  TorchBackend(const Scenario& s, std::unique_ptr<Model> model, std::vector<int> head_map)
+  TorchBackend(const Scenario& s, std::unique_ptr<Model> model, std::vector<int> head_map,
+               bool asynchronous)
       : scenario_(s),
         model_(std::move(model)),
         head_map_(std::move(head_map)),
-        name_("torch " + model_->device().str()) {}
+        name_("torch " + model_->device().str()),
+        on_device_(!model_->device().is_cpu() &&
+                   c10::impl::hasDeviceGuardImpl(model_->device().type())),
+        asynchronous_(on_device_ || asynchronous) {}
+
+  ~TorchBackend() override { drain_pending(); }
+  TorchBackend(const TorchBackend&) = delete;
+  TorchBackend& operator=(const TorchBackend&) = delete;
 
   [[nodiscard]] std::string_view name() const noexcept override { return name_; }
+
+  // A GPU lane is a stream: units are enqueued on it and waited for (§6). On the CPU only
+  // when asked (make_torch_backend's stand-in for tests).
+  [[nodiscard]] bool asynchronous() const noexcept override { return asynchronous_; }
 
   // On a GPU every lane runs on its own stream from the device's pool (§6: one lane per
   // CUDA stream), set as the lane thread's current stream. Device-generic c10 interface:
@@ -131,8 +161,10 @@ class TorchBackend final : public Backend {
   }
 
   // Between policies: the frames and encoder outputs of the run that ended go (each
-  // lane's last output went with its handler thread).
+  // lane's last output went with its handler thread), and so do units a lane enqueued and
+  // never waited for, once the device has finished them.
   void end_run() override {
+    drain_pending();
     frames_.clear();
     features_.clear();
   }
@@ -165,13 +197,103 @@ class TorchBackend final : public Backend {
   }
 
   void run(int /*lane*/, const Dispatch& d) override {
-    try {
+    translated([&] {
       c10::InferenceMode guard;
-      execute(d);
+      execute(d, nullptr);
       // Kernels are queued asynchronously on a GPU: the unit ends when its stream drains.
-      if (lane_stream_)
-        c10::impl::getDeviceGuardImpl(lane_stream_->device_type())
-            ->synchronizeStream(*lane_stream_);
+      if (lane_stream_) synchronize(*lane_stream_);
+    });
+  }
+
+  // On a GPU: the unit's kernels are queued on the lane's stream between two events, and
+  // the tensors it touches are kept until wait() has seen it end. Throws what run() throws
+  // when the unit cannot be queued (a frame gone, a missing encoder output, an allocation).
+  // The CPU stand-in runs the unit here and keeps how it ended for wait(): it never throws.
+  void enqueue(int lane, const Dispatch& d) override {
+    Pending p;
+    if (!on_device_) {
+      const auto started = std::chrono::steady_clock::now();
+      p.done = outcome([&] {
+        c10::InferenceMode guard;
+        execute(d, nullptr);
+      });
+      p.done.started = started;
+      p.done.ended = std::chrono::steady_clock::now();
+    } else {
+      const c10::Device device = model_->device();
+      p.stream = lane_stream_ ? *lane_stream_
+                              : c10::impl::getDeviceGuardImpl(device.type())->getStream(device);
+      translated([&] {
+        c10::InferenceMode guard;
+#if RED_TORCH_EVENT_TIMING
+        // BACKEND_DEFAULT: events that time (LibTorch's own default disables timing).
+        p.start.emplace(device.type(), c10::EventFlag::BACKEND_DEFAULT);
+        p.end.emplace(device.type(), c10::EventFlag::BACKEND_DEFAULT);
+        p.start->record(*p.stream);
+#endif
+        try {
+          execute(d, &p.keep);
+        } catch (...) {
+          // Kernels queued before the failure may read the tensors kept so far: they go
+          // only once the stream has run those kernels. The unit's own failure is thrown.
+          try {
+            synchronize(*p.stream);
+          } catch (...) {  // NOLINT(bugprone-empty-catch): the first failure is the reason
+          }
+          throw;
+        }
+#if RED_TORCH_EVENT_TIMING
+        p.end->record(*p.stream);
+#endif
+      });
+    }
+    std::lock_guard lock(pending_mu_);
+    pending_[lane].push_back(std::move(p));
+  }
+
+  // The lane's oldest enqueued unit: waits for its end event (or, with an older LibTorch,
+  // for the lane's stream, so also for the units behind it) and reports how it ended; a
+  // device error seen here is the unit's failure, not a throw. Its tensors go after.
+  UnitDone wait(int lane) override {
+    std::optional<Pending> p;
+    {
+      std::lock_guard lock(pending_mu_);
+      auto it = pending_.find(lane);
+      if (it != pending_.end() && !it->second.empty()) {
+        p.emplace(std::move(it->second.front()));
+        it->second.pop_front();
+      }
+    }
+    if (!p) {  // a caller's mistake; reported as the unit's failure rather than thrown
+      UnitDone none;
+      none.status = UnitStatus::Failed;
+      none.reason = "no unit enqueued on lane " + std::to_string(lane);
+      return none;
+    }
+    if (!p->stream) return p->done;  // the CPU stand-in: it ran on enqueue
+    UnitDone done = outcome([&] { finish(*p); });
+    done.ended = std::chrono::steady_clock::now();
+#if RED_TORCH_EVENT_TIMING
+    if (done.status == UnitStatus::Completed) {
+      try {
+        const std::chrono::duration<double, std::milli> ms(p->start->elapsedTime(*p->end));
+        done.started =
+            done.ended - std::chrono::duration_cast<std::chrono::steady_clock::duration>(ms);
+      } catch (...) {  // NOLINT(bugprone-empty-catch): no device time; started stays unknown
+      }
+    }
+#endif
+    return done;
+  }
+
+ private:
+  // Runs fn, turning LibTorch's exceptions into the runtime's (§6): out of memory into
+  // OutOfMemoryError, any other c10::Error into a runtime_error naming LibTorch. Others
+  // (the backend's own runtime_errors) pass unchanged.
+  template <typename F>
+  static void translated(F&& fn) {
+    try {
+      std::forward<F>(fn)();
     } catch (const c10::OutOfMemoryError& e) {
       throw OutOfMemoryError(e.what_without_backtrace());
     } catch (const std::bad_alloc&) {
@@ -181,7 +303,58 @@ class TorchBackend final : public Backend {
     }
   }
 
- private:
+  // How a unit running fn ended, as wait() reports it: the status and reason of what run()
+  // would have thrown. Times are left to the caller.
+  template <typename F>
+  static UnitDone outcome(F&& fn) {
+    UnitDone done;
+    try {
+      translated(std::forward<F>(fn));
+    } catch (const OutOfMemoryError& e) {
+      done.status = UnitStatus::OutOfMemory;
+      done.reason = e.what();
+    } catch (const std::exception& e) {
+      done.status = UnitStatus::Failed;
+      done.reason = e.what();
+    } catch (...) {
+      done.status = UnitStatus::Failed;
+      done.reason = "unknown exception";
+    }
+    return done;
+  }
+
+  static void synchronize(const c10::Stream& stream) {
+    c10::impl::getDeviceGuardImpl(stream.device_type())->synchronizeStream(stream);
+  }
+
+  // Waits until the device has run an enqueued unit (a GPU entry). Throws c10::Error.
+  static void finish(const Pending& p) {
+#if RED_TORCH_EVENT_TIMING
+    p.end->synchronize();
+#else
+    // c10::Event cannot synchronize before LibTorch 2.6: the stream drains instead.
+    synchronize(*p.stream);
+#endif
+  }
+
+  // Lets go of every unit still enqueued on any lane, after the device has run it (their
+  // lanes' threads may be gone: the FIFOs are the backend's, not thread-locals).
+  void drain_pending() noexcept {
+    std::map<int, std::deque<Pending>> left;
+    {
+      std::lock_guard lock(pending_mu_);
+      left.swap(pending_);
+    }
+    for (auto& [lane, units] : left)
+      for (const Pending& p : units) {
+        if (!p.stream) continue;
+        try {
+          finish(p);
+        } catch (...) {  // NOLINT(bugprone-empty-catch): no one waits for its outcome now
+        }
+      }
+  }
+
   // A received frame's pixels, HWC uint8 -> 1 x C x H x W in [0, 1] on the model's device.
   at::Tensor to_tensor(const FrameView& px) const {
     const auto& in = scenario_.model.input;  // C, H, W
@@ -242,7 +415,15 @@ class TorchBackend final : public Backend {
     }
   }
 
-  void execute(const Dispatch& d) {
+  // Runs one unit. With `keep`, every tensor it reads or writes (frames, encoder outputs,
+  // its own outputs) is appended there, for an enqueued unit to hold until it has ended.
+  void execute(const Dispatch& d, std::vector<at::Tensor>* keep) {
+    const auto hold = [keep](const at::Tensor& t) {
+      if (keep) keep->push_back(t);
+    };
+    const auto hold_all = [keep](const std::vector<at::Tensor>& ts) {
+      if (keep) keep->insert(keep->end(), ts.begin(), ts.end());
+    };
     switch (d.kind) {
       case UnitKind::Encoder: {
         // One encoder run per task (a distinct frame); a batch runs as one tensor batch
@@ -257,6 +438,8 @@ class TorchBackend final : public Backend {
           ids.emplace_back(sensor, m.frame);
         }
         const Features f = model_->encode(inputs.size() == 1 ? inputs.front() : at::cat(inputs, 0));
+        hold_all(inputs);
+        hold_all(f);
         for (std::size_t i = 0; i < ids.size(); ++i) {
           Features one;
           for (const at::Tensor& x : f)
@@ -280,12 +463,18 @@ class TorchBackend final : public Backend {
           }
         }
         last_ = model_->head(model_head(d.head), batch);
+        for (const Features& p : parts) hold_all(p);
+        hold_all(batch);
+        hold(last_);
         return;
       }
       case UnitKind::Coarse: {
         const Member& m = d.members.front();
         const RefinedUnit& ru = m.graph->units[static_cast<std::size_t>(m.unit)];
-        last_ = model_->full(model_head(ru.head), frame(ru.sensor, m.frame));
+        const at::Tensor input = frame(ru.sensor, m.frame);
+        last_ = model_->full(model_head(ru.head), input);
+        hold(input);
+        hold(last_);
         return;
       }
       case UnitKind::Mono: {
@@ -299,14 +488,19 @@ class TorchBackend final : public Backend {
           if (sensor != g.sensors.front() && !frames_.newest(sensor, id))
             throw std::runtime_error("no frame yet from sensor " +
                                      scenario_.sensors[static_cast<std::size_t>(sensor)].name);
-          enc[sensor] = model_->encode(frame(sensor, id));
+          const at::Tensor input = frame(sensor, id);
+          enc[sensor] = model_->encode(input);
+          hold(input);
+          hold_all(enc[sensor]);
         }
         for (int n : g.units.front().produces) {
           const NodeSpec& ns = g.spec->nodes[static_cast<std::size_t>(n)];
-          if (ns.is_plain())
+          if (ns.is_plain()) {
             spin(ns.cost->mean);
-          else
+          } else {
             last_ = model_->head(model_head(ns.head), enc[ns.sensor]);
+            hold(last_);
+          }
         }
         return;
       }
@@ -322,6 +516,12 @@ class TorchBackend final : public Backend {
   std::unique_ptr<Model> model_;
   std::vector<int> head_map_;  // scenario head index -> model head index
   std::string name_;
+  const bool on_device_;     // a GPU: units are queued on lane streams (lane_stream_)
+  const bool asynchronous_;  // asynchronous(): on_device_, or the CPU stand-in
+  // Each lane's enqueued units, oldest first (enqueue(), wait()). By lane rather than
+  // thread-local: end_run() lets go of what a lane's thread left.
+  std::mutex pending_mu_;
+  std::map<int, std::deque<Pending>> pending_;
   static constexpr std::uint64_t kPoolFrames = 4;  // synthetic frames per sensor
   std::once_flag pool_once_;
   std::vector<std::vector<at::Tensor>> pool_;  // per sensor, made once (synthetic_frame)
@@ -337,7 +537,7 @@ thread_local std::optional<c10::Stream> TorchBackend::lane_stream_;
 }  // namespace
 
 Expected<std::unique_ptr<Backend>> make_torch_backend(const Scenario& s, const std::string& device,
-                                                      int threads) {
+                                                      int threads, bool asynchronous) {
   ModelOptions o;
   o.heads = s.model.heads;
   o.input = s.model.input;
@@ -353,8 +553,8 @@ Expected<std::unique_ptr<Backend>> make_torch_backend(const Scenario& s, const s
     if (i < 0) return Error{s.file, 0, "the model has no head '" + h + "'"};
     head_map.push_back(i);
   }
-  return std::unique_ptr<Backend>(
-      std::make_unique<TorchBackend>(s, std::move(model.value()), std::move(head_map)));
+  return std::unique_ptr<Backend>(std::make_unique<TorchBackend>(
+      s, std::move(model.value()), std::move(head_map), asynchronous));
 }
 
 }  // namespace red::torchb

@@ -166,7 +166,6 @@ class MetricsCollector final : public Observer {
                merge_waits_ = 0;
   std::map<int, std::int64_t> batches_;
   std::vector<std::int64_t> head_outputs_;
-  std::vector<TimePoint> started_;  // per lane: start of the running unit
   // Lane time of the jobs with units still to account for (shared units split): a job's
   // entry goes once it has ended and none of its units is running, so the map holds about
   // the jobs in flight, however long the run.

@@ -19,6 +19,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <iosfwd>
 #include <memory>
 #include <string>
@@ -145,7 +146,9 @@ class TraceObserver final : public Observer {
   std::vector<CounterRec> counters_;
   std::vector<WaitRec> waits_;
   std::vector<EventRec> workload_;
-  std::vector<std::int64_t> open_;  // per lane: index into units_ of the running unit, or -1
+  // Per lane, oldest first: index into units_ of each unit the lane holds (the running one
+  // and those queued behind it), or -1 for one not recorded.
+  std::vector<std::deque<std::int64_t>> open_;
   std::unordered_map<JobId, std::size_t> live_;  // released job -> index into jobs_
   int last_value_[3] = {-1, -1, -1};
   int in_flight_ = 0;

@@ -25,6 +25,8 @@ struct CalibrationRun {
   /// decisions (on-demand).
   std::vector<double> handoff_us;
   bool round_trips = false;
+  /// Completion -> start of the unit already queued behind it (asynchronous lanes, μs).
+  std::vector<double> queued_gap_us;
 };
 
 /// How the fit cuts the data.

@@ -64,6 +64,9 @@ struct Calibration {
   /// Cost factor by the number of other lanes busy when a unit starts (index 0 is 1).
   std::vector<double> lane_factors{1.0};
   Duration handoff{0};  ///< completion -> next start on a lane without a round trip (median)
+  /// Completion -> start of the unit already queued behind it on an asynchronous lane
+  /// (median; 0 when the calibration ran none: device.queue_depth 1 or a CPU backend)
+  Duration queued_gap{0};
 
   /// The residual quantile table of (unit, batch), or nullptr.
   [[nodiscard]] const std::vector<Duration>* table(const std::string& unit,

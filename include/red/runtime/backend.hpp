@@ -9,6 +9,7 @@
 ///     };
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -28,6 +29,18 @@ class OutOfMemoryError : public std::runtime_error {
 };
 
 class LazyFrame;
+
+/// How a unit enqueued on an asynchronous lane ended (Backend::wait()).
+struct UnitDone {
+  UnitStatus status = UnitStatus::Completed;  ///< Completed, Failed or OutOfMemory
+  std::string reason;                         ///< a failure's message
+  /// When the device started and ended the unit, on std::chrono::steady_clock (a GPU: the
+  /// end observed by the host, and the start that much earlier as the device's events
+  /// timed it). Left at the epoch, the runtime takes the unit's start as the later of its
+  /// enqueue and the end of the unit before it, and its end as when wait() returned.
+  std::chrono::steady_clock::time_point started{};
+  std::chrono::steady_clock::time_point ended{};
+};
 
 /// Pixels of an external frame (e.g. received over DDS), already at the model's input height
 /// and width: 8-bit, row-major, `channels` interleaved (RGB order, or gray). `data` is
@@ -103,6 +116,13 @@ class LazyFrame {
 /// Executes units. run() is called from the lane's own thread; different lanes call it
 /// concurrently, one lane never twice at once. on_frame() is called from the camera
 /// thread. A failing unit throws; the runtime turns that into a failed job (§6).
+///
+/// An asynchronous backend (a GPU: a lane is a stream) says so with asynchronous() and
+/// implements enqueue() and wait() instead of run(): the lane's handler enqueues a unit
+/// and, with an on-demand policy, the next one behind it (up to the scenario's
+/// `device.queue_depth`) while the first runs, so the device does not wait for the host
+/// between units; it then waits for the oldest. Units of one lane end in the order they
+/// were enqueued; wait() reports each exactly once.
 class Backend {
  public:
   Backend() = default;
@@ -129,6 +149,18 @@ class Backend {
   /// Runs one dispatched unit (merged members share one encoder output; a batch runs as
   /// one tensor batch). Throws on failure, OutOfMemoryError when out of memory.
   virtual void run(int lane, const Dispatch& d) = 0;
+  /// Whether this backend implements enqueue() and wait() (an asynchronous lane) rather
+  /// than run(). Constant for the backend's life. Default: false.
+  [[nodiscard]] virtual bool asynchronous() const noexcept { return false; }
+  /// Asynchronous lanes: queues one unit on `lane` behind the units it holds and returns
+  /// without waiting for the device (`d` is borrowed for the call only: keep what the unit
+  /// needs). Called from the lane's thread. Throws when the unit cannot be queued (it then
+  /// ends as if run() had thrown, and is not waited for). The default runs it (run()).
+  virtual void enqueue(int lane, const Dispatch& d) { run(lane, d); }
+  /// Asynchronous lanes: waits for the oldest unit enqueued on `lane` to end and says how
+  /// (a unit's own failure is reported, not thrown). Called from the lane's thread, once
+  /// per enqueued unit. The default (for the default enqueue()) reports Completed.
+  virtual UnitDone wait(int /*lane*/) { return {}; }
   /// Runs what a unit runs once, off the clock and outside any job, so that the memory a
   /// run touches is mapped and resident before the runtime locks its pages (mlockall with
   /// MCL_ONFAULT) and the first jobs do not pay for page faults. Called on each lane's

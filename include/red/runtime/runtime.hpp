@@ -90,6 +90,11 @@ struct RuntimeReport {
   std::vector<std::string> realtime;  ///< one line per knob: applied or why not
   std::vector<double> decision_us;    ///< time of scheduling decisions (dispatch()), sampled
   std::vector<double> handoff_us;  ///< unit completion -> next unit started on that lane, sampled
+  /// Asynchronous lanes: the end of a unit -> the start of the unit already queued behind it
+  /// (the device's gap, from the backend's times), sampled; `queued_gaps` counts them all.
+  std::vector<double> queued_gap_us;
+  std::uint64_t queued_gaps = 0;
+  std::uint64_t enqueued_ahead = 0;      ///< units a handler queued behind a running one
   std::vector<double> frame_release_us;  ///< external frame pushed -> handed to the scheduler
   /// Frames in the measured window (capture time after the warm-up, before releases ended):
   /// offered by the sensors (the camera's nominal capture times, or the frames pushed), and

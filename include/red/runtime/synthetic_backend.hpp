@@ -4,10 +4,21 @@
 /// sampled execution time of the simulator (common random numbers), spent sleeping or
 /// spinning on the lane's thread. It lets the real-time runtime run and be tested without
 /// LibTorch, and injects failures and out-of-memory errors on request.
+///
+/// Asynchronous (Options::asynchronous), it is the CPU stand-in of a GPU lane: each lane is
+/// a worker thread that takes enqueued units from a queue in order and spends their time
+/// there, so the lane's handler enqueues the next unit while one runs and waits for the
+/// oldest, as with a CUDA stream and its events (Backend::enqueue, Backend::wait).
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
 
 #include "red/runtime/backend.hpp"
 #include "red/sim/cost_sampler.hpp"
@@ -24,20 +35,47 @@ class SyntheticBackend final : public Backend {
     /// lane's thread.
     std::function<int(const Dispatch&)> inject;
     Duration hang = std::chrono::seconds{1};  ///< how long an injected hang lasts
+    /// Lanes are worker threads fed through enqueue() and wait() (a GPU lane's stand-in).
+    bool asynchronous = false;
   };
 
   SyntheticBackend(const Scenario& s, const Profile& p, std::uint64_t seed, Options o);
+  ~SyntheticBackend() override;
+  SyntheticBackend(const SyntheticBackend&) = delete;
+  SyntheticBackend& operator=(const SyntheticBackend&) = delete;
 
-  [[nodiscard]] std::string_view name() const noexcept override { return "synthetic"; }
+  [[nodiscard]] std::string_view name() const noexcept override {
+    return options_.asynchronous ? "synthetic asynchronous" : "synthetic";
+  }
   void run(int lane, const Dispatch& d) override;
+  [[nodiscard]] bool asynchronous() const noexcept override { return options_.asynchronous; }
+  void enqueue(int lane, const Dispatch& d) override;
+  UnitDone wait(int lane) override;
 
   /// Units run so far (all lanes).
   [[nodiscard]] std::uint64_t runs() const noexcept { return runs_.load(); }
 
  private:
+  // One asynchronous lane: its worker thread, the units queued for it, and those ended and
+  // not yet waited for (both in order).
+  struct Worker {
+    std::thread thread;
+    std::mutex mu;
+    std::condition_variable cv;
+    std::deque<Dispatch> queued;
+    std::deque<UnitDone> done;
+    bool stop = false;
+  };
+  Worker& worker(int lane);
+  void worker_main(Worker& w);
+  // Spends one unit's time (or injects its failure) on the calling thread.
+  void spend(const Dispatch& d);
+
   CostSampler sampler_;
   Options options_;
   std::atomic<std::uint64_t> runs_{0};
+  std::mutex workers_mu_;
+  std::vector<std::unique_ptr<Worker>> workers_;  // by lane, made on a lane's first enqueue
 };
 
 }  // namespace red

@@ -103,9 +103,15 @@ struct ModelSpec {
 };
 
 /// Executors and what a synchronization round trip costs on them.
+/// Most units a lane holds at once (DeviceSpec::queue_depth).
+inline constexpr int kMaxQueueDepth = 4;
+
 struct DeviceSpec {
   int lanes = 1;
   std::optional<Duration> sync_cost;  ///< overrides the profile's measured round trip
+  /// Units a lane holds at once (the running one and those enqueued behind it, 1–4); unset:
+  /// 2 with a profile measured on a GPU, else 1 (SchedulerConfig::queue_depth).
+  std::optional<int> queue_depth;
 };
 
 /// Scheduler knobs a scenario may set; presets (§7) fill the rest.

@@ -41,11 +41,24 @@ struct SchedulerConfig {
   /// What one synchronizer round trip costs (§6): every estimate that decides a dispatch
   /// (batching, merge waits, hopeless aborts) includes the round trip the dispatch pays.
   Duration sync_cost{0};
+  /// Dispatches a lane holds at once (§6 on a GPU lane): the running unit and those
+  /// enqueued behind it. 1: a lane takes work only when idle. More: with on-demand
+  /// synchronization the lane's handler queues its next unit(s) while one runs
+  /// (dispatch_ahead()), so the device does not wait for the host between units.
+  int queue_depth = 1;
+  static constexpr int kMaxQueueDepth = red::kMaxQueueDepth;
+  /// With queue_depth > 1: how long before the lane's units are expected to end (their
+  /// profiled p50) its handler decides the unit queued behind them. Deciding then, not at
+  /// once, keeps the unit boundary the preemption point: a release during the running unit
+  /// is seen before the next unit is chosen. The runtime takes at least twice what its
+  /// enqueue calls cost.
+  Duration ahead_lead{std::chrono::microseconds{100}};
 
   /// The settings a scenario gives.
   static SchedulerConfig from(const Scenario& s);
   /// The settings a scenario gives, with the profile's measured round trip unless the
-  /// scenario sets `device.sync_cost_us`.
+  /// scenario sets `device.sync_cost_us`, and a queue depth of 2 on a profile measured on
+  /// a GPU unless the scenario sets `device.queue_depth`.
   static SchedulerConfig from(const Scenario& s, const Profile& p);
 };
 
@@ -78,10 +91,14 @@ class Scheduler {
   /// A frame of `sensor` arrived (frame ids increase per sensor). Releases every operation
   /// triggered by this sensor.
   void on_frame(int sensor, std::uint64_t frame, TimePoint now);
-  /// The unit running on `lane` ended at `now`. `reason` is kept for failed jobs.
-  void on_complete(int lane, TimePoint now, UnitStatus status, std::string_view reason = {});
-  /// The executor starts the unit dispatched to `lane` at `start` (after any round trip).
-  /// Must be called once for every dispatch; observers see the start here.
+  /// The oldest unit `lane` holds (the one running) ended at `now`. `reason` is kept for
+  /// failed jobs. `started`, when known (an asynchronous lane reads it from the device),
+  /// corrects the start the unit was given; a unit queued behind it starts at `now`.
+  void on_complete(int lane, TimePoint now, UnitStatus status, std::string_view reason = {},
+                   TimePoint started = kNever);
+  /// The executor starts the unit last dispatched to `lane` at `start` (after any round
+  /// trip; a unit queued behind another: when that one is expected to end). Must be called
+  /// once for every dispatch, before the next; observers see the start here.
   void on_start(int lane, TimePoint start);
   /// No more releases or workload events (end of the scenario); in-flight jobs go on.
   void stop_releases();
@@ -90,8 +107,14 @@ class Scheduler {
 
   // ---- decisions ----------------------------------------------------------------------
   /// Assigns work to idle lanes (§5). The returned dispatches stay valid until their lane
-  /// completes. Allocation-free in steady state.
+  /// completes them. Allocation-free in steady state.
   std::span<Dispatch* const> dispatch(TimePoint now);
+  /// Assigns at most one more unit to `lane`, which holds a unit and has room in its queue
+  /// (config().queue_depth): the lane's handler enqueues it behind what the lane holds, at
+  /// a unit boundary (on-demand). Empty when the lane is idle, full, or nothing can start.
+  std::span<Dispatch* const> dispatch_ahead(TimePoint now, int lane);
+  /// Whether `lane` holds a unit and has room for one more (dispatch_ahead()).
+  [[nodiscard]] bool has_room_ahead(int lane) const;
   /// The earliest time the scheduler needs to run again without external input (releases,
   /// events, deadlines, merge waits), or kNever.
   [[nodiscard]] TimePoint next_wakeup() const;
@@ -111,7 +134,7 @@ class Scheduler {
   [[nodiscard]] double sensor_rate(int sensor) const;
   /// The current refined graph of an operation (null when not active).
   [[nodiscard]] const RefinedGraph* graph(int operation) const;
-  /// The dispatch running on a lane, or null.
+  /// The dispatch running on a lane (the oldest it holds), or null.
   [[nodiscard]] const Dispatch* running(int lane) const;
   /// Absolute intermediate deadline of (job slot, unit) at `now` under the policy (for
   /// reports and tests).

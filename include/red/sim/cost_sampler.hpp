@@ -59,6 +59,13 @@ class CostSampler {
   std::vector<const Tables*> cal_coarse_;
 };
 
+/// The profile's statistic `stat` (e.g. &LatencyStats::p99) of what `d` runs, not sampled:
+/// a merged or batched unit at its batch size (sizes past the largest measured scale
+/// linearly), a coarse or mono unit as the sum of its parts. `heads` by head index. For
+/// plans and limits: the watchdog's, and when a lane's handler queues its next unit.
+Duration profiled_cost(const Dispatch& d, const UnitProfile* encoder,
+                       const std::vector<const UnitProfile*>& heads, Duration LatencyStats::*stat);
+
 /// The distribution assumed for a plain cost {mean, p99}: p50 = mean,
 /// p95 = mean + 0.6 (p99 − mean), min = max(0, mean − (p99 − mean) / 2),
 /// max = p99 + 0.15 (p99 − mean). Deterministic when p99 == mean.

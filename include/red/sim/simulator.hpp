@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "red/profile/profile.hpp"
 #include "red/scenario/scenario.hpp"
@@ -56,6 +57,12 @@ class Simulator {
   CostSampler sampler_;
   Duration sync_cost_;
   Duration handoff_;  ///< hand-off without a round trip (a calibrated profile's; else 0)
+  /// End of a unit -> start of the unit queued behind it on its lane (a calibrated
+  /// profile's; else 0)
+  Duration queued_gap_;
+  // The planning profile's encoder and heads (by head index): when a handler queues ahead.
+  const UnitProfile* encoder_ = nullptr;
+  std::vector<const UnitProfile*> heads_;
 };
 
 }  // namespace red

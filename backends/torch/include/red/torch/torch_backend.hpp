@@ -16,7 +16,12 @@ namespace red::torchb {
 
 /// A LibTorch backend for the scenario's model on `device` ("cpu", "cuda", "cuda:N") with
 /// `threads` intra-op threads (0: LibTorch's default). Errors name the model file.
+///
+/// On a GPU the backend is asynchronous (Backend::asynchronous()): a lane enqueues units on
+/// its stream and waits for them in order. `asynchronous` makes a CPU backend asynchronous
+/// too, so that the runtime's asynchronous path runs without a GPU (tests): enqueue() then
+/// runs the unit at once and keeps how it ended, and wait() reports that. Ignored on a GPU.
 Expected<std::unique_ptr<Backend>> make_torch_backend(const Scenario& s, const std::string& device,
-                                                      int threads);
+                                                      int threads, bool asynchronous = false);
 
 }  // namespace red::torchb
