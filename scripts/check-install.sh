@@ -72,6 +72,7 @@ for ex in custom_backend own_loop; do
   fi
   echo "-- $ex"
   timeout 60 "$STAGE/examples/$ex/$ex" 0.5
+  if [ "$ex" = custom_backend ]; then timeout 60 "$STAGE/examples/$ex/$ex" 0.5 --async; fi
 done
 # Version and component requests: 99.0 and an unknown component fail, 0.1 succeeds.
 mkdir -p "$STAGE/examples/version"

@@ -7,7 +7,11 @@
 /// red::ScenarioBuilder (no YAML); red::Runtime schedules it with the `red` policy in real
 /// time; a red::MetricsCollector observes the run and the summary is printed.
 ///
-///     custom_backend [seconds]      # default 1 s of releases, then draining
+/// With --async the same user function runs on asynchronous lanes (StreamBackend), as a
+/// GPU runtime runs units on streams: RED enqueues a unit, queues the lane's next one while
+/// it runs, and waits for each in turn (red::Backend::enqueue and wait).
+///
+///     custom_backend [seconds] [--async]   # default 1 s of releases, then draining
 ///
 /// Built against the installed package: see CMakeLists.txt next to this file.
 
@@ -27,7 +31,9 @@
 #include <functional>
 #include <future>
 #include <iostream>
+#include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -129,6 +135,74 @@ class PoolBackend final : public red::Backend {
   std::atomic<std::uint64_t> units_{0};
 };
 
+/// The same user function on asynchronous lanes, as a GPU inference runtime runs units on
+/// streams: each lane is a queue served by one thread (a "stream": its units run in the
+/// order given). enqueue() hands the unit over and returns at once; wait() takes the oldest
+/// unit's outcome, with when it started and ended. RED's on-demand policies then queue a
+/// lane's next unit shortly before the one running ends (docs/GPU.md, "Asynchronous
+/// lanes"). enqueue() and wait() are called from the lane's own thread, so the per-lane
+/// list of pending units needs no lock.
+class StreamBackend final : public red::Backend {
+ public:
+  StreamBackend(const red::Scenario& s, std::function<void(const UnitWork&)> fn)
+      : scenario_(s), fn_(std::move(fn)) {
+    for (int l = 0; l < s.device.lanes; ++l) lanes_.push_back(std::make_unique<Lane>());
+  }
+
+  [[nodiscard]] std::string_view name() const noexcept override { return "lane streams"; }
+  [[nodiscard]] bool asynchronous() const noexcept override { return true; }
+
+  void enqueue(int lane, const red::Dispatch& d) override {
+    UnitWork w;
+    w.kind = d.kind;
+    if (d.head >= 0) w.head = scenario_.model.heads[static_cast<std::size_t>(d.head)];
+    w.lane = lane;
+    w.batch = d.batch;
+    w.jobs = d.members.size();
+    auto done = std::make_shared<red::UnitDone>();
+    Lane& l = *lanes_[static_cast<std::size_t>(lane)];
+    l.pending.emplace_back(done, l.stream.submit([this, w, done] {
+      done->started = std::chrono::steady_clock::now();
+      fn_(w);
+      done->ended = std::chrono::steady_clock::now();
+    }));
+  }
+
+  red::UnitDone wait(int lane) override {
+    Lane& l = *lanes_[static_cast<std::size_t>(lane)];
+    auto [done, finished] = std::move(l.pending.front());
+    l.pending.pop_front();
+    try {
+      finished.get();  // rethrows what the user function threw: the unit failed
+    } catch (const std::exception& e) {
+      done->status = red::UnitStatus::Failed;
+      done->reason = e.what();
+    }
+    units_.fetch_add(1, std::memory_order_relaxed);
+    return *done;
+  }
+
+  // Never called on an asynchronous backend; runs one unit to its end all the same.
+  void run(int lane, const red::Dispatch& d) override {
+    enqueue(lane, d);
+    const red::UnitDone done = wait(lane);
+    if (done.status != red::UnitStatus::Completed) throw std::runtime_error(done.reason);
+  }
+
+  /// Units run so far.
+  [[nodiscard]] std::uint64_t units() const noexcept { return units_.load(); }
+
+ private:
+  struct Lane {
+    ThreadPool stream{1};
+    std::deque<std::pair<std::shared_ptr<red::UnitDone>, std::future<void>>> pending;
+  };
+  const red::Scenario& scenario_;
+  std::function<void(const UnitWork&)> fn_;
+  std::vector<std::unique_ptr<Lane>> lanes_;
+  std::atomic<std::uint64_t> units_{0};
+};
+
 // What each unit costs on this "device". The user function spends it, and the profile
 // below tells RED's deadline arithmetic the same figures (in a real integration: measure
 // them, e.g. with `red profile` or from a run's units.csv).
@@ -168,6 +242,11 @@ red::Profile profile_of_this_device(const red::Scenario& s) {
 
 int main(int argc, char** argv) {
   double seconds = 1.0;
+  const bool async = argc > 2 && std::string(argv[2]) == "--async";
+  if (argc > 3 || (argc > 2 && !async)) {
+    std::cerr << "usage: custom_backend [seconds] [--async]\n";
+    return 2;
+  }
   if (argc > 1) {
     char* end = nullptr;
     seconds = std::strtod(argv[1], &end);
@@ -201,7 +280,9 @@ int main(int argc, char** argv) {
   const red::Profile profile = profile_of_this_device(*scenario);
 
   ThreadPool pool(2);
-  PoolBackend backend(*scenario, pool, infer);
+  PoolBackend pooled(*scenario, pool, infer);
+  StreamBackend streams(*scenario, infer);
+  red::Backend& backend = async ? static_cast<red::Backend&>(streams) : pooled;
 
   red::RuntimeOptions options;
   options.realtime = false;      // no SCHED_FIFO / mlockall needed for an example
@@ -214,7 +295,10 @@ int main(int argc, char** argv) {
   red::PolicyMetrics m = metrics.summarize("red", report.end);
 
   std::cout << "RED " << red::kVersion << " on backend '" << backend.name()
-            << "': " << backend.units() << " units run, " << report.failures << " failed\n";
+            << "': " << (async ? streams.units() : pooled.units()) << " units run, "
+            << report.failures << " failed";
+  if (async) std::cout << ", " << report.enqueued_ahead << " queued behind a running unit";
+  std::cout << "\n";
   std::cout << "jobs " << m.jobs << ", completed " << m.completed << ", met " << m.met
             << ", missed " << m.missed << ", dropped " << m.dropped << "\n"
             << "miss rate " << m.miss_rate << ", QoE " << m.qoe << ", latency mean "
