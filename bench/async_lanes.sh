@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Asynchronous lanes side by side with synchronous ones (issue 36, docs/BENCHMARKS.md,
-# "Asynchronous lanes"): bench/releases.yaml at several camera rates, each policy once with
-# one unit per lane (synchronous: the lane's handler runs the unit, then decides the next)
-# and once with --async (the unit is enqueued; an on-demand handler queues the next one
-# shortly before it ends). Backend `synthetic` (the CPU stand-in: each lane a worker thread
-# spending the profile's times) or `torch` (with DEVICE cuda: a GPU).
+# "Asynchronous lanes"): bench/releases.yaml at several camera rates, each policy in each
+# MODE: `sync` (the lane's handler runs the unit, then decides the next; on a GPU the
+# torch backend is always asynchronous, so this is d2 there), `d1` (--async, one unit per
+# lane: enqueued, then waited for) and `d2` (--async, queue_depth 2: an on-demand handler
+# queues the next unit shortly before the running one ends). Backend `synthetic` (the CPU
+# stand-in: each lane a worker thread spending the profile's times) or `torch` (with
+# DEVICE cuda: a GPU). MODES defaults to "sync d1 d2" (synthetic) or "d1 d2" (torch).
 # Usage: bench/async_lanes.sh RED PROFILE.json [BACKEND] [DEVICE] [SCALE] [RATES] [LANES]
 #   SCALE divides every unit time of PROFILE (e.g. 60 turns a CPU profile into GPU-sized
 #   units for the synthetic backend; 1 for a real GPU profile); RATES are rate_scale values
@@ -18,6 +20,7 @@ SCALE=${5:-1}
 RATES=${6:-"10 40 80"}
 LANES=${7:-1}
 POLICIES=${POLICIES:-edf,mono,red,red-robust}
+if [ "$BACKEND" = torch ]; then MODES=${MODES:-"d1 d2"}; else MODES=${MODES:-"sync d1 d2"}; fi
 OUT=${OUT:-out/async-lanes}
 cd "$(dirname "$0")/.."
 mkdir -p "$OUT"
@@ -38,9 +41,10 @@ dev=()
 printf '%-6s %-5s %-6s %-11s %7s %8s %8s %9s %9s\n' lanes fps mode policy miss% mean_ms ahead gap_p50us hand_p50us
 for lanes in $LANES; do
   for r in $RATES; do
-    for mode in sync async; do
+    for mode in $MODES; do
       flag=()
-      [ "$mode" = async ] && flag=(--async)
+      [ "$mode" = d1 ] && flag=(--async --set queue_depth=1)
+      [ "$mode" = d2 ] && flag=(--async --set queue_depth=2)
       tag="l$lanes-r$r-$mode"
       "$RED" compare bench/releases.yaml --backend "$BACKEND" "${dev[@]}" "${flag[@]}" \
         --profile "$OUT/profile.json" --set rate_scale="$r" --set lanes="$lanes" \

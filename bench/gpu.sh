@@ -2,7 +2,8 @@
 # The GPU checks of docs/GPU.md in one script, for a CUDA machine with RED built against a
 # CUDA LibTorch (docs/GPU.md): two profiles (is batch 1 warm, within 10 % of the second
 # profile's?), a calibration on the GPU (in-run / isolated ratios of a GPU, not 23x), and
-# the frames offered and released at 20, 200 and 800 frames/s (bench/releases.yaml).
+# the frames offered and released at 20, 200 and 800 frames/s (bench/releases.yaml), and
+# asynchronous lanes side by side with synchronous ones (bench/async_lanes.sh).
 # Usage: bench/gpu.sh RED_BINARY [OUT_DIR] [DEVICE]     (default out/gpu-check, cuda)
 # Prints the figures; everything it ran is kept in OUT_DIR.
 set -euo pipefail
@@ -42,3 +43,7 @@ for r in 1 10 40; do
     --out "$OUT/releases-$r" 2>"$OUT/releases-$r.err" | sed -n '/^frames/,$p'
   grep "warning" "$OUT/releases-$r.err" || true
 done
+
+echo "== asynchronous lanes against one unit per lane: 200, 800 and 3200 frames/s on 1 and 2 lanes"
+OUT="$OUT/async-lanes" bench/async_lanes.sh "$RED" "$OUT/calibrated.json" torch "$DEVICE" 1 \
+  "10 40 160" "1 2"

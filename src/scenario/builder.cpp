@@ -93,6 +93,7 @@ struct ScenarioBuilder::Data {
   std::string name;
   Duration duration{std::chrono::seconds{10}};
   std::optional<Duration> warmup, sync_cost, gamma;
+  std::optional<int> queue_depth;
   std::optional<std::uint64_t> seed;
   int lanes = 1;
   std::vector<std::string> heads{"lane", "seg", "steer", "det"};
@@ -134,6 +135,10 @@ ScenarioBuilder& ScenarioBuilder::lanes(int n) {
 }
 ScenarioBuilder& ScenarioBuilder::sync_cost(Duration d) {
   d_->sync_cost = d;
+  return *this;
+}
+ScenarioBuilder& ScenarioBuilder::queue_depth(int n) {
+  d_->queue_depth = n;
   return *this;
 }
 ScenarioBuilder& ScenarioBuilder::heads(std::vector<std::string> names) {
@@ -179,6 +184,7 @@ std::string ScenarioBuilder::to_yaml() const {
   out << YAML::Key << "device" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "lanes" << YAML::Value << d.lanes;
   if (d.sync_cost) out << YAML::Key << "sync_cost_us" << YAML::Value << ms(*d.sync_cost) * 1e3;
+  if (d.queue_depth) out << YAML::Key << "queue_depth" << YAML::Value << *d.queue_depth;
   out << YAML::EndMap;
   out << YAML::Key << "model" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "builtin" << YAML::Value << "mimonet";

@@ -699,6 +699,28 @@ int Scheduler::Impl::batch_limit(const Task& k) const {
   return std::min(s.config_.max_batch, p != nullptr ? p->max_batch() : 1);
 }
 
+void Scheduler::Impl::assess_overload(TimePoint now) {
+  // §5 max_inflight: an operation at its limit skips its next release, so finishing its
+  // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
+  const bool robust = opt.rank == RankMode::Overload;
+  const bool at_limit = robust && saturated();
+  // The demand test (a walk over every job in flight) decides nothing that a saturated
+  // operation has not decided already, unless criticalities differ or a ready encoder on
+  // several lanes is ranked by it (no encoder becomes ready within a round): skipped then.
+  const bool test = (robust || mixed_criticality) &&
+                    (!at_limit || mixed_criticality || (s.config_.lanes > 1 && ready_encoders > 0));
+  demand_overrun = test && demand_overruns(now, idx(s.config_.estimate));
+  overloaded = demand_overrun || at_limit;
+  // §15 "finish what was started": once overloaded, the jobs in flight then are finished
+  // by job deadline; ranking them back by intermediate deadlines between two overloaded
+  // rounds would start newer jobs' early levels ahead of them again.
+  if (robust) {
+    if (overloaded && !by_deadline.empty())
+      overload_hold = std::max(overload_hold, job(by_deadline.back()).deadline);
+    overloaded = overloaded || now < overload_hold;
+  }
+}
+
 void Scheduler::Impl::ready_in_lane_order(int lane_index) {
   const Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
   for (int q = 0; q < lane.count; ++q)
@@ -1203,26 +1225,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
   if (idle > 0 && !m.ready.empty()) {
     ++stats_.decisions;
-    // §5 max_inflight: an operation at its limit skips its next release, so finishing its
-    // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
-    const bool robust = m.opt.rank == RankMode::Overload;
-    const bool saturated = robust && m.saturated();
-    // The demand test (a walk over every job in flight) decides nothing that a saturated
-    // operation has not decided already, unless criticalities differ or a ready encoder on
-    // several lanes is ranked by it (no encoder becomes ready within a round): skipped then.
-    const bool test =
-        (robust || m.mixed_criticality) &&
-        (!saturated || m.mixed_criticality || (config_.lanes > 1 && m.ready_encoders > 0));
-    m.demand_overrun = test && m.demand_overruns(now, idx(config_.estimate));
-    m.overloaded = m.demand_overrun || saturated;
-    // §15 "finish what was started": once overloaded, the jobs in flight then are finished
-    // by job deadline; ranking them back by intermediate deadlines between two overloaded
-    // rounds would start newer jobs' early levels ahead of them again.
-    if (m.opt.rank == RankMode::Overload) {
-      if (m.overloaded && !m.by_deadline.empty())
-        m.overload_hold = std::max(m.overload_hold, m.job(m.by_deadline.back()).deadline);
-      m.overloaded = m.overloaded || now < m.overload_hold;
-    }
+    m.assess_overload(now);
     while (idle > 0 && m.pick(now)) --idle;
   }
   // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed
@@ -1321,11 +1324,15 @@ std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
   m.out.clear();
   if (!has_room_ahead(lane)) return m.out;
   ++m.stamp;  // a scheduling point: deadlines are re-assigned from now
-  ++stats_.decisions;
-  // The round's overload state (admission, the demand test) is the last dispatch()'s: a
-  // lane's own decision right after it, or at its unit boundary after a completion that
-  // dispatch() has seen.
+  // A decision like dispatch()'s: admission of what was released since, then the overload
+  // state (the demand test) at this instant. With queued lanes most decisions are these:
+  // a lane that always holds a unit is never idle at dispatch().
+  if (m.opt.admission == Admission::Shed && m.released_since_admission) m.admit(now);
+  m.released_since_admission = false;
   m.ready_in_lane_order(lane);
+  if (m.ready.empty()) return m.out;
+  ++stats_.decisions;
+  m.assess_overload(now);
   m.ahead_lane = lane;
   (void)m.pick(now);
   m.ahead_lane = -1;

@@ -531,6 +531,9 @@ struct Scheduler::Impl {
   // dispatch_ahead(): the successors that wait only on a unit `lane` holds become ready for
   // that lane alone (not encoders: they merge across lanes).
   void ready_in_lane_order(int lane);
+  // The round's overload state before a pick (§15): saturation, the demand test, the hold
+  // of "finish what was started" (dispatch() and dispatch_ahead()).
+  void assess_overload(TimePoint now);
 
   // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
   bool pick(TimePoint now);

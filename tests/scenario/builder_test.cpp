@@ -126,6 +126,7 @@ TEST(ScenarioBuilder, SetsTheOptionalKnobs) {
   ScenarioBuilder b("knobs");
   b.heads({"lane", "det"})
       .sync_cost(std::chrono::microseconds{80})
+      .queue_depth(2)
       .gamma(milliseconds{20})
       .max_batch(2)
       .qoe_lambda(0.5)
@@ -145,6 +146,7 @@ TEST(ScenarioBuilder, SetsTheOptionalKnobs) {
   EXPECT_EQ(s->model.heads, (std::vector<std::string>{"lane", "det"}));
   ASSERT_TRUE(s->device.sync_cost.has_value());
   EXPECT_EQ(*s->device.sync_cost, std::chrono::microseconds{80});
+  EXPECT_EQ(s->device.queue_depth, 2);
   EXPECT_EQ(s->scheduler.gamma, milliseconds{20});
   EXPECT_EQ(s->scheduler.max_batch, 2);
   EXPECT_DOUBLE_EQ(s->scheduler.qoe_lambda, 0.5);

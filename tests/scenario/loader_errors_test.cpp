@@ -304,6 +304,10 @@ TEST(LoaderErrors, NegativeSeedAndFractionalLanes) {
                 "seed: must be an integer");
   expect_inline("name: x\nduration_s: 5\ndevice: {lanes: 1.5}\noperations: []\n", 3,
                 "lanes: must be an integer");
+  expect_inline("name: x\nduration_s: 5\ndevice: {queue_depth: 5}\noperations: []\n", 3,
+                "device.queue_depth: must be an integer in [1, 4]");
+  expect_inline("name: x\nduration_s: 5\ndevice: {queue_depth: 0}\noperations: []\n", 3,
+                "device.queue_depth: must be an integer in [1, 4]");
 }
 
 TEST(LoaderErrors, ModelNeedsExactlyOneSource) {

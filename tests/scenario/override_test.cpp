@@ -81,6 +81,8 @@ TEST(Override, SchedulerDeviceAndRunKeys) {
   EXPECT_EQ(s.scheduler.gamma, std::chrono::microseconds{7500});
   ASSERT_FALSE(apply_override(s, "lanes", 3).has_value());
   EXPECT_EQ(s.device.lanes, 3);
+  ASSERT_FALSE(apply_override(s, "queue_depth", 2).has_value());
+  EXPECT_EQ(s.device.queue_depth, 2);
   ASSERT_FALSE(apply_override(s, "duration_s", 6).has_value());
   EXPECT_EQ(s.duration, std::chrono::seconds{6});
   ASSERT_FALSE(apply_override(s, "seed", 99).has_value());
@@ -95,6 +97,7 @@ TEST(Override, BadValuesLeaveTheScenarioUnchanged) {
   };
   for (const Case c :
        {Case{"qoe_lambda", 0}, Case{"gamma_ms", -1}, Case{"lanes", 0}, Case{"lanes", 1.5},
+        Case{"queue_depth", 0}, Case{"queue_depth", 5}, Case{"queue_depth", 1.5},
         Case{"duration_s", 0}, Case{"duration_s", 1}, Case{"duration_s", 4.5}, Case{"seed", -1},
         Case{"seed", 0.5}, Case{"rate_scale", std::numeric_limits<double>::quiet_NaN()},
         Case{"deadline_scale", std::numeric_limits<double>::infinity()}}) {

@@ -104,6 +104,8 @@ class ScenarioBuilder {
   ScenarioBuilder& lanes(int n);
   /// Cost of one synchronizer round trip, instead of the profile's.
   ScenarioBuilder& sync_cost(Duration d);
+  /// Units a lane holds at once (device.queue_depth, 1–4).
+  ScenarioBuilder& queue_depth(int n);
   /// Head names of the built-in MIMONet the inference nodes use.
   ScenarioBuilder& heads(std::vector<std::string> names);
   /// Profile file to use (empty: the built-in default).
