@@ -887,7 +887,10 @@ bool Scheduler::Impl::pick(TimePoint now) {
     // lanes can do, or some ready job cannot, by estimate, finish alone by its deadline —
     // ready work of the most critical operations goes first and lower-criticality work
     // waits, so it is shed first. With equal criticalities (the default) nothing changes.
-    bool overload = overloaded;
+    // The demand test's verdict alone: not red-robust's wider `overloaded` (an operation at
+    // its max_inflight, the hold after an overload), which put every critical unit first
+    // while the lanes could carry everything (issue 37: red-robust missed 2-3x red's jobs).
+    bool overload = demand_overrun;
     int top = std::numeric_limits<int>::min();
     // With equal criticalities the order is the keys' alone: the least is kept as they come.
     std::size_t least = 0;

@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sim/run.hpp"
 
@@ -76,6 +77,49 @@ TEST_P(Criticality, LowerCriticalityIsShedFirstUnderOverload) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Deadline, Criticality, ::testing::Values("edf", "red-ida", "red"));
+
+}  // namespace
+}  // namespace red
+
+namespace red {
+namespace {
+
+// Issue 37: on a workload nobody tuned it for (a delivery robot whose critical `avoid`
+// operation joins for three seconds), red-robust must not miss more than red. It did: an
+// operation at its max_inflight (saturation) and the "finish what was started" hold also
+// put the criticality rule in force, so every unit of the critical operation's shared
+// encoder went ahead of drive's unfinished heads even though the lanes could carry both
+// (16.3 % of all jobs missed at 2x against red's 5.4 %). The rule now follows the demand
+// test alone, as §5 says.
+double miss_pct(const PolicyRun& r, int operation = -1) {
+  int jobs = 0, missed = 0;
+  for (const JobRow& j : r.jobs) {
+    if (operation >= 0 && j.operation != operation) continue;
+    ++jobs;
+    missed += j.outcome == JobOutcome::Met ? 0 : 1;
+  }
+  return jobs == 0 ? 0.0 : 100.0 * missed / jobs;
+}
+
+TEST(CriticalityUnderLoad, RedRobustMissesNoMoreThanRedOnADeliveryRobot) {
+  auto base = load_scenario(std::string(RED_TEST_DATA) + "/scenarios/delivery-robot.yaml");
+  ASSERT_TRUE(base.has_value()) << base.error().to_string();
+  const Profile p = default_profile();
+  for (double rate : {1.0, 1.6, 2.0}) {
+    SCOPED_TRACE(rate);
+    Scenario s = *base;
+    ASSERT_FALSE(apply_override(s, "rate_scale", rate).has_value());
+    auto red = simulate_policy(s, p, "red", s.seed);
+    auto robust = simulate_policy(s, p, "red-robust", s.seed);
+    ASSERT_TRUE(red.has_value() && robust.has_value());
+    EXPECT_LE(miss_pct(*robust), miss_pct(*red) + 0.5);
+    // The critical operation (`avoid`, added by the event: the last operation) is not
+    // missed more under red-robust than under red.
+    const int avoid = s.operation_count() - 1;
+    ASSERT_EQ(s.operation_name(avoid), "avoid");
+    EXPECT_LE(miss_pct(*robust, avoid), miss_pct(*red, avoid) + 0.5);
+  }
+}
 
 }  // namespace
 }  // namespace red
