@@ -103,6 +103,17 @@ struct UnitWork {
   std::size_t jobs = 1;  ///< (job, node) pairs the unit serves (merged encoder runs share)
 };
 
+/// What a dispatch asks of the user function.
+UnitWork work_of(const red::Scenario& s, int lane, const red::Dispatch& d) {
+  UnitWork w;
+  w.kind = d.kind;
+  if (d.head >= 0) w.head = s.model.heads[static_cast<std::size_t>(d.head)];
+  w.lane = lane;
+  w.batch = d.batch;
+  w.jobs = d.members.size();
+  return w;
+}
+
 /// red::Backend on a thread pool. RED calls run() on the lane's own thread, one unit at a
 /// time per lane; it hands the unit to the pool and blocks until the pool ran it, so RED's
 /// lane stays busy exactly as long as the unit runs. An exception from the user function
@@ -115,12 +126,7 @@ class PoolBackend final : public red::Backend {
   [[nodiscard]] std::string_view name() const noexcept override { return "thread pool"; }
 
   void run(int lane, const red::Dispatch& d) override {
-    UnitWork w;
-    w.kind = d.kind;
-    if (d.head >= 0) w.head = scenario_.model.heads[static_cast<std::size_t>(d.head)];
-    w.lane = lane;
-    w.batch = d.batch;
-    w.jobs = d.members.size();
+    const UnitWork w = work_of(scenario_, lane, d);
     pool_.submit([this, w] { fn_(w); }).get();  // rethrows what the user function threw
     units_.fetch_add(1, std::memory_order_relaxed);
   }
@@ -153,12 +159,7 @@ class StreamBackend final : public red::Backend {
   [[nodiscard]] bool asynchronous() const noexcept override { return true; }
 
   void enqueue(int lane, const red::Dispatch& d) override {
-    UnitWork w;
-    w.kind = d.kind;
-    if (d.head >= 0) w.head = scenario_.model.heads[static_cast<std::size_t>(d.head)];
-    w.lane = lane;
-    w.batch = d.batch;
-    w.jobs = d.members.size();
+    const UnitWork w = work_of(scenario_, lane, d);
     auto done = std::make_shared<red::UnitDone>();
     Lane& l = *lanes_[static_cast<std::size_t>(lane)];
     l.pending.emplace_back(done, l.stream.submit([this, w, done] {

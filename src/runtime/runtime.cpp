@@ -524,14 +524,14 @@ struct Runtime::Impl {
     return "mixed";
   }
 
-  void handler_main(int lane) {
-    Handler& h = *handlers[static_cast<std::size_t>(lane)];
-    // The real-time class and the lane's cores go on before the backend's first call:
-    // worker threads a backend starts then (LibTorch's intra-op team, created by the
-    // warm-up) inherit them from this thread. Set after the warm-up instead, only the
-    // handler had them and its workers ran as ordinary threads behind every SCHED_FIFO
-    // spinner: the first policy of a process ran its units ~25 % slower than the next.
-    // apply_realtime() sets them again and reports (memory is locked only after the warm-up).
+  // A lane's thread before its first unit. The real-time class and the lane's cores go on
+  // before the backend's first call: worker threads a backend starts then (LibTorch's
+  // intra-op team, created by the warm-up) inherit them from this thread. Set after the
+  // warm-up instead, only the handler had them and its workers ran as ordinary threads
+  // behind every SCHED_FIFO spinner: the first policy of a process ran its units ~25 %
+  // slower than the next. apply_realtime() sets them again and reports (memory is locked
+  // only after the warm-up).
+  void start_lane(int lane) {
     if (options.realtime) {
       sched_param sp{};
       sp.sched_priority = options.rt_priority;
@@ -542,6 +542,11 @@ struct Runtime::Impl {
     backend.init_lane(lane);
     backend.warm_up(lane);
     warmed->count_down();
+  }
+
+  void handler_main(int lane) {
+    Handler& h = *handlers[static_cast<std::size_t>(lane)];
+    start_lane(lane);
     std::uint64_t seen = 0;
     const Dispatch* next = nullptr;
     TimePoint prev_end = kNever;
@@ -728,16 +733,7 @@ struct Runtime::Impl {
   // posts each to the global synchronizer and holds one unit at a time.
   void async_handler_main(int lane) {
     Handler& h = *handlers[static_cast<std::size_t>(lane)];
-    if (options.realtime) {
-      sched_param sp{};
-      sp.sched_priority = options.rt_priority;
-      (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
-      const cpu_set_t set = lane_cores(static_cast<std::size_t>(lane));
-      (void)pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
-    }
-    backend.init_lane(lane);
-    backend.warm_up(lane);
-    warmed->count_down();
+    start_lane(lane);
     std::uint64_t seen = 0;
     const auto depth = static_cast<std::size_t>(sched.config().queue_depth);  // constant
     std::deque<Held> held;                                                    // oldest first

@@ -424,4 +424,26 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now) {
   }
 }
 
+void Scheduler::Impl::assess_overload(TimePoint now) {
+  // §5 max_inflight: an operation at its limit skips its next release, so finishing its
+  // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
+  const bool robust = opt.rank == RankMode::Overload;
+  const bool at_limit = robust && saturated();
+  // The demand test (a walk over every job in flight) decides nothing that a saturated
+  // operation has not decided already, unless criticalities differ or a ready encoder on
+  // several lanes is ranked by it (no encoder becomes ready within a round): skipped then.
+  const bool test = (robust || mixed_criticality) &&
+                    (!at_limit || mixed_criticality || (s.config_.lanes > 1 && ready_encoders > 0));
+  demand_overrun = test && demand_overruns(now, idx(s.config_.estimate));
+  overloaded = demand_overrun || at_limit;
+  // §15 "finish what was started": once overloaded, the jobs in flight then are finished
+  // by job deadline; ranking them back by intermediate deadlines between two overloaded
+  // rounds would start newer jobs' early levels ahead of them again.
+  if (robust) {
+    if (overloaded && !by_deadline.empty())
+      overload_hold = std::max(overload_hold, job(by_deadline.back()).deadline);
+    overloaded = overloaded || now < overload_hold;
+  }
+}
+
 }  // namespace red

@@ -699,49 +699,6 @@ int Scheduler::Impl::batch_limit(const Task& k) const {
   return std::min(s.config_.max_batch, p != nullptr ? p->max_batch() : 1);
 }
 
-void Scheduler::Impl::assess_overload(TimePoint now) {
-  // §5 max_inflight: an operation at its limit skips its next release, so finishing its
-  // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
-  const bool robust = opt.rank == RankMode::Overload;
-  const bool at_limit = robust && saturated();
-  // The demand test (a walk over every job in flight) decides nothing that a saturated
-  // operation has not decided already, unless criticalities differ or a ready encoder on
-  // several lanes is ranked by it (no encoder becomes ready within a round): skipped then.
-  const bool test = (robust || mixed_criticality) &&
-                    (!at_limit || mixed_criticality || (s.config_.lanes > 1 && ready_encoders > 0));
-  demand_overrun = test && demand_overruns(now, idx(s.config_.estimate));
-  overloaded = demand_overrun || at_limit;
-  // §15 "finish what was started": once overloaded, the jobs in flight then are finished
-  // by job deadline; ranking them back by intermediate deadlines between two overloaded
-  // rounds would start newer jobs' early levels ahead of them again.
-  if (robust) {
-    if (overloaded && !by_deadline.empty())
-      overload_hold = std::max(overload_hold, job(by_deadline.back()).deadline);
-    overloaded = overloaded || now < overload_hold;
-  }
-}
-
-void Scheduler::Impl::ready_in_lane_order(int lane_index) {
-  const Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
-  for (int q = 0; q < lane.count; ++q)
-    for (const Member& mb : lane.at(q).members) {
-      Job& j = job(mb.slot);
-      if (!j.live || j.ended || j.id != mb.job) continue;
-      if (j.u[static_cast<std::size_t>(mb.unit)].state != UState::Running) continue;
-      for (int sx : j.g->units[static_cast<std::size_t>(mb.unit)].succs) {
-        UnitRt& su = j.u[static_cast<std::size_t>(sx)];
-        if (su.state != UState::Blocked || su.pending != 1 ||
-            j.g->units[static_cast<std::size_t>(sx)].kind == UnitKind::Encoder)
-          continue;
-        su.pending = 0;
-        su.early = true;
-        make_ready(mb.slot, sx);
-        task(su.task).lane_only = lane_index;
-        j.dirty = true;
-      }
-    }
-}
-
 void Scheduler::Impl::set_start(Dispatch& d, TimePoint start) {
   d.start = start;
   for (const Member& mb : d.members) {
@@ -1222,8 +1179,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   ++m.stamp;  // one scheduling point: deadlines are re-assigned from now
   // §15: admission right after releases; the demand test that tells overload, when the
   // policy or the scenario's criticalities use it.
-  if (m.opt.admission == Admission::Shed && m.released_since_admission) m.admit(now);
-  m.released_since_admission = false;
+  m.admit_released(now);
   int idle = 0;
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
   if (idle > 0 && !m.ready.empty()) {
@@ -1315,31 +1271,6 @@ const RefinedGraph* Scheduler::graph(int operation) const {
 const Dispatch* Scheduler::running(int lane) const {
   const auto& l = impl_->lanes[static_cast<std::size_t>(lane)];
   return l.busy() ? &l.at(0) : nullptr;
-}
-
-bool Scheduler::has_room_ahead(int lane) const {
-  const auto& l = impl_->lanes[static_cast<std::size_t>(lane)];
-  return l.busy() && l.count < config_.queue_depth;
-}
-
-std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
-  Impl& m = *impl_;
-  m.out.clear();
-  if (!has_room_ahead(lane)) return m.out;
-  ++m.stamp;  // a scheduling point: deadlines are re-assigned from now
-  // A decision like dispatch()'s: admission of what was released since, then the overload
-  // state (the demand test) at this instant. With queued lanes most decisions are these:
-  // a lane that always holds a unit is never idle at dispatch().
-  if (m.opt.admission == Admission::Shed && m.released_since_admission) m.admit(now);
-  m.released_since_admission = false;
-  m.ready_in_lane_order(lane);
-  if (m.ready.empty()) return m.out;
-  ++stats_.decisions;
-  m.assess_overload(now);
-  m.ahead_lane = lane;
-  (void)m.pick(now);
-  m.ahead_lane = -1;
-  return m.out;
 }
 
 TimePoint Scheduler::unit_deadline(int slot, int unit, TimePoint now) {

@@ -534,6 +534,11 @@ struct Scheduler::Impl {
   // The round's overload state before a pick (§15): saturation, the demand test, the hold
   // of "finish what was started" (dispatch() and dispatch_ahead()).
   void assess_overload(TimePoint now);
+  // §15 admission of the jobs released since the last decision (a policy that sheds).
+  void admit_released(TimePoint now) {
+    if (opt.admission == Admission::Shed && released_since_admission) admit(now);
+    released_since_admission = false;
+  }
 
   // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
   bool pick(TimePoint now);
