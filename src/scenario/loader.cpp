@@ -69,6 +69,8 @@ std::string got(const YAML::Node& n) {
   if (n.IsNull()) return ", got nothing";
   if (n.IsMap()) return ", got a mapping";
   if (n.IsSequence()) return ", got a list";
+  if (n.Tag() == "!") return ", got the quoted string '" + n.Scalar() + "'";
+  if (n.Tag() == "tag:yaml.org,2002:str") return ", got the string !!str '" + n.Scalar() + "'";
   return ", got '" + n.Scalar() + "'";
 }
 
@@ -146,9 +148,13 @@ class Fields {
 
 // ---- scalars -------------------------------------------------------------------------
 
-/// A plain (unquoted) scalar: a quoted "15" is a string, not a number.
+/// A scalar that may be read as a number: plain (untagged, unquoted) or tagged `!!int` /
+/// `!!float`. A quoted "15" or a `!!str 15` is a string, not a number.
 bool is_plain_scalar(const YAML::Node& n) {
-  return n.IsScalar() && n.Tag() != "!";
+  if (!n.IsScalar()) return false;
+  const std::string& tag = n.Tag();
+  return tag.empty() || tag == "?" || tag == "tag:yaml.org,2002:int" ||
+         tag == "tag:yaml.org,2002:float";
 }
 
 double number(const Val& v) {

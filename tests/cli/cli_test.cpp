@@ -621,6 +621,29 @@ TEST_F(Cli, NegativeSeedIsRejected) {
                    "--seed");
 }
 
+// A seed past 2^64 - 1 was clamped to it; a seed that is not a number printed a range
+// ending in a 309-digit bound.
+TEST_F(Cli, SeedMustFitSixtyFourBits) {
+  const std::string tiny = quote(data("tiny.yaml"));
+  expect_bad_input("simulate " + tiny + " --seed 18446744073709551616",
+                   "--seed: must be a whole number from 0 to 18446744073709551615, not "
+                   "'18446744073709551616'");
+  const RunResult r = red("simulate " + tiny + " --seed abc");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_TRUE(contains(r.err, "not 'abc'")) << r.err;
+  EXPECT_FALSE(contains(r.err, "000000000000000000")) << r.err;
+  EXPECT_EQ(red("simulate " + tiny + " --seed 18446744073709551615").code, 0);
+}
+
+TEST_F(Cli, MisspeltOptionGetsTheClosestOne) {
+  expect_bad_input("compare " + quote(data("tiny.yaml")) + " --polices edf,red",
+                   "red compare: unknown option '--polices' (did you mean --policies?)");
+  // Nothing close: no suggestion, CLI11's message alone.
+  const RunResult r = red("compare " + quote(data("tiny.yaml")) + " --zzzzzzzzzz 1");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(contains(r.err, "did you mean")) << r.err;
+}
+
 TEST_F(Cli, TooLargeOverrideSaysTooLarge) {
   const RunResult r = red("simulate " + quote(data("tiny.yaml")) + " --set duration_s=1e10");
   EXPECT_EQ(r.code, 2);

@@ -290,6 +290,23 @@ TEST(LoaderErrors, QuotedNumberIsAString) {
   expect_inline("name: x\nduration_s: \"5\"\noperations: []\n", 2, "must be a number");
 }
 
+TEST(LoaderErrors, StrTaggedNumberIsAString) {
+  std::string text = kBase;
+  text.replace(text.find("duration_s: 10"), 14, "duration_s: !!str 10");
+  expect_inline(text, 2, "duration_s: must be a number, got the string !!str '10'");
+  text = std::string(kBase) + "device: {lanes: !!str 2}\n";
+  expect_inline(text, 14, "must be an integer, got the string !!str '2'");
+}
+
+TEST(LoaderErrors, IntAndFloatTagsAreNumbers) {
+  std::string text = kBase;
+  text.replace(text.find("duration_s: 10"), 14, "duration_s: !!float 10");
+  text += "device: {lanes: !!int 2}\n";
+  const Expected<Scenario> s = parse_scenario(text, "inline.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  EXPECT_EQ(s->device.lanes, 2);
+}
+
 TEST(LoaderErrors, DuplicateMappingKey) {
   expect_inline("name: x\nduration_s: 5\nname: y\noperations: []\n", 3, "duplicate key 'name'");
 }

@@ -443,7 +443,7 @@ void register_profile(CLI::App& app, int& exit_code) {
                   "coarse/ and separate/ units at batch sizes 1..B")
       ->capture_default_str();
   cmd->add_option("--seed", args->seed, "Seed of the built-in model's weights")
-      ->check(CLI::NonNegativeNumber)
+      ->check(whole_number())
       ->capture_default_str();
   cmd->add_flag("--no-separate", args->no_separate, "Skip the four separate networks");
   cmd->add_flag("--quiet", args->quiet, "No progress messages");

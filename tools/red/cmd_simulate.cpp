@@ -462,8 +462,7 @@ void add_common(CLI::App* cmd, RunArgs& a) {
                   "Profile JSON (default: the scenario's, else built-in)");
   cmd->add_option("--set", a.scenario.sets,
                   "Override key=value (deadline_scale, rate_scale, qoe_lambda, ...)");
-  cmd->add_option("--seed", a.seed, "Random seed (default: the scenario's)")
-      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--seed", a.seed, "Random seed (default: the scenario's)")->check(whole_number());
   cmd->add_option("--out", a.out,
                   "Directory for summary.json, jobs.csv, units.csv, trace.json and plots");
   add_with_option(cmd, a.scenario);
@@ -475,7 +474,7 @@ void add_common(CLI::App* cmd, RunArgs& a) {
       ->check(CLI::IsMember({"per-edge", "on-demand"}));
   cmd->add_option("--trace-events", a.trace_events,
                   "Most events in trace.json, over all policies (0: no trace.json)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(whole_number())
       ->capture_default_str();
   cmd->add_option("--timeline", a.timeline,
                   "Window of the timeline drawn under --out, FROM:TO in seconds (default: the "

@@ -125,7 +125,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
   cmd->add_option("--policies", a->policies, "Comma-separated presets (default: all)");
   cmd->add_option("--profile", a->scenario.profile, "Profile JSON");
   cmd->add_option("--seed", a->seed, "Random seed (default: the scenario's)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(whole_number());
   cmd->add_option("--out", a->out, "Directory for sweep.json, sweep.csv, plots and index.html");
   add_with_option(cmd, a->scenario);
   cmd->callback([a, &exit_code] {

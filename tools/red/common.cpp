@@ -50,6 +50,18 @@ CLI::Validator finite_non_negative() {
   return finite_number([](double v) { return v >= 0; }, ">= 0");
 }
 
+CLI::Validator whole_number(std::uint64_t max) {
+  return CLI::Validator(
+      [max](std::string& text) {
+        std::uint64_t v = 0;
+        const char* last = text.data() + text.size();
+        const auto [ptr, ec] = std::from_chars(text.data(), last, v);
+        if (!text.empty() && ec == std::errc{} && ptr == last && v <= max) return std::string();
+        return fmt::format("must be a whole number from 0 to {}, not '{}'", max, text);
+      },
+      "INTEGER");
+}
+
 std::vector<std::string> split_list(const std::string& s) {
   std::vector<std::string> out;
   std::string cur;

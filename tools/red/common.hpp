@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -53,6 +54,10 @@ std::optional<double> decimal_number(const std::string& text);
 /// NonNegativeNumber let "nan" through).
 CLI::Validator finite_positive();
 CLI::Validator finite_non_negative();
+
+/// A CLI11 check of a whole number in [0, max] (CLI11 clamps a seed past 2^64 - 1, and its
+/// NonNegativeNumber prints a 309-digit bound).
+CLI::Validator whole_number(std::uint64_t max = std::numeric_limits<std::uint64_t>::max());
 
 /// What write_outputs writes besides summary.json, jobs.csv, units.csv and the plots.
 struct OutputOptions {

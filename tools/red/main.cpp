@@ -1,18 +1,69 @@
 /// \file
 /// `red`: validate, simulate, compare, sweep, profile (§12).
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include <unistd.h>
 
 #include "commands.hpp"
 #include "real_run.hpp"
 #include "red/version.hpp"
+
+namespace {
+
+/// Edit distance (insertions, deletions, substitutions) of two short words.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+/// "(did you mean --policies?)" for each `--option` on the command line that `sub` does not
+/// know and that is a few letters from one it does; empty if none is.
+std::string suggestions(const CLI::App& sub, int argc, char** argv) {
+  std::string out;
+  for (int i = 2; i < argc; ++i) {
+    std::string given = argv[i];
+    if (given.rfind("--", 0) != 0 || given.size() < 3) continue;
+    given = given.substr(2, given.find('=') - 2);
+    std::string best;
+    std::size_t best_distance = std::max<std::size_t>(2, given.size() / 3) + 1;
+    for (const CLI::Option* o : sub.get_options()) {
+      for (const std::string& name : o->get_lnames()) {
+        if (name == given) {
+          best.clear();
+          best_distance = 0;
+          break;
+        }
+        const std::size_t d = edit_distance(given, name);
+        if (d < best_distance) best = name, best_distance = d;
+      }
+      if (best_distance == 0) break;
+    }
+    if (!best.empty())
+      out += "red " + sub.get_name() + ": unknown option '--" + given + "' (did you mean --" +
+             best + "?)\n";
+  }
+  return out;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   red::cli::use_one_malloc_arena();
@@ -70,8 +121,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::Success& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    // Bad usage: CLI11 explains; RED's exit code for bad input is 2 (§12).
+    // Bad usage: CLI11 explains, and a misspelt option gets the closest one the command has;
+    // RED's exit code for bad input is 2.
     app.exit(e);
+    for (const CLI::App* sub : app.get_subcommands()) std::cerr << suggestions(*sub, argc, argv);
     return red::cli::kBadInput;
   }
   // What stdout still buffers goes now, so that a table that could not be written is an

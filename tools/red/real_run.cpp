@@ -36,7 +36,7 @@ void add_device_options(CLI::App* cmd, RealRunOptions& o) {
   cmd->add_option("--threads", o.threads,
                   "LibTorch intra-op threads per lane (0: the hardware threads shared among "
                   "the lanes)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(whole_number(1024));
   cmd->add_flag("--async", o.asynchronous,
                 "Run each lane asynchronously on the CPU too: units are enqueued on a lane's "
                 "worker and waited for, and an on-demand policy queues the next unit while "
