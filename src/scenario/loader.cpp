@@ -1025,7 +1025,8 @@ Expected<Scenario> load_scenario(const std::string& path) {
   return parse_scenario(text.value(), path);
 }
 
-std::optional<Error> apply_override(Scenario& s, const std::string& key, double value) {
+std::optional<Error> apply_override(Scenario& s, const std::string& key, double value,
+                                    std::vector<std::string>* warnings) {
   auto bad = [&](const std::string& why) {
     return Error{"", 0, fmt::format("override {}={}: {}", key, value, why)};
   };
@@ -1090,10 +1091,20 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
     out.duration = from_s(value);
     if (out.warmup >= out.duration)
       return bad(fmt::format("must be more than warmup_s ({})", to_s(out.warmup)));
-    for (const auto& ev : out.events)
-      if (ev.at >= out.duration)
-        return bad(fmt::format("the event at line {} (at {} s) would fall after the end", ev.line,
-                               to_s(ev.at)));
+    // A shorter run leaves out the events it ends before (they are in time order, and no
+    // earlier event depends on a later one), saying so.
+    const auto first_late =
+        std::find_if(out.events.begin(), out.events.end(),
+                     [&](const EventSpec& ev) { return ev.at >= out.duration; });
+    if (first_late != out.events.end() && warnings != nullptr) {
+      std::string lines;
+      for (auto it = first_late; it != out.events.end(); ++it)
+        lines += (lines.empty() ? "" : ", ") + std::to_string(it->line);
+      warnings->push_back(
+          fmt::format("duration_s={:g} leaves out {} event(s) at or after {:g} s (line(s) {})",
+                      value, out.events.end() - first_late, value, lines));
+    }
+    out.events.erase(first_late, out.events.end());
   } else if (key == "seed") {
     if (value < 0.0 || value >= 9.2e18 || value != std::floor(value))
       return bad("must be an integer >= 0");

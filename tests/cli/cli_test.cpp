@@ -644,6 +644,18 @@ TEST_F(Cli, MisspeltOptionGetsTheClosestOne) {
   EXPECT_FALSE(contains(r.err, "did you mean")) << r.err;
 }
 
+// Shortening a run leaves out the events past its end, with a warning (it was refused).
+TEST_F(Cli, ShorterDurationLeavesOutLaterEvents) {
+  const std::string tight = scenario("minibench-tight.yaml");
+  const RunResult r = red("simulate " + tight + " --policy red --set duration_s=2.5");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.err, "red: warning: --set duration_s=2.5 leaves out")) << r.err;
+  const RunResult sweep = red("sweep " + tight + " --policies red --set duration_s=2.5,4 --out " +
+                              quote((dir_ / "sw").string()));
+  EXPECT_EQ(sweep.code, 0) << sweep.err;
+  EXPECT_TRUE(contains(sweep.err, "red: warning: duration_s=2.5 leaves out")) << sweep.err;
+}
+
 TEST_F(Cli, TooLargeOverrideSaysTooLarge) {
   const RunResult r = red("simulate " + quote(data("tiny.yaml")) + " --set duration_s=1e10");
   EXPECT_EQ(r.code, 2);

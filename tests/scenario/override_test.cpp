@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "red/scenario/loader.hpp"
 
@@ -98,8 +99,8 @@ TEST(Override, BadValuesLeaveTheScenarioUnchanged) {
   for (const Case c :
        {Case{"qoe_lambda", 0}, Case{"gamma_ms", -1}, Case{"lanes", 0}, Case{"lanes", 1.5},
         Case{"queue_depth", 0}, Case{"queue_depth", 5}, Case{"queue_depth", 1.5},
-        Case{"duration_s", 0}, Case{"duration_s", 1}, Case{"duration_s", 4.5}, Case{"seed", -1},
-        Case{"seed", 0.5}, Case{"rate_scale", std::numeric_limits<double>::quiet_NaN()},
+        Case{"duration_s", 0}, Case{"duration_s", 1}, Case{"seed", -1}, Case{"seed", 0.5},
+        Case{"rate_scale", std::numeric_limits<double>::quiet_NaN()},
         Case{"deadline_scale", std::numeric_limits<double>::infinity()}}) {
     SCOPED_TRACE(c.key);
     const auto e = apply_override(s, c.key, c.value);
@@ -113,12 +114,28 @@ TEST(Override, BadValuesLeaveTheScenarioUnchanged) {
   EXPECT_DOUBLE_EQ(s.sensors[0].rate_hz, 20.0);
 }
 
-TEST(Override, DurationMustStayAfterEveryEvent) {
+// A user shortening a run expects the events past its new end to be left out, with a
+// warning naming them, not a refusal.
+TEST(Override, ShorterDurationLeavesOutLaterEventsWithAWarning) {
   Scenario s = scenario();
-  const auto e = apply_override(s, "duration_s", 4.5);  // an event is at 5 s
-  ASSERT_TRUE(e.has_value());
-  EXPECT_NE(e->message.find("event"), std::string::npos) << e->message;
-  EXPECT_EQ(s.duration, std::chrono::seconds{10});
+  std::vector<std::string> warnings;
+  ASSERT_FALSE(apply_override(s, "duration_s", 4.5, &warnings).has_value());
+  EXPECT_EQ(s.duration, std::chrono::milliseconds{4500});
+  ASSERT_EQ(s.events.size(), 3U);
+  EXPECT_EQ(s.events.back().at, std::chrono::seconds{4});
+  ASSERT_EQ(warnings.size(), 1U);
+  EXPECT_NE(warnings[0].find("leaves out 1 event(s) at or after 4.5 s (line(s) 21)"),
+            std::string::npos)
+      << warnings[0];
+  // An event exactly at the new end is left out too; no warning when none is.
+  warnings.clear();
+  ASSERT_FALSE(apply_override(s, "duration_s", 3, &warnings).has_value());
+  EXPECT_EQ(s.events.size(), 1U);
+  ASSERT_EQ(warnings.size(), 1U);
+  EXPECT_NE(warnings[0].find("2 event(s)"), std::string::npos) << warnings[0];
+  warnings.clear();
+  ASSERT_FALSE(apply_override(s, "duration_s", 2.5, &warnings).has_value());
+  EXPECT_TRUE(warnings.empty());
 }
 
 TEST(Override, UnknownKeyIsNamed) {

@@ -173,12 +173,15 @@ void register_sweep(CLI::App& app, int& exit_code) {
       // simulation in progress ends first, its value is left out).
       if (stop_signal() != 0) break;
       Scenario s = *base;
-      if (auto e = apply_override(s, key, v)) {
+      std::vector<std::string> warnings;
+      if (auto e = apply_override(s, key, v, &warnings)) {
         progress.finish();
         print_error(*e);
         exit_code = kBadInput;
         return;
       }
+      if (!warnings.empty()) progress.finish();  // a warning on a line of its own
+      for (const std::string& w : warnings) std::cerr << "red: warning: " << w << '\n';
       for (std::size_t i = 0; i < names.size() && stop_signal() == 0; ++i) {
         progress.begin_run(fmt::format("{}={:g} {} [{}/{}]", key, v, names[i], ++done, total),
                            s.duration);

@@ -90,7 +90,9 @@ Expected<Scenario> load(const ScenarioArgs& a) {
       return Error{"", 0,
                    "--set " + key + ": '" + val +
                        "' is not a number (a finite decimal such as 1.5 or 2e-3)"};
-    if (auto err = apply_override(s.value(), key, *v)) return *err;
+    std::vector<std::string> warnings;
+    if (auto err = apply_override(s.value(), key, *v, &warnings)) return *err;
+    for (const std::string& w : warnings) std::cerr << "red: warning: --set " << w << '\n';
   }
   for (const std::string& w : a.with) {
     PolicyOptions check;

@@ -10,6 +10,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "red/core/expected.hpp"
 #include "red/scenario/scenario.hpp"
@@ -30,9 +31,12 @@ Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::strin
 /// * `qoe_lambda` (> 0), `gamma_ms` (>= 0), `lanes` (integer >= 1);
 /// * `rate_scale` (> 0): multiplies every sensor rate and every operation's own rate,
 ///   including set_rate events;
-/// * `duration_s` (> 0, must stay after warmup and every event); `seed` (integer >= 0).
+/// * `duration_s` (> 0, must stay after warmup; events at or after the new end are left out,
+///   with a line in `warnings`); `seed` (integer >= 0).
 /// Returns an error naming the key on an unknown key or a bad value; `s` is then
-/// unchanged (an override never half-applies).
-std::optional<Error> apply_override(Scenario& s, const std::string& key, double value);
+/// unchanged (an override never half-applies). What the override changed besides the key
+/// (events left out) is appended to `warnings` when given.
+std::optional<Error> apply_override(Scenario& s, const std::string& key, double value,
+                                    std::vector<std::string>* warnings = nullptr);
 
 }  // namespace red
