@@ -181,34 +181,48 @@ double work_bound(const Scenario& s, const Profile& p) {
         up[v] = cost[v] + (node.is_plain() ? 0.0 : enc_one);
         down[v] = cost[v];
       }
-      for (std::size_t round = 0; round < n; ++round)
-        for (const EdgeSpec& e : op->edges) {
-          const auto from = static_cast<std::size_t>(e.from), to = static_cast<std::size_t>(e.to);
-          up[to] = std::max(up[to], up[from] + cost[to]);
-          down[from] = std::max(down[from], cost[from] + down[to]);
-        }
+      // In topological order (Kahn's), linear in nodes and edges: a chain of thousands of
+      // nodes took a pass over the edges per node, and its ancestor sets a cubic closure.
+      std::vector<std::vector<std::size_t>> succ(n), pred(n);
+      std::vector<int> in_degree(n, 0);
+      for (const EdgeSpec& e : op->edges) {
+        const auto from = static_cast<std::size_t>(e.from), to = static_cast<std::size_t>(e.to);
+        succ[from].push_back(to);
+        pred[to].push_back(from);
+        ++in_degree[to];
+      }
+      std::vector<std::size_t> order;
+      order.reserve(n);
+      for (std::size_t v = 0; v < n; ++v)
+        if (in_degree[v] == 0) order.push_back(v);
+      for (std::size_t k = 0; k < order.size(); ++k)
+        for (std::size_t w : succ[order[k]])
+          if (--in_degree[w] == 0) order.push_back(w);
+      for (std::size_t v : order)
+        for (std::size_t w : succ[v]) up[w] = std::max(up[w], up[v] + cost[w]);
+      for (auto it = order.rbegin(); it != order.rend(); ++it)
+        for (std::size_t w : succ[*it]) down[*it] = std::max(down[*it], cost[*it] + down[w]);
       // The work before and after a node takes at least its lane time over the lanes, as
-      // well as its longest path: ancestors and descendants of each node (itself excluded).
-      std::vector<std::vector<char>> anc(n, std::vector<char>(n, 0)), desc = anc;
-      for (std::size_t round = 0; round < n; ++round)
-        for (const EdgeSpec& e : op->edges) {
-          const auto from = static_cast<std::size_t>(e.from), to = static_cast<std::size_t>(e.to);
-          desc[from][to] = anc[to][from] = 1;
-          for (std::size_t x = 0; x < n; ++x) {
-            desc[from][x] = desc[from][x] || desc[to][x];
-            anc[to][x] = anc[to][x] || anc[from][x];
-          }
+      // well as its longest path: the nodes reachable from v along `adjacent` (v excluded).
+      auto reach = [n](std::size_t v, const std::vector<std::vector<std::size_t>>& adjacent) {
+        std::vector<char> seen(n, 0);
+        std::vector<std::size_t> stack{v};
+        while (!stack.empty()) {
+          const std::size_t u = stack.back();
+          stack.pop_back();
+          for (std::size_t w : adjacent[u])
+            if (!seen[w]) seen[w] = 1, stack.push_back(w);
         }
+        return seen;
+      };
       auto before = [&](std::size_t v) {
+        const std::vector<char> anc = reach(v, pred);
         std::set<int> encoders;
         if (!op->nodes[v].is_plain()) encoders.insert(op->nodes[v].sensor);
         for (std::size_t x = 0; x < n; ++x)
-          if (anc[v][x] && !op->nodes[x].is_plain()) encoders.insert(op->nodes[x].sensor);
-        const double w = lane_time(*op, anc[v]) + enc_one * static_cast<double>(encoders.size());
+          if (anc[x] && !op->nodes[x].is_plain()) encoders.insert(op->nodes[x].sensor);
+        const double w = lane_time(*op, anc) + enc_one * static_cast<double>(encoders.size());
         return std::max(up[v] - cost[v], w / lanes);
-      };
-      auto after = [&](std::size_t v) {
-        return std::max(down[v] - cost[v], lane_time(*op, desc[v]) / lanes);
       };
       std::map<int, std::vector<int>> h;     // head -> by b
       std::map<int, double> after_encoder;   // sensor -> the time a job needs after its run
@@ -217,15 +231,16 @@ double work_bound(const Scenario& s, const Profile& p) {
         const NodeSpec& node = op->nodes[v];
         if (node.is_plain()) continue;
         after_encoder[node.sensor] = std::max(after_encoder[node.sensor], down[v]);
+        const std::vector<char> desc = reach(v, succ);
         auto& f = fed.try_emplace(node.sensor, n, 0).first->second;
         f[v] = 1;
-        for (std::size_t x = 0; x < n; ++x) f[x] = f[x] || desc[v][x];
+        for (std::size_t x = 0; x < n; ++x) f[x] = f[x] || desc[x];
         const UnitProfile* hp = head_profile(node.head);
         if (hp == nullptr) continue;
         const int top = top_batch(hp);
         auto& by_b = h[node.head];
         by_b.resize(static_cast<std::size_t>(top) + 1, 0);
-        const double around = before(v) + after(v);
+        const double around = before(v) + std::max(down[v] - cost[v], lane_time(*op, desc) / lanes);
         for (int b = 1; b <= top; ++b)
           by_b[static_cast<std::size_t>(b)] += window(*op, around + mean_ms(hp, b), i);
       }
