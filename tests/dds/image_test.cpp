@@ -76,3 +76,38 @@ TEST(DdsImage, ConversionsPickTheNearestSourcePixelForEveryEncodingAndSize) {
 
 }  // namespace
 }  // namespace red::dds
+
+namespace red::dds {
+namespace {
+
+constexpr std::int64_t kMs = 1'000'000;
+
+// Frames missing from a stream are inferred from its stamps at its own period, once four
+// gaps are known; out-of-order stamps are no gaps.
+TEST(DdsStampGaps, CountsTheFramesThatFitInAGap) {
+  StampGaps g;
+  std::int64_t t = 5'000 * kMs;
+  std::uint64_t missing = 0;
+  for (int i = 0; i < 5; ++i, t += 50 * kMs) missing += g.add(t);
+  EXPECT_EQ(missing, 0U);
+  t += 100 * kMs;  // two frames (at +0 and +50 ms) not received
+  EXPECT_EQ(g.add(t), 2U);
+  t += 50 * kMs;
+  EXPECT_EQ(g.add(t), 0U);
+  t += 70 * kMs;  // jitter below 1.5 periods: nothing missing
+  EXPECT_EQ(g.add(t), 0U);
+  EXPECT_EQ(g.add(t - 20 * kMs), 0U);  // out of order
+  EXPECT_EQ(g.add(t), 0U);             // repeated
+  t += 100 * kMs;
+  EXPECT_EQ(g.add(t), 1U);
+}
+
+TEST(DdsStampGaps, NothingIsInferredBeforeFourGapsAreKnown) {
+  StampGaps g;
+  EXPECT_EQ(g.add(0), 0U);
+  EXPECT_EQ(g.add(50 * kMs), 0U);
+  EXPECT_EQ(g.add(500 * kMs), 0U);  // too early to know the period
+}
+
+}  // namespace
+}  // namespace red::dds

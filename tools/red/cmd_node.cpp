@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 #include <malloc.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -22,6 +24,7 @@
 #include "red/dds/camera.hpp"
 #include "red/dds/node.hpp"
 #include "red/metrics/metrics.hpp"
+#include "red/report/report.hpp"
 #include "red/report/row_queue.hpp"
 #include "red/report/stream.hpp"
 #include "red/sched/policy.hpp"
@@ -200,19 +203,23 @@ int run_node(const NodeArgs& a) {
   RuntimeReport report = (*node)->run();
   watch.reset();
   const dds::NodeCounters c = (*node)->counters();
-  std::uint64_t rejected = 0;
-  std::string reasons;
+  // Rejected: messages and writers the node refused; undelivered: frames DDS never handed
+  // over whole (lost in transport, or refused by the reader's resource limits).
+  std::uint64_t rejected = 0, undelivered = 0;
+  std::string reasons, lost;
   for (int r = 0; r < dds::kRejectKinds; ++r) {
-    rejected += c.rejected[static_cast<std::size_t>(r)];
-    if (c.rejected[static_cast<std::size_t>(r)] > 0)
-      reasons += fmt::format(" {} {}", dds::to_string(static_cast<dds::Reject>(r)),
-                             c.rejected[static_cast<std::size_t>(r)]);
+    const auto why = static_cast<dds::Reject>(r);
+    const std::uint64_t count = c.rejected[static_cast<std::size_t>(r)];
+    const bool transport = why == dds::Reject::LostInTransport || why == dds::Reject::RejectedByDds;
+    (transport ? undelivered : rejected) += count;
+    if (count > 0)
+      (transport ? lost : reasons) += fmt::format(" {} {}", dds::to_string(why), count);
   }
   std::cerr << fmt::format(
-      "red node: {} frames ({} released), {} rejected{}; published {} masks, {} twists, {} "
-      "detection arrays, {} diagnostics; {} jobs without output\n",
-      c.frames, c.released, rejected, reasons, c.masks, c.twists, c.detections, c.diagnostics,
-      c.jobs_without_output);
+      "red node: {} frames ({} released), {} rejected{}; {} not delivered by DDS{}; published {} "
+      "masks, {} twists, {} detection arrays, {} diagnostics; {} jobs without output\n",
+      c.frames, c.released, rejected, reasons, undelivered, lost, c.masks, c.twists, c.detections,
+      c.diagnostics, c.jobs_without_output);
   print_runtime_report(a.policy, report);
   const dds::Node::Timings tm = (*node)->timings();
   const std::vector<double>& intake = tm.intake_us;
@@ -288,7 +295,26 @@ int run_node(const NodeArgs& a) {
       print_error(*e);
       return kRunFailure;
     }
-    std::cerr << "red node: " << wrote_message(*a.out, wrote) << '\n';
+    // What the node took and could not take, by reason: summary.json holds the jobs only.
+    nlohmann::json nj{{"frames", c.frames},
+                      {"released", c.released},
+                      {"not_taken", rejected + undelivered},
+                      {"published",
+                       {{"masks", c.masks},
+                        {"twists", c.twists},
+                        {"detections", c.detections},
+                        {"diagnostics", c.diagnostics}}},
+                      {"jobs_without_output", c.jobs_without_output}};
+    nlohmann::json by_reason = nlohmann::json::object();
+    for (int r = 0; r < dds::kRejectKinds; ++r)
+      by_reason[dds::to_string(static_cast<dds::Reject>(r))] =
+          c.rejected[static_cast<std::size_t>(r)];
+    nj["not_taken_by_reason"] = std::move(by_reason);
+    if (auto e = write_file(*a.out, "node.json", nj.dump(2) + "\n")) {
+      print_error(*e);
+      return kRunFailure;
+    }
+    std::cerr << "red node: " << wrote_message(*a.out, wrote) << ", node.json\n";
   }
   return kOk;
 }
@@ -331,7 +357,8 @@ int run_camera(CameraArgs& a) {
     print_error(r.error());
     return kBadInput;
   }
-  std::cerr << fmt::format("red camera: published {} frames on {}{}\n", r->published, a.o.topic,
+  std::cerr << fmt::format("red camera: published {} frames on {}{}{}\n", r->published, a.o.topic,
+                           r->skipped > 0 ? fmt::format(" ({} left out)", r->skipped) : "",
                            r->matched ? "" : " (no subscriber was matched before the first)");
   return kOk;
 }
@@ -397,6 +424,10 @@ void register_camera(CLI::App& app, int& exit_code) {
           "COUNT >= 1"));
   cmd->add_option("--duration", a->duration_s, "Stop after this many seconds")
       ->check(finite_positive());
+  cmd->add_option("--skip-every", a->o.skip_every,
+                  "Leave out every N-th frame, as a lossy link would (tests what a subscriber "
+                  "counts as lost)")
+      ->check(whole_number());
   cmd->add_option("--stamps-topic", a->o.stamps_topic,
                   "Also publish each frame's header (std_msgs/msg/Header, reliable) here: a "
                   "probe counts frames without receiving their pixels");

@@ -102,6 +102,10 @@ Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool
     if (o.duration && std::chrono::steady_clock::now() - start >= *o.duration) break;
     std::this_thread::sleep_until(next);
     next += period;
+    if (o.skip_every > 0 && k % o.skip_every == o.skip_every - 1) {
+      ++report.skipped;
+      continue;
+    }
     int w = o.width, h = o.height;
     if (files.empty()) {
       draw(data, w, h, ch, o.encoding == "bgr8", k);

@@ -1,6 +1,7 @@
 #include "red/dds/image.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <utility>
 #include <vector>
@@ -21,8 +22,36 @@ const char* to_string(Reject r) noexcept {
       return "wrong_type";
     case Reject::IncompatibleQos:
       return "incompatible_qos";
+    case Reject::LostInTransport:
+      return "lost_in_transport";
+    case Reject::RejectedByDds:
+      return "rejected_by_dds";
   }
   return "?";
+}
+
+std::uint64_t StampGaps::add(std::int64_t stamp_ns) {
+  if (!started_) {
+    started_ = true;
+    last_ = stamp_ns;
+    return 0;
+  }
+  const std::int64_t gap = stamp_ns - last_;
+  if (gap <= 0) return 0;  // out of order or repeated: not a gap
+  last_ = stamp_ns;
+  std::uint64_t missing = 0;
+  const std::size_t known = std::min(count_, kWindow);
+  if (known >= 4) {
+    std::array<std::int64_t, kWindow> sorted{};
+    std::copy_n(gaps_.begin(), known, sorted.begin());
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(known / 2),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(known));
+    const auto period = static_cast<double>(sorted[known / 2]);
+    if (period > 0 && static_cast<double>(gap) > 1.5 * period)
+      missing = static_cast<std::uint64_t>(std::llround(static_cast<double>(gap) / period)) - 1;
+  }
+  gaps_[count_++ % kWindow] = gap;
+  return missing;
 }
 
 namespace {

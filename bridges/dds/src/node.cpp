@@ -1,6 +1,7 @@
 #include "red/dds/node.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -116,6 +117,7 @@ struct SensorState {
   std::uint64_t next_id = 0;
   std::uint64_t frames = 0;
   std::optional<TimePoint> last;  // steady time of the last accepted frame
+  StampGaps gaps;                 // frames missing from its stream (the receiving thread's)
 };
 
 struct OpStats {
@@ -168,6 +170,8 @@ struct Node::Impl final : Observer {
     Impl* impl = nullptr;
     std::size_t sensor = 0;
   };
+  std::atomic<bool> warned_matched_but_silent{false};
+  std::vector<int> matched_silent_ticks;        // per sensor (the diagnostics thread's)
   std::vector<ReaderCtx> reader_ctx;            // per sensor, the argument of its reader's listener
   std::map<std::string, dds_entity_t> writers;  // by output topic
   dds_entity_t diag_writer = 0;
@@ -250,6 +254,8 @@ struct Node::Impl final : Observer {
       reader_ctx[i] = {this, i};
       dds_listener_t* l = dds_create_listener(nullptr);
       dds_lset_requested_incompatible_qos_arg(l, &Impl::on_unmatched_writer, &reader_ctx[i], true);
+      dds_lset_sample_lost_arg(l, &Impl::on_sample_lost, &reader_ctx[i], true);
+      dds_lset_sample_rejected_arg(l, &Impl::on_sample_rejected, &reader_ctx[i], true);
       const dds_entity_t r = topic < 0 ? topic : dds_create_reader(pp, topic, in_qos, l);
       dds_delete_listener(l);
       if (r < 0) {
@@ -347,6 +353,37 @@ struct Node::Impl final : Observer {
               << "; " << n << " so far): its messages are not received\n";
   }
 
+  // Samples DDS could not deliver (every frame offered is released or counted). Called by
+  // Cyclone DDS on its own thread.
+  void count_undelivered(std::size_t sensor, Reject why, std::int64_t change) {
+    if (change <= 0) return;
+    std::uint64_t n = 0;
+    {
+      std::lock_guard lock(counters_mu);
+      n = counters.rejected[static_cast<std::size_t>(why)] += static_cast<std::uint64_t>(change);
+    }
+    // The first few, then every hundredth: a lossy link must not flood the log.
+    if (n <= 3 || n % 100 < static_cast<std::uint64_t>(change))
+      std::cerr << "red node: " << change << " frame(s) on " << topics.sensors[sensor]
+                << (why == Reject::LostInTransport
+                        ? " lost in transport (large frames need a larger socket receive buffer "
+                          "or shared memory: docs/ROS2.md \"Large frames\")"
+                        : " rejected by DDS (the reader's resource limits)")
+                << "; " << n << " so far\n";
+  }
+
+  static void on_sample_lost(dds_entity_t, const dds_sample_lost_status_t st, void* arg) {
+    const ReaderCtx& ctx = *static_cast<const ReaderCtx*>(arg);
+    if (ctx.impl != nullptr)
+      ctx.impl->count_undelivered(ctx.sensor, Reject::LostInTransport, st.total_count_change);
+  }
+
+  static void on_sample_rejected(dds_entity_t, const dds_sample_rejected_status_t st, void* arg) {
+    const ReaderCtx& ctx = *static_cast<const ReaderCtx*>(arg);
+    if (ctx.impl != nullptr)
+      ctx.impl->count_undelivered(ctx.sensor, Reject::RejectedByDds, st.total_count_change);
+  }
+
   static void record(std::vector<double>& ring, std::uint64_t n, double v) {
     if (ring.size() < kIntakeWindow)
       ring.push_back(v);
@@ -370,6 +407,7 @@ struct Node::Impl final : Observer {
     std::shared_ptr<const LazyFrame> input =
         channels == 1 ? gray : std::make_shared<const ConvertedImage>(received, w, h, 3);
     std::uint64_t id = 0;
+    std::uint64_t missing = 0;
     {
       std::lock_guard lock(frames_mu);
       SensorState& st = sensors[sensor];
@@ -381,7 +419,10 @@ struct Node::Impl final : Observer {
       slot.stats.reset();
       st.last = taken;
       ++st.frames;
+      missing = st.gaps.add(static_cast<std::int64_t>(header.sec) * 1'000'000'000 +
+                            static_cast<std::int64_t>(header.nanosec));
     }
+    count_undelivered(sensor, Reject::LostInTransport, static_cast<std::int64_t>(missing));
     received.reset();  // the two conversions hold it until both are done
     const FrameView px{w, h, channels, nullptr, std::move(input)};
     released_at.reset();
@@ -681,6 +722,22 @@ struct Node::Impl final : Observer {
           silent += (silent.empty() ? "" : ",") + scenario.sensors[i].name;
       }
     }
+    // A sensor that is silent though a writer is matched on its topic: its frames are sent
+    // but do not arrive whole (too large for the transport, most often).
+    // Two diagnostics in a row (a second), so that a writer matched just before it starts
+    // publishing is not taken for one whose frames are lost.
+    std::string matched_but_silent;
+    matched_silent_ticks.resize(readers.size(), 0);
+    for (std::size_t i = 0; i < readers.size(); ++i) {
+      dds_subscription_matched_status_t st{};
+      const bool now_silent =
+          silent.find(scenario.sensors[i].name) != std::string::npos &&
+          dds_get_subscription_matched_status(readers[i], &st) == DDS_RETCODE_OK &&
+          st.current_count > 0;
+      matched_silent_ticks[i] = now_silent ? matched_silent_ticks[i] + 1 : 0;
+      if (matched_silent_ticks[i] >= 2)
+        matched_but_silent += (matched_but_silent.empty() ? "" : ",") + topics.sensors[i];
+    }
     std::vector<double> dec = decisions_us;
     std::vector<std::pair<std::string, std::string>> kv = {
         {"policy", options.policy},
@@ -694,8 +751,19 @@ struct Node::Impl final : Observer {
       kv.emplace_back(std::string("rejected_") + to_string(static_cast<Reject>(r)),
                       std::to_string(c.rejected[static_cast<std::size_t>(r)]));
     }
+    kv.emplace_back("matched_but_silent", matched_but_silent);
     add(silent.empty() && rejected == 0 ? 0 : 1, "red: node",
-        silent.empty() ? "ok" : "silent sensor(s): " + silent, kv);
+        silent.empty() ? "ok"
+        : matched_but_silent.empty()
+            ? "silent sensor(s): " + silent
+            : "silent sensor(s): " + silent + "; a writer is matched on " + matched_but_silent +
+                  " but no frame arrives whole (too large for the "
+                  "transport? docs/ROS2.md, Large frames)",
+        kv);
+    if (!matched_but_silent.empty() && !warned_matched_but_silent.exchange(true))
+      std::cerr << "red node: a writer is matched on " << matched_but_silent
+                << " but no frame arrives whole: frames too large for the transport are lost "
+                   "(docs/ROS2.md, \"Large frames\")\n";
     DiagnosticArray a{};
     stamp_now(a.header_.stamp_.sec_, a.header_.stamp_.nanosec_);
     a.header_.frame_id_ = s("");

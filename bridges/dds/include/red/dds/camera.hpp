@@ -38,12 +38,16 @@ struct CameraOptions {
   /// Wait up to this long for a subscriber before the first frame (best effort drops
   /// frames nobody receives yet).
   Duration wait_for_subscriber = std::chrono::seconds{5};
+  /// Leave out every n-th frame (0: none): its time passes and nothing is sent, as if the
+  /// link lost it, to check that a subscriber counts what it did not get.
+  std::uint64_t skip_every = 0;
 };
 
 /// What a camera did.
 struct CameraReport {
   std::uint64_t published = 0;
-  bool matched = false;  ///< a subscriber was there when publishing began
+  std::uint64_t skipped = 0;  ///< left out by skip_every
+  bool matched = false;       ///< a subscriber was there when publishing began
 };
 
 /// Publishes until `stop`, the count or the duration. Error: bad options, DDS failure.

@@ -2,6 +2,7 @@
 /// \file
 /// Checking a received sensor_msgs/Image and bringing it to the model's input size (§14).
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -14,22 +15,47 @@
 
 namespace red::dds {
 
-/// Why a received image was rejected; counted and reported in the diagnostics. The last two
-/// are about a writer on an input topic rather than a message: DDS never delivers a sample
-/// of another type (WrongType: the writer's type name differs) or from a writer whose QoS
-/// the reader cannot accept (IncompatibleQos), so each such writer is counted once.
+/// Why an image was not taken; counted and reported in the diagnostics and the summary.
+/// The first four are about a message. WrongType and IncompatibleQos are about a writer on
+/// an input topic: DDS never delivers a sample of another type (the writer's type name
+/// differs) or from a writer whose QoS the reader cannot accept, so each such writer is
+/// counted once. The last two are samples DDS itself could not deliver: LostInTransport
+/// (DDS's SAMPLE_LOST status: a sample announced but never complete, typically a large
+/// frame whose fragments a full socket receive buffer dropped, docs/ROS2.md "Large
+/// frames") and RejectedByDds (SAMPLE_REJECTED: the reader's resource limits).
 enum class Reject : std::uint8_t {
   UnknownEncoding,
   AbsurdSize,
   BadStep,
   DataSize,
   WrongType,
-  IncompatibleQos
+  IncompatibleQos,
+  LostInTransport,
+  RejectedByDds
 };
-inline constexpr int kRejectKinds = 6;
+inline constexpr int kRejectKinds = 8;
 
 /// Short name of a reason, as it appears in logs and diagnostics ("unknown_encoding", ...).
 const char* to_string(Reject r) noexcept;
+
+/// Frames missing from one sensor's stream, inferred from the header stamps: a gap of more
+/// than 1.5 of the stream's own period (the median of its last 16 gaps, once 4 are known)
+/// counts the frames that fit in it as missing. DDS cannot say this for a best-effort
+/// reader: a large frame whose fragments were dropped is never announced as lost. A
+/// publisher that slows down counts as missing frames until the median follows it (8
+/// frames); stamps out of order are ignored.
+class StampGaps {
+ public:
+  /// The frames missing before this one (0 if none or not known yet).
+  std::uint64_t add(std::int64_t stamp_ns);
+
+ private:
+  static constexpr std::size_t kWindow = 16;
+  std::int64_t last_ = 0;
+  bool started_ = false;
+  std::array<std::int64_t, kWindow> gaps_{};
+  std::size_t count_ = 0;  // gaps seen, the last kWindow of them kept
+};
 
 /// The largest width or height accepted; larger ones are "absurd" (a corrupt header).
 inline constexpr std::uint32_t kMaxImageSide = 16384;
