@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <chrono>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 
 #include "red/analysis/bound.hpp"
 #include "red/analysis/workload.hpp"
+#include "red/core/stop.hpp"
 #include "red/sim/run.hpp"
 
 namespace red {
@@ -185,7 +187,12 @@ Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOp
     a.verdict = std::max(a.verdict, pa.verdict);
     a.phases.push_back(std::move(pa));
   }
-  a.on_time_bound = work_bound(s, p);
+  if (stop_requested()) return Error{"", 0, kStoppedMessage};
+  try {
+    a.on_time_bound = work_bound(s, p);
+  } catch (const std::runtime_error& e) {
+    return Error{"", 0, e.what()};  // a stop request ends its simulation too
+  }
   if (o.headroom) {
     std::vector<std::string> policies{o.policy};
     if (o.policy != "edf") policies.emplace_back("edf");
@@ -196,7 +203,9 @@ Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOp
         a.headroom.push_back(std::move(h).value());
       }
   }
+  if (stop_requested()) return Error{"", 0, kStoppedMessage};
   a.response = response_bound(s, p, *opts);
+  if (stop_requested()) return Error{"", 0, kStoppedMessage};
   a.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return a;
 }

@@ -1,5 +1,7 @@
 #include "red/sim/run.hpp"
 
+#include "red/core/stop.hpp"
+
 #include <chrono>
 
 namespace red {
@@ -31,6 +33,7 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
   for (Observer* o : extra) sim.add_observer(o);
   const auto t0 = std::chrono::steady_clock::now();
   run.result = sim.run();
+  if (run.result.stopped) return Error{"", 0, kStoppedMessage};
   run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   run.metrics = metrics.summarize(policy, run.result.end);
   run.jobs = metrics.jobs();

@@ -1,5 +1,7 @@
 #include "red/sim/simulator.hpp"
 
+#include "red/core/stop.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <deque>
@@ -115,6 +117,7 @@ SimResult Simulator::run() {
   const TimePoint stop_releases = scenario_.duration;
   const TimePoint hard_stop = scenario_.duration + options_.drain_limit;
   bool releasing = true;
+  std::uint64_t rounds = 0;
   for (;;) {
     const TimePoint t_ext = q.empty() ? kNever : q.top().t;
     const TimePoint t_int = scheduler_.next_wakeup();
@@ -127,6 +130,11 @@ SimResult Simulator::run() {
       continue;
     }
     if (t == kNever || t > hard_stop || (!releasing && scheduler_.jobs_in_flight() == 0)) break;
+    // A stop signal ends a long simulation within about a millisecond of host time.
+    if ((++rounds & 1023U) == 0 && stop_requested()) {
+      r.stopped = true;
+      break;
+    }
     now = t;
     scheduler_.apply_events(now);
     while (!q.empty() && q.top().t == now) {

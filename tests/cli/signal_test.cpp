@@ -249,6 +249,26 @@ TEST_F(Signals, SweepWritesTheValuesDone) {
   EXPECT_EQ(whole_csv(fs::path(out_dir()) / "sweep.csv").size(), 2 * values);
 }
 
+// A simulation and the analysis stop at the first signal too: a chain of 2,000 nodes every
+// 50 ms for 1,000 s is minutes of simulation, and the signal comes a second in. Before, the
+// signal was honoured only between simulations, so compare ran on to the end.
+TEST_F(Signals, CompareStopsMidSimulation) {
+  const fs::path scenario = dir_ / "chain.yaml";
+  {
+    std::ofstream f(scenario);
+    f << "name: long-chain\nduration_s: 1000\nsensors:\n  camera: {rate_hz: 20}\n"
+         "operations:\n  - name: c\n    trigger: camera\n    deadline_ms: 50\n    nodes:\n";
+    for (int i = 0; i < 2000; ++i) f << "      N" << i << ": {cost_ms: 0.01}\n";
+    f << "    edges:\n";
+    for (int i = 0; i + 1 < 2000; ++i) f << "      - [N" << i << ", N" << i + 1 << "]\n";
+  }
+  start({"compare", scenario.string(), "--policies", "edf,red", "--out", out_dir()});
+  std::this_thread::sleep_for(std::chrono::milliseconds{1500});
+  EXPECT_EQ(stop_with(SIGINT), 130) << err();
+  EXPECT_NE(err().find("stopped by SIGINT after 0 of 2 run(s)"), std::string::npos) << err();
+  EXPECT_FALSE(fs::exists(fs::path(out_dir()) / "summary.json")) << "nothing was measured";
+}
+
 TEST_F(Signals, SecondSignalEndsAtOnce) {
   // SA_RESETHAND: a user pressing Ctrl-C twice is not kept waiting for the clean stop.
   start({"run", data("signal.yaml"), "--backend", "synthetic", "--policy", "edf", "--no-realtime"});

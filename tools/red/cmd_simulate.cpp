@@ -315,7 +315,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   const SteadyClock clock;
   ProgressReporter progress(clock, std::cerr, ProgressReporter::stderr_is_terminal());
   for (std::size_t i = 0; i < names.size(); ++i) {
-    // A stop signal: no further policy starts (a simulation in progress ends first).
+    // A stop signal: no further policy starts (a simulation in progress ends at once and is
+    // left out; a real run ends as at its duration and is kept).
     if (stop_signal() != 0) break;
     const std::string& n = names[i];
     traces.push_back(a.out ? make_trace(*s, a.trace_events, names.size()) : nullptr);
@@ -329,6 +330,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
                                    costs ? &*costs : nullptr)
                  : run_real(*s, *p, n, *backend, real, extra, &report);
     progress.finish();
+    if (!r && stop_signal() != 0) break;  // a simulation ended by the signal: left out
     if (!r) {
       print_error(r.error());
       return sim ? kBadInput : kRunFailure;

@@ -170,7 +170,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
         key, all_values.size(), names.size());
     for (double v : all_values) {
       // A stop signal: no further value starts; the finished values are written (a
-      // simulation in progress ends first, its value is left out).
+      // simulation in progress ends at once, its value is left out).
       if (stop_signal() != 0) break;
       Scenario s = *base;
       std::vector<std::string> warnings;
@@ -186,6 +186,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
         progress.begin_run(fmt::format("{}={:g} {} [{}/{}]", key, v, names[i], ++done, total),
                            s.duration);
         auto r = simulate_policy(s, *p, names[i], seed, {&progress}, false);
+        if (!r && stop_signal() != 0) break;  // ended by the signal: this value is left out
         if (!r) {
           progress.finish();
           print_error(r.error());

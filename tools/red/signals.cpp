@@ -3,6 +3,8 @@
 
 #include "signals.hpp"
 
+#include "red/core/stop.hpp"
+
 #include <fcntl.h>
 #include <poll.h>
 #include <unistd.h>
@@ -27,6 +29,7 @@ int g_pipe[2] = {-1, -1};         // [0] read by the watcher, [1] written by the
 extern "C" void on_stop_signal(int sig) {
   int expected = 0;
   g_signal.compare_exchange_strong(expected, sig);
+  red::request_stop();  // simulations and analyses in progress end early
   const int saved = errno;
   const char byte = 1;
   [[maybe_unused]] const ssize_t n = write(g_pipe[1], &byte, 1);

@@ -32,6 +32,7 @@ struct SimResult {
   TimePoint end{0};               ///< simulated time when the run stopped
   std::uint64_t unit_events = 0;  ///< unit starts + unit completions
   std::uint64_t events = 0;       ///< every event handled (frames, completions, wake-ups)
+  bool stopped = false;           ///< ended early by a stop request (core/stop.hpp)
   SchedulerStats stats;
 };
 
