@@ -1,5 +1,5 @@
 /// \file
-/// `red`: validate, simulate, compare, sweep, profile (§12).
+/// `red`: validate, simulate, compare, sweep, profile (docs/CLI.md).
 
 #include <cerrno>
 #include <cstdio>
@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::Success& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    // Bad usage: CLI11 explains; RED's exit code for bad input is 2 (§12).
+    // Bad usage: CLI11 explains; RED's exit code for bad input is 2 (docs/CLI.md).
     app.exit(e);
     return red::cli::kBadInput;
   }
