@@ -17,8 +17,8 @@ namespace red {
 
 /// Knobs of the search.
 struct HeadroomOptions {
-  double miss_limit =
-      0.01;  ///< an operation fails above this miss rate (docs/DESIGN.md, "Metrics")
+  /// An operation fails above this miss rate (docs/DESIGN.md, "Metrics").
+  double miss_limit = 0.01;
   double max_rate_scale = 16.0;          ///< the rate search stops (passing) here
   double min_rate_scale = 1.0 / 64;      ///< the rate search stops (failing) here
   double max_deadline_scale = 16.0;      ///< the deadline search stops (failing) here

@@ -122,8 +122,8 @@ struct DeviceSpec {
 
 /// Scheduler knobs a scenario may set; presets (docs/DESIGN.md, "Policies") fill the rest.
 struct SchedulerSpec {
-  Duration gamma =
-      std::chrono::milliseconds{100};  ///< DynamicMerge window γ (docs/DESIGN.md, "DynamicMerge")
+  /// DynamicMerge window γ (docs/DESIGN.md, "DynamicMerge").
+  Duration gamma = std::chrono::milliseconds{100};
   EstimateKind estimate = EstimateKind::P99;
   LevelCost level_cost = LevelCost::Max;
   int max_batch = 4;
