@@ -1,12 +1,12 @@
 /// \file
-/// BM_Decision64: one scheduling decision with 64 jobs in flight (DESIGN §13: median
-/// ≤ 2 μs, p99 ≤ 20 μs).
+/// BM_Decision64: one scheduling decision with 64 jobs in flight (docs/DESIGN.md, "Performance
+/// targets": median ≤ 2 μs, p99 ≤ 20 μs).
 ///
 /// A decision is what the global synchronizer does when a unit finishes: on_complete()
-/// on the lane, dispatch() picks the next unit (ranking every ready task, with §4
-/// re-assignment of intermediate deadlines under `red`), on_start() for what it picked.
-/// Releases, frames, strict drops and merge-wait wake-ups happen between decisions, as in
-/// the simulator, but outside the timed window. Each decision is timed on its own with
+/// on the lane, dispatch() picks the next unit (ranking every ready task, with docs/DESIGN.md,
+/// "Intermediate deadlines" re-assignment of intermediate deadlines under `red`), on_start() for
+/// what it picked. Releases, frames, strict drops and merge-wait wake-ups happen between decisions,
+/// as in the simulator, but outside the timed window. Each decision is timed on its own with
 /// steady_clock, so the benchmark reports the median and p99 per decision (counters
 /// p50_us, p99_us), not only the mean.
 ///

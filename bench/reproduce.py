@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The reproduction page (docs/REPRODUCTION.md): every claim of the paper's evaluation, the
-paper's figure (a citation of ../shared/paper/red-paper.tex, labelled as the paper's) beside
+paper's figure (a citation of the RED paper, arXiv:2308.15368, labelled as the paper's) beside
 ours, computed from the runs that bench/reproduce.sh made or reused. Writes
 OUT/reproduction.md, OUT/reproduction.json and the gnuplot plots OUT/plots/*.svg.
 
@@ -39,8 +39,8 @@ INTERFERENCE = ["none", "low", "medium", "high"]
 SECTIONS = ["fig6_tight", "fig6_loose", "table4", "table5", "ablation", "case1", "case2",
             "table1_overheads", "interference", "fidelity"]
 
-# The paper's figures, cited from ../shared/paper/red-paper.tex (§ Evaluation and
-# § Motivational case study). Percentages are the paper's "lower/higher by" figures.
+# The paper's figures, cited from Li, Ren, He, Liu, "RED: A Systematic Real-Time Scheduling Approach for Robotic Environmental Dynamics", RTSS 2023, arXiv:2308.15368
+# (sections "Evaluation" and "Motivational Case Study"). Percentages are the paper's "lower/higher by" figures.
 PAPER = {
     # Fig. 6 (overall effectiveness), averages over four boards and both deadline settings.
     "fig6_miss_lower": {"edf": 40.5, "red-ida": 37.8, "red-fg": 37.5},
@@ -79,7 +79,7 @@ PAPER = {
 # ---------------------------------------------------------------- computations (tested)
 
 def qoe_score(finish_ms, deadline_ms, lam):
-    """DESIGN §10 / the paper's Eq. 1: 1 / (1 + e^lambda * max(0, R - D)), in seconds.
+    """docs/DESIGN.md, "Metrics" / the paper's Eq. 1: 1 / (1 + e^lambda * max(0, R - D)), in seconds.
     R - D = finish - absolute deadline."""
     late_s = max(0.0, (finish_ms - deadline_ms) / 1000.0)
     return 1.0 / (1.0 + math.exp(lam) * late_s)
@@ -110,7 +110,7 @@ def qoe_at(rows, lam):
 
 
 def miss_pct(rows):
-    """Miss rate (%) of jobs.csv rows: late or dropped over decided (DESIGN §10)."""
+    """Miss rate (%) of jobs.csv rows: late or dropped over decided (docs/DESIGN.md, "Metrics")."""
     decided = [r for r in rows if r["outcome"] != "unfinished"]
     if not decided:
         return None
@@ -885,8 +885,8 @@ def build_page(out, mode, command, sources, scenarios_dir):
              f"on {machine()}; mode {mode}."]
     if sources:
         head += ["", "Runs read from: " + ", ".join(f"`{s}`" for s in sources) + "."]
-    head += ["", "The paper's figures are citations of `../shared/paper/red-paper.tex` (four "
-             "Jetson boards, GPU); ours are computed from the runs named in each section. "
+    head += ["", "The paper's figures are citations of the RED paper (Li et al., RTSS 2023, "
+             "[arXiv:2308.15368](https://arxiv.org/abs/2308.15368); four Jetson boards, GPU); ours are computed from the runs named in each section. "
              "Absolute times are not comparable, ratios are.", "", "## Summary", ""]
     head += ["| claim | paper | ours | verdict |", "|---|---|---|---|"]
     head += [f"| {c} | {p} | {o} | {v} |" for c, p, o, v in page.summary]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The DDS node's targets (issue 8, DESIGN §14; docs/BENCHMARKS.md, "The node's targets"):
+# The DDS node's targets (issue 8, docs/ROS2.md; docs/BENCHMARKS.md, "The node's targets"):
 #   1. frame received -> job released, p99 <= 50 us on loopback: `red node` prints the node's
 #      intake (frame taken from the DDS reader -> handed to the runtime: checked, resized)
 #      and the runtime's push -> release; both are reported.

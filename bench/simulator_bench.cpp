@@ -1,6 +1,6 @@
 /// \file
-/// Simulator speed (DESIGN §13: ≥ 2 million unit events per second on one core; one
-/// simulated hour of a four-head 30 Hz robot in under 2 s).
+/// Simulator speed (docs/DESIGN.md, "Performance targets": ≥ 2 million unit events per second on
+/// one core; one simulated hour of a four-head 30 Hz robot in under 2 s).
 ///
 /// Both run red::simulate_policy exactly as `red simulate` does without --out
 /// (keep_units = false: job rows and metrics are kept, per-unit rows are not), so the

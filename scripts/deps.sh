@@ -19,7 +19,7 @@ PACKAGES=(
 # iceoryx: RouDi (iox-roudi), the daemon of the shared memory that Debian's Cyclone DDS is
 # built with (libddsc0debian depends on libiceoryx-binding-c2), for `red node --shm` and its
 # test (docs/ROS2.md, "Shared memory (iceoryx)").
-# node and npm run the independent ROS 2 serializer of the DDS wire test (§14,
+# node and npm run the independent ROS 2 serializer of the DDS wire test (docs/ROS2.md,
 # scripts/npm-oracle.sh); a node installed another way (NodeSource bundles npm) is kept.
 command -v npm >/dev/null || PACKAGES+=(nodejs npm)
 

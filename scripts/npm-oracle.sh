@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Installs the independent ROS 2 serializer the DDS wire test compares against (§14):
+# Installs the independent ROS 2 serializer the DDS wire test compares against (docs/ROS2.md):
 # pinned npm packages into build-npm/ (ignored by git). Needs node and npm; without node the
 # wire test skips itself and says so.
 set -euo pipefail

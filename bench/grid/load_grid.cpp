@@ -1,7 +1,7 @@
 /// \file
-/// `red_load_grid`: the overload grid of §15. Every preset on random DAG task sets (chains,
-/// fork-joins, wide DAGs; plain and MIMONet nodes; 1, 2 and 4 lanes) and on the bundled
-/// scenarios, each swept over rate_scale; beside each policy's on-time fraction, the work
+/// `red_load_grid`: the overload grid of docs/DESIGN.md, "Overload". Every preset on random DAG
+/// task sets (chains, fork-joins, wide DAGs; plain and MIMONet nodes; 1, 2 and 4 lanes) and on the
+/// bundled scenarios, each swept over rate_scale; beside each policy's on-time fraction, the work
 /// bound and the wasted lane time. Prints the table; with --markdown FILE it rewrites the
 /// section between `<!-- load-grid:begin -->` and `<!-- load-grid:end -->` of FILE and
 /// draws docs/plots/load-grid.svg with gnuplot (when present); --points F writes every
@@ -57,8 +57,8 @@ struct Summary {
   double wasted_15 = 0;
   int wasted_15_n = 0;
   int points = 0;
-  // points that miss a §15 target: below edf, below red − 0.005, below 0.9 × the bound past
-  // capacity (of `overloaded` points), over 10 % wasted at 1.5×
+  // points that miss a docs/DESIGN.md, "Overload" target: below edf, below red − 0.005, below 0.9 ×
+  // the bound past capacity (of `overloaded` points), over 10 % wasted at 1.5×
   int below_edf = 0, below_red = 0, below_bound = 0, overloaded = 0, over_waste_15 = 0;
   std::ostream* points_out = nullptr;  // --points: one line per point
 };
@@ -113,7 +113,8 @@ std::string render(const Summary& sum, int seeds, double duration) {
   out += fmt::format(
       "Mean on-time fraction (met / released) per family of task sets and load (rate_scale of "
       "the necessary work: 1.0 fills the lanes), {} seeds per (lanes, shape, nodes) cell, {} s "
-      "simulated each; `bound` is the work bound (§15); `waste` is red-robust's wasted lane "
+      "simulated each; `bound` is the work bound (docs/DESIGN.md#overload); `waste` is "
+      "red-robust's wasted lane "
       "time.\n\n",
       seeds, duration);
   out += "| family | load |";
@@ -140,7 +141,8 @@ std::string render(const Summary& sum, int seeds, double duration) {
       sum.points, sum.worst_vs_edf, sum.worst_vs_edf_at, sum.worst_vs_red, sum.worst_vs_red_at,
       sum.worst_vs_bound, sum.worst_vs_bound_at, 100 * sum.wasted_15);
   out += fmt::format(
-      "Points that miss a §15 target: {} of {} below edf − 0.005; {} of {} below red − 0.005; "
+      "Points that miss an overload target (docs/DESIGN.md#overload): {} of {} below edf − 0.005; "
+      "{} of {} below red − 0.005; "
       "{} of {} past capacity below 0.9 × the bound; {} of {} at 1.5× over 10 % wasted.\n",
       sum.below_edf, sum.points, sum.below_red, sum.points, sum.below_bound, sum.overloaded,
       sum.over_waste_15, sum.wasted_15_n);

@@ -1,7 +1,7 @@
 /// \file
-/// `red_runtime_bench`: the real-time runtime measured on the wall clock (§13), with the
-/// synthetic backend (units spin for their profiled time) so only the scheduler and the
-/// synchronizers are measured, not a network:
+/// `red_runtime_bench`: the real-time runtime measured on the wall clock (docs/DESIGN.md,
+/// "Performance targets"), with the synthetic backend (units spin for their profiled time) so only
+/// the scheduler and the synchronizers are measured, not a network:
 ///  - unit completion -> next unit started on that lane (p50, p99), per-edge vs on-demand;
 ///  - synchronizer round trips and decisions taken locally by handlers;
 ///  - scheduling decision time inside the runtime;

@@ -84,19 +84,19 @@ double work_bound(const Scenario& s, const Profile& p) {
       if (hz > 0) period[i] = std::min(period[i], 1000.0 / hz);
     }
 
-  // How many jobs of an own-rate operation one encoder run may serve (DynamicMerge, §3):
-  // its releases within γ of the first member or while the frame stays the newest, at most
-  // max_inflight. A run on a frame serves one job of each operation the frame triggers.
+  // How many jobs of an own-rate operation one encoder run may serve (docs/DESIGN.md,
+  // "DynamicMerge"): its releases within γ of the first member or while the frame stays the newest,
+  // at most max_inflight. A run on a frame serves one job of each operation the frame triggers.
   //
-  // Batches (§3 inter-DAG batching). Each batch's lane time is split evenly among the
-  // on-time jobs it serves; a job's share is then at least C(b) / J(b), J(b) the most
-  // on-time jobs a batch of b can serve, and the least of it over b is what the bound
-  // charges. For a batch of unit u to help a job be on time, its latest member's work
-  // before u must be done when the batch starts, and its earliest member must finish u (the
-  // whole batch, C(b)) and everything after it by its deadline D; so every member was
-  // released within D − P_b(u) of the earliest, P_b(u) the longest path through u on mean
-  // costs with u at C(b). That is at most floor((D − P_b(u)) / T) + 1 jobs of an operation
-  // released every T, none if P_b(u) > D, and never more than its max_inflight.
+  // Batches (inter-DAG batching, docs/DESIGN.md, "Batching"). Each batch's lane time is split
+  // evenly among the on-time jobs it serves; a job's share is then at least C(b) / J(b), J(b) the
+  // most on-time jobs a batch of b can serve, and the least of it over b is what the bound charges.
+  // For a batch of unit u to help a job be on time, its latest member's work before u must be done
+  // when the batch starts, and its earliest member must finish u (the whole batch, C(b)) and
+  // everything after it by its deadline D; so every member was released within D − P_b(u) of the
+  // earliest, P_b(u) the longest path through u on mean costs with u at C(b). That is at most
+  // floor((D − P_b(u)) / T) + 1 jobs of an operation released every T, none if P_b(u) > D, and
+  // never more than its max_inflight.
   const double enc_one = to_ms(mean.encoder());
   auto window = [&](const OperationSpec& op, double path, int i) {
     const double d = to_ms(resolve_deadline(op, resolve));
@@ -364,9 +364,9 @@ double work_bound(const Scenario& s, const Profile& p) {
       c.feasible = cp <= to_ms(resolve_deadline(*op, resolve));
       oc[op] = c;
     }
-  // The third way, per frame (§15): where every operation reading sensor k is triggered by
-  // it and reads no other sensor, a frame's encoder run, E (per_run: the least share of a
-  // batch a frame with on-time jobs pays), serves at most one job of each. The first two
+  // The third way, per frame (docs/DESIGN.md, "Overload"): where every operation reading sensor k
+  // is triggered by it and reads no other sensor, a frame's encoder run, E (per_run: the least
+  // share of a batch a frame with on-time jobs pays), serves at most one job of each. The first two
   // ways split E among every job a run could serve, as if every operation's job of each
   // frame were on time; but serving m jobs of a frame costs at least E + the m cheapest
   // jobs' own costs A_m. With the definitions reading k sorted by own cost a, the g

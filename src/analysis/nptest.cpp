@@ -218,8 +218,9 @@ Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const 
       cmin += sync_lo;
       cmax += sync;
       if (ru.kind == UnitKind::Encoder) {
-        // DynamicMerge rule 1 (§3): encoder runs on one frame are one run. Within a job
-        // always (same frame); across operations triggered by the same frame under merge.
+        // DynamicMerge rule 1 (docs/DESIGN.md, "DynamicMerge"): encoder runs on one frame are one
+        // run. Within a job always (same frame); across operations triggered by the same frame
+        // under merge.
         const bool by_frame = o.merge && re.frame >= 0 && re.spec->trigger_sensor == ru.sensor;
         const auto skey = by_frame
                               ? std::tuple<int, std::int64_t, std::int64_t>{ru.sensor, re.frame, -1}

@@ -117,7 +117,7 @@ ResponseBound response_bound(const Scenario& s, const Profile& p, const PolicyOp
     over.utilization = r.utilization;
     return over;
   }
-  // Least fixed point of W(L) = Σ ⌈(L + J_i) / T_i⌉ C_i, from Σ C_i (George et al. §4).
+  // Least fixed point of W(L) = Σ ⌈(L + J_i) / T_i⌉ C_i, from Σ C_i (George et al., section 4).
   Duration l{0};
   for (const OperationBound& b : r.operations) l += b.job_cost;
   for (int it = 0; it < 100000; ++it) {

@@ -198,7 +198,7 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
     std::vector<int> out_unit(op.nodes.size(), -1);
     std::vector<int> enc_unit(op.nodes.size(), -1);
     if (opt.mode == GraphMode::Fine) {
-      // Encoders first: they are sources and read only their frame (§3).
+      // Encoders first: they are sources and read only their frame (docs/DESIGN.md, "Refinement").
       for (int v : order) {
         const NodeSpec& n = op.nodes[static_cast<std::size_t>(v)];
         if (n.is_plain()) continue;
@@ -240,7 +240,8 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
                out_unit[static_cast<std::size_t>(e.to)]);
   }
 
-  // Every estimate kind of every unit, for the checks that judge by another one (§15).
+  // Every estimate kind of every unit, for the checks that judge by another one (docs/DESIGN.md,
+  // "Overload").
   for (int k = 0; k < 4; ++k) {
     const CostModel ck = costs.with(static_cast<EstimateKind>(k));
     for (RefinedUnit& u : g->units) {

@@ -205,7 +205,7 @@ PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end
   const Duration wasted = wasted_;
   const auto decided = static_cast<double>(m.completed + m.dropped);
   if (m.jobs > 0) m.on_time = round6(static_cast<double>(m.met) / static_cast<double>(m.jobs));
-  // A job misses if it finishes late or is dropped (§10).
+  // A job misses if it finishes late or is dropped (docs/DESIGN.md, "Metrics").
   m.missed += m.dropped;
   if (decided > 0) {
     m.miss_rate = round6(static_cast<double>(m.missed) / decided);

@@ -22,7 +22,8 @@ bool no_result(const JobRow& j) {
          j.outcome == JobOutcome::Failed;
 }
 
-// Accumulates one set of jobs; the same rules as MetricsCollector::summarize (§10).
+// Accumulates one set of jobs; the same rules as MetricsCollector::summarize (docs/DESIGN.md,
+// "Metrics").
 struct Tally {
   PhaseFigures f;
   double qoe_sum = 0;

@@ -44,7 +44,8 @@ void ProgressReporter::finish() {
 void ProgressReporter::on_job_end(const JobRecord& job) {
   if (job.finish > sim_now_) sim_now_ = job.finish;
   ++jobs_;
-  // Counted as in §10: a miss is late or dropped; unfinished jobs are not decided yet.
+  // Counted as in docs/DESIGN.md, "Metrics": a miss is late or dropped; unfinished jobs are not
+  // decided yet.
   if (job.outcome != JobOutcome::Unfinished) ++decided_;
   if (job.outcome != JobOutcome::Met && job.outcome != JobOutcome::Unfinished) ++missed_;
   tick();

@@ -1,6 +1,7 @@
 /// \file
-/// Profiles (§8): the built-in default costs, JSON reading and writing, and the check that
-/// a profile covers a scenario. Times are microseconds in the file, nanoseconds inside.
+/// Profiles (docs/DESIGN.md, "Profiles"): the built-in default costs, JSON reading and writing, and
+/// the check that a profile covers a scenario. Times are microseconds in the file, nanoseconds
+/// inside.
 
 #include "red/profile/profile.hpp"
 

@@ -119,7 +119,7 @@ struct Runtime::Impl {
   SteadyClock clock;
   Scheduler sched;
   SyncMode sync;
-  // §6 on a GPU lane: units are enqueued on the backend's lanes and waited for
+  // docs/DESIGN.md, "Queued lanes": units are enqueued on the backend's lanes and waited for
   // (Backend::enqueue, Backend::wait); with on-demand synchronization a handler queues up
   // to the scheduler's queue_depth units, so the device does not wait for the host.
   bool async;
@@ -665,8 +665,8 @@ struct Runtime::Impl {
     std::string reason;
   };
 
-  // Enqueues one dispatch on an asynchronous lane (§6 on a GPU lane): the backend returns
-  // without waiting for the device.
+  // Enqueues one dispatch on an asynchronous lane (docs/DESIGN.md, "Queued lanes"): the backend
+  // returns without waiting for the device.
   void enqueue_unit(int lane, std::deque<Held>& held, const Dispatch& d, TimePoint prev_end,
                     Duration& enqueue_cost) {
     Held& u = held.emplace_back();

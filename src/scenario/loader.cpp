@@ -1,5 +1,5 @@
 /// \file
-/// The scenario loader (§11). Parsing and validation throw a private Failure that the
+/// The scenario loader (docs/SCENARIOS.md). Parsing and validation throw a private Failure that the
 /// two public entry points turn into an Error, so a scenario is either complete or absent.
 /// Events are resolved by replaying them in order on copies of the operation snapshots;
 /// every rule is checked against the workload as it is at the event's time.
@@ -217,7 +217,7 @@ std::string text(const Val& v) {
 }
 
 /// An absolute ROS 2 topic name (`/a/b_1`: letters, digits, `_`, tokens not starting with a
-/// digit, no `//`, no trailing `/`), for `red node` (§14).
+/// digit, no `//`, no trailing `/`), for `red node` (docs/ROS2.md).
 std::string ros_topic(const Val& v) {
   const std::string t = text(v);
   bool ok = t.size() >= 2 && t.front() == '/' && t.back() != '/';
@@ -427,7 +427,8 @@ void Loader::parse_scheduler(const Val& v) {
           "drop_estimate", "admission",    "rank",       "admit_margin", "shed_rate",  "lookahead",
           "shed_lone",     "batch_by_job", "path_rank"});
   auto& sc = s_.scheduler;
-  // Policy options (§15 ablations): checked here so that a bad value names its line.
+  // Policy options (docs/DESIGN.md, "Overload" ablations): checked here so that a bad value names
+  // its line.
   PolicyOptions check;
   for (const std::string& key : option_keys()) {
     const Val* x = f.get(key);

@@ -1,7 +1,7 @@
-// §15 overload: the demand test (the work due by each deadline against what the lanes can
-// do by then), admission at release, and the critical-path estimates hopeless aborts use.
-// Part of the scheduler (scheduler_impl.hpp): scheduler.cpp calls these in the order of a
-// decision.
+// Overload (docs/DESIGN.md, "Overload"): the demand test (the work due by each deadline against
+// what the lanes can do by then), admission at release, and the critical-path estimates hopeless
+// aborts use. Part of the scheduler (scheduler_impl.hpp): scheduler.cpp calls these in the order of
+// a decision.
 
 #include <algorithm>
 #include <chrono>
@@ -425,8 +425,9 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now) {
 }
 
 void Scheduler::Impl::assess_overload(TimePoint now) {
-  // §5 max_inflight: an operation at its limit skips its next release, so finishing its
-  // oldest job first is what keeps its frames (red-robust ranks by job deadline then).
+  // max_inflight (docs/DESIGN.md, "max_inflight"): an operation at its limit skips its next
+  // release, so finishing its oldest job first is what keeps its frames (red-robust ranks by job
+  // deadline then).
   const bool robust = opt.rank == RankMode::Overload;
   const bool at_limit = robust && saturated();
   // The demand test (a walk over every job in flight) decides nothing that a saturated
@@ -436,9 +437,9 @@ void Scheduler::Impl::assess_overload(TimePoint now) {
                     (!at_limit || mixed_criticality || (s.config_.lanes > 1 && ready_encoders > 0));
   demand_overrun = test && demand_overruns(now, idx(s.config_.estimate));
   overloaded = demand_overrun || at_limit;
-  // §15 "finish what was started": once overloaded, the jobs in flight then are finished
-  // by job deadline; ranking them back by intermediate deadlines between two overloaded
-  // rounds would start newer jobs' early levels ahead of them again.
+  // docs/DESIGN.md, "Overload" "finish what was started": once overloaded, the jobs in flight then
+  // are finished by job deadline; ranking them back by intermediate deadlines between two
+  // overloaded rounds would start newer jobs' early levels ahead of them again.
   if (robust) {
     if (overloaded && !by_deadline.empty())
       overload_hold = std::max(overload_hold, job(by_deadline.back()).deadline);

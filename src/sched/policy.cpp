@@ -179,7 +179,8 @@ std::string describe(const PolicyOptions& o) {
 }
 
 std::optional<PolicyOptions> preset_options(std::string_view name) {
-  // §7: every preset is a row of the table; red-robust is §15.
+  // docs/DESIGN.md, "Policies": every preset is a row of the table; red-robust is docs/DESIGN.md,
+  // "Overload".
   PolicyOptions o;
   o.reassign = false;
   o.merge = false;
@@ -210,7 +211,8 @@ std::optional<PolicyOptions> preset_options(std::string_view name) {
     o.reassign = o.merge = o.batching = true;
     o.sync = SyncMode::OnDemand;
     if (name == "red-robust") {
-      // §15: shed early on an optimistic estimate, finish what was started while overloaded.
+      // docs/DESIGN.md, "Overload": shed early on an optimistic estimate, finish what was started
+      // while overloaded.
       o.drop = DropMode::Hopeless;
       o.drop_estimate = EstimateKind::Mean;
       o.admission = Admission::Shed;

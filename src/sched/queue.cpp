@@ -1,5 +1,5 @@
-// Lanes that hold more than one unit (SchedulerConfig::queue_depth, §6 on a GPU lane): a
-// lane's handler queues its next unit behind the one running (dispatch_ahead), and a
+// Lanes that hold more than one unit (SchedulerConfig::queue_depth, docs/DESIGN.md, "Queued
+// lanes"): a lane's handler queues its next unit behind the one running (dispatch_ahead), and a
 // successor of a unit the lane holds is ready for that lane alone, in the lane's order.
 // The lane's slots themselves are sched_detail::Lane (scheduler_impl.hpp).
 

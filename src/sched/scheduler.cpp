@@ -61,7 +61,7 @@ SchedulerConfig SchedulerConfig::from(const Scenario& s, const Profile& p) {
   SchedulerConfig c = from(s);
   c.sync_cost = s.device.sync_cost ? *s.device.sync_cost : p.sync_round_trip;
   // A GPU runs its lanes asynchronously: one unit queued behind the running one keeps the
-  // device from waiting for the host between units (§6).
+  // device from waiting for the host between units (docs/DESIGN.md, "Synchronization").
   if (!s.device.queue_depth && p.source == "measured" && !p.device.empty() &&
       p.device.rfind("cpu", 0) != 0)
     c.queue_depth = 2;
@@ -88,8 +88,9 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   for (int i = 0; i < sc.operation_count(); ++i)
     if (sc.initial[static_cast<std::size_t>(i)])
       install(i, sc.initial[static_cast<std::size_t>(i)], TimePoint{0}, true);
-  // Criticality orders work only under overload (§5); the demand test that detects it runs
-  // only when criticalities differ somewhere in the scenario, or the policy ranks by it.
+  // Criticality orders work only under overload (docs/DESIGN.md, "Criticality"); the demand test
+  // that detects it runs only when criticalities differ somewhere in the scenario, or the policy
+  // ranks by it.
   int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
   auto see = [&](const std::shared_ptr<const OperationSpec>& op) {
     if (!op) return;
@@ -142,7 +143,8 @@ void Scheduler::Impl::install(int i, const std::shared_ptr<const OperationSpec>&
   o.criticality = spec->criticality;
   if (!was_active) o.remaining = spec->release_count ? *spec->release_count : -1;
   o.sensors_read = o.g->sensors;
-  // A held all-at-once release survives a new version of its operation (§2 events).
+  // A held all-at-once release survives a new version of its operation (docs/DESIGN.md, "Task
+  // model" events).
   if (!o.all_at_once) o.awaits_frames = false;
   if (o.own_rate || o.all_at_once) {
     if (!was_active || initial) {
@@ -177,8 +179,8 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
                               std::uint64_t trigger_frame) {
   OpState& o = ops[static_cast<std::size_t>(op_index)];
   if (o.g == nullptr || o.remaining == 0) return;
-  // §3: a job computes on frames its sensors produced. Before a sensor's first frame there
-  // is nothing to read, so this tick or trigger frame releases no job.
+  // docs/DESIGN.md, "Refinement": a job computes on frames its sensors produced. Before a sensor's
+  // first frame there is nothing to read, so this tick or trigger frame releases no job.
   if (!inputs_ready(*o.g, trigger_sensor)) return;
   if (o.remaining > 0 && --o.remaining == 0) {
     rates_changed = true;
@@ -188,7 +190,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   ++s.stats_.releases;
   const RefinedGraph& g = *o.g;
   if (o.inflight >= o.max_inflight) {
-    // §5 overload: the frame is skipped and counted as a drop.
+    // max_inflight (docs/DESIGN.md, "max_inflight"): the frame is skipped and counted as a drop.
     Job tmp;
     tmp.id = next_job_id++;
     tmp.op = op_index;
@@ -202,8 +204,8 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     notify_job(tmp, JobOutcome::Skipped, now, false);
     return;
   }
-  // §15: past capacity, the jobs of an operation that cheaper ones outrank are rejected
-  // before they cost anything (plan_rates).
+  // docs/DESIGN.md, "Overload": past capacity, the jobs of an operation that cheaper ones outrank
+  // are rejected before they cost anything (plan_rates).
   const bool reject =
       opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality && [&] {
         if (rates_changed) plan_rates();
@@ -246,7 +248,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   j.u.assign(g.units.size(), UnitRt{});
   for (std::size_t i = 0; i < g.units.size(); ++i)
     j.u[i].pending = static_cast<int>(g.units[i].preds.size());
-  // depends_on {use: latest}: the newest job of that operation must end first (§11).
+  // depends_on {use: latest}: the newest job of that operation must end first (docs/SCENARIOS.md).
   if (o.depends_on >= 0) {
     OpState& dep = ops[static_cast<std::size_t>(o.depends_on)];
     if (dep.last_slot >= 0) {
@@ -295,8 +297,8 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
                                    [this](int a, int b) { return earlier(a, b); });
   if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);
   if (outcome != JobOutcome::Met && outcome != JobOutcome::Missed) {
-    // Abort (§5 strict): queued units leave their tasks; running ones finish and their
-    // output is discarded when they return.
+    // Abort (docs/DESIGN.md, "Drops" strict): queued units leave their tasks; running ones finish
+    // and their output is discarded when they return.
     for (std::size_t i = 0; i < j.u.size(); ++i) {
       UnitRt& u = j.u[i];
       if (u.state == UState::Queued) remove_member(u.task, slot, static_cast<int>(i));
@@ -533,8 +535,8 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   if (ru.kind == UnitKind::Encoder && opt.merge) {
     const auto si = static_cast<std::size_t>(ru.sensor);
     const std::uint64_t frame = j.frame[si];
-    // DynamicMerge (§3): 1. same frame, unconditionally; 2. a γ-cluster of releases
-    // that sample the newest frame, while max(release) − min(release) ≤ γ.
+    // DynamicMerge (docs/DESIGN.md, "DynamicMerge"): 1. same frame, unconditionally; 2. a γ-cluster
+    // of releases that sample the newest frame, while max(release) − min(release) ≤ γ.
     for (int t : open_enc[si]) {
       Task& k = task(t);
       const bool same = k.frame == frame && (!k.gamma || j.samples_newest);
@@ -585,8 +587,9 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   TimePoint by_job = kNever;
   v.cost = k.cost;
   Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
-  // §4 re-assignment (red, red-ida): one look at the job's cache gives both its height's
-  // deadline and its remaining work (height_deadline and remaining_work, inlined).
+  // Re-assignment (docs/DESIGN.md, "Re-assignment") (red, red-ida): one look at the job's cache
+  // gives both its height's deadline and its remaining work (height_deadline and remaining_work,
+  // inlined).
   const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
                                        opt.deadlines == DeadlineMode::Equal);
   for (std::size_t i = 0; i < k.members.size(); ++i) {
@@ -620,9 +623,9 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   if (!mixed_criticality && !k.members.empty())
     v.criticality = std::max(v.criticality, uniform_criticality);
   v.overloaded = overloaded;
-  // §15 "finish what was started": while overloaded (or always, rank=job-deadline) the
-  // policy ranks by the job's end-to-end deadline; the task's own deadline stays what
-  // batching is checked against.
+  // docs/DESIGN.md, "Overload" "finish what was started": while overloaded (or always,
+  // rank=job-deadline) the policy ranks by the job's end-to-end deadline; the task's own deadline
+  // stays what batching is checked against.
   if (rank_by_job) {
     TaskView view = v;
     view.deadline = by_job;
@@ -763,16 +766,17 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
   d.start = now;
   // Queued behind the lane's running unit by its own handler: no round trip.
   d.round_trip = ahead_lane < 0 && !on_demand_continuation(lane, first, now);
-  // A round trip starts a new run: the handler is handed these jobs' work (§6).
+  // A round trip starts a new run: the handler is handed these jobs' work (docs/DESIGN.md,
+  // "Synchronization").
   if (d.round_trip) lane.run_jobs.clear();
   lane.run_open = false;
   for (int t : batch) {
     Task& k = task(t);
     d.task_begin.push_back(static_cast<int>(d.members.size()));
     if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
-      // A γ-merged run uses the newest frame available when it starts (§3). Without
-      // DynamicMerge a job keeps the frame it sampled at release: its encoders on one
-      // sensor run as separate tasks, and their heads must all read that one frame.
+      // A γ-merged run uses the newest frame available when it starts (docs/DESIGN.md,
+      // "Refinement"). Without DynamicMerge a job keeps the frame it sampled at release: its
+      // encoders on one sensor run as separate tasks, and their heads must all read that one frame.
       const SensorState& sn = sensors[static_cast<std::size_t>(k.sensor)];
       if (sn.has_frame && sn.frame > k.frame) {
         k.frame = sn.frame;
@@ -840,9 +844,9 @@ bool Scheduler::Impl::pick(TimePoint now) {
     // One scan ranks every ready task (the policy's key, and the deadline batching
     // orders by); a merge wait then only moves to the next best entry of the scan.
     scanned.clear();
-    // Criticality (§5): under overload — the demand test finds more work due than the
-    // lanes can do, or some ready job cannot, by estimate, finish alone by its deadline —
-    // ready work of the most critical operations goes first and lower-criticality work
+    // Criticality (docs/DESIGN.md, "Criticality"): under overload — the demand test finds more work
+    // due than the lanes can do, or some ready job cannot, by estimate, finish alone by its
+    // deadline — ready work of the most critical operations goes first and lower-criticality work
     // waits, so it is shed first. With equal criticalities (the default) nothing changes.
     // The demand test's verdict alone: not red-robust's wider `overloaded` (an operation at
     // its max_inflight, the hold after an overload), which put every critical unit first
@@ -919,10 +923,10 @@ bool Scheduler::Impl::pick(TimePoint now) {
       rt = round_trip_cost(
           ahead_lane < 0 &&
           !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
-      // §5 hopeless, on the drop estimate and with the round trip this dispatch pays. An
-      // overload-aware policy (rank=overload) aborts only while overloaded: with the lanes
-      // to spare, a job that may still make it costs no other job anything; nor does a job
-      // alone in flight (the estimate may be pessimistic, and its deadline still ends it).
+      // docs/DESIGN.md, "Drops" hopeless, on the drop estimate and with the round trip this
+      // dispatch pays. An overload-aware policy (rank=overload) aborts only while overloaded: with
+      // the lanes to spare, a job that may still make it costs no other job anything; nor does a
+      // job alone in flight (the estimate may be pessimistic, and its deadline still ends it).
       if (opt.drop == DropMode::Hopeless &&
           (opt.rank != RankMode::Overload || (overloaded && by_deadline.size() > 1))) {
         for (const auto& [slot, unit] : k.members) {
@@ -964,9 +968,9 @@ bool Scheduler::Impl::pick(TimePoint now) {
     batch.push_back(best);
     TimePoint deadline = best_deadline;
     if (opt.batching && (k.kind == UnitKind::Encoder || k.kind == UnitKind::Head)) {
-      // §15 batch_by_job: while ranked by job deadline, a head batch is checked against what
-      // each member's job still needs after the head, not the task's intermediate deadline
-      // (past due under overload, it let no batch form).
+      // docs/DESIGN.md, "Overload" batch_by_job: while ranked by job deadline, a head batch is
+      // checked against what each member's job still needs after the head, not the task's
+      // intermediate deadline (past due under overload, it let no batch form).
       const bool by_job = opt.batch_by_job && k.kind == UnitKind::Head && by_job_deadline(k);
       if (by_job) deadline = std::max(deadline, latest_batch_end(k));
       const int limit = batch_limit(k);
@@ -1000,8 +1004,8 @@ bool Scheduler::Impl::pick(TimePoint now) {
         const int b = static_cast<int>(batch.size()) + 1;
         if (b > limit) break;
         // Batch only when it is cheaper than running one by one and, by estimate, still
-        // meets the earliest member deadline once the round trip it pays is over (§3
-        // inter-DAG batching).
+        // meets the earliest member deadline once the round trip it pays is over (docs/DESIGN.md,
+        // "Refinement" inter-DAG batching).
         const Duration cb = batch_estimate(k, b);
         const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
         if (cb >= single * b || now + rt + cb > dl) break;
@@ -1082,7 +1086,8 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
   Dispatch& d = lane.oldest();
   lane.pop();  // the slot stays as it is until a later dispatch reuses it
   lane.completed_at = now;
-  // §6: a transition other than Completed ends the run; the next dispatch pays a round trip.
+  // docs/DESIGN.md, "Synchronization": a transition other than Completed ends the run; the next
+  // dispatch pays a round trip.
   lane.run_open = status == UnitStatus::Completed;
   if (started != kNever) m.set_start(d, std::min(started, now));
   // A unit queued behind this one starts now, in the lane's order.
@@ -1120,9 +1125,9 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
       if (--su.pending == 0 && su.state == UState::Blocked) m.make_ready(mb.slot, sx);
     }
     if (j.unfinished == 0) {
-      // §5 strict: a job whose deadline passed while its last unit ran is aborted and the
-      // unit's output discarded, even where the completion reached the scheduler before
-      // the deadline's own event (the runtime's timer; the simulator orders them by time).
+      // docs/DESIGN.md, "Drops" strict: a job whose deadline passed while its last unit ran is
+      // aborted and the unit's output discarded, even where the completion reached the scheduler
+      // before the deadline's own event (the runtime's timer; the simulator orders them by time).
       if (now > j.deadline && m.opt.drop != DropMode::None) {
         j.reason = "deadline passed";
         m.end_job(mb.slot, JobOutcome::Dropped, now);
@@ -1159,7 +1164,7 @@ void Scheduler::advance(TimePoint now) {
       m.release(due, t, -1, 0);
     }
   }
-  // Strict drops (§5): a job whose end-to-end deadline has come is aborted.
+  // Strict drops (docs/DESIGN.md, "Drops"): a job whose end-to-end deadline has come is aborted.
   auto& h = m.deadlines;
   while (!h.empty() && h.front().first <= now) {
     const auto [slot, id] = h.front().second;
@@ -1177,8 +1182,8 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   Impl& m = *impl_;
   m.out.clear();
   ++m.stamp;  // one scheduling point: deadlines are re-assigned from now
-  // §15: admission right after releases; the demand test that tells overload, when the
-  // policy or the scenario's criticalities use it.
+  // docs/DESIGN.md, "Overload": admission right after releases; the demand test that tells
+  // overload, when the policy or the scenario's criticalities use it.
   m.admit_released(now);
   int idle = 0;
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;

@@ -3,7 +3,8 @@
 /// Internal to src/sched: the scheduler's state (jobs, tasks, lanes, the ready set) behind
 /// Scheduler::Impl, shared by the files of its mechanisms. scheduler.cpp keeps the order of
 /// a decision (releases, deadlines, DynamicMerge, batching, dispatch); overload.cpp holds
-/// §15's demand test, admission and the estimates hopeless aborts judge by.
+/// The demand test of docs/DESIGN.md, "Overload", admission and the estimates hopeless aborts
+/// judge by.
 
 #include <algorithm>
 #include <array>
@@ -45,8 +46,9 @@ struct Job {
   bool ended = false;  // outcome decided
   bool counted = true;
   bool samples_newest = false;
-  // §4 re-assignment cache. The base (costs of units not started, per height) changes
-  // only when a unit starts or ends (dirty); running units are adjusted at each decision.
+  // Re-assignment (docs/DESIGN.md, "Re-assignment") cache. The base (costs of units not started,
+  // per height) changes only when a unit starts or ends (dirty); running units are adjusted at each
+  // decision.
   bool dirty = true;
   bool started = false;  // a unit of it has started
   int op = -1;
@@ -63,8 +65,8 @@ struct Job {
   std::vector<Duration> lvl_base;
   std::vector<std::uint8_t> has_base;
   std::vector<Duration> lvl;  // level costs with the running units' remaining costs
-  // §15 demand: work of units not started, by estimate kind, encoders aside (a queued
-  // encoder's cost is shared by the members of its task, read when asked); and the level
+  // docs/DESIGN.md, "Overload" demand: work of units not started, by estimate kind, encoders aside
+  // (a queued encoder's cost is shared by the members of its task, read when asked); and the level
   // costs under the drop estimate, for hopeless checks.
   std::array<Duration, kEstimates> work_base{};
   // At most work_left at any time while not dirty (every unit not done at its full cost, a
@@ -88,7 +90,8 @@ struct Key {
   TimePoint release;
   int op;
   std::uint64_t seq;
-  int node;  // scenario node order (§5 ties); a unit of no node (mono) sorts first
+  // Scenario node order (ties, docs/DESIGN.md, "Dispatch"); a unit of no node (mono) sorts first.
+  int node;
   int unit;
   bool operator<(const Key& o) const noexcept {
     if (rank != o.rank) return rank < o.rank;
@@ -149,7 +152,8 @@ struct OpState {
   int last_slot = -1;
   JobId last_job = 0;
   std::vector<int> sensors_read;  // sensors of its inference nodes
-  TimePoint last_shed = kNever;   // its last job shed for want of lane time (§15), kNever: none
+  // Its last job shed for want of lane time (docs/DESIGN.md, "Overload"), kNever: none.
+  TimePoint last_shed = kNever;
 };
 
 struct SensorState {
@@ -160,8 +164,8 @@ struct SensorState {
 };
 
 // A lane holds up to queue_depth dispatches in the order they were given: the oldest runs,
-// the others are queued behind it on the device (§6 on a GPU lane: what is enqueued counts
-// as dispatched). A slot's Dispatch stays where it is until its unit completes, so the
+// the others are queued behind it on the device (docs/DESIGN.md, "Queued lanes": what is enqueued
+// counts as dispatched). A slot's Dispatch stays where it is until its unit completes, so the
 // pointers dispatch() returns stay valid.
 struct Lane {
   static constexpr int kMaxDepth = SchedulerConfig::kMaxQueueDepth;
@@ -184,8 +188,9 @@ struct Lane {
     --count;
   }
   TimePoint completed_at = kNever;
-  // §6 on-demand: the jobs of the run this lane's handler was handed. Their ready units
-  // follow back to back; the run ends on a round trip or a transition other than Completed.
+  // docs/DESIGN.md, "Synchronization" on-demand: the jobs of the run this lane's handler was
+  // handed. Their ready units follow back to back; the run ends on a round trip or a transition
+  // other than Completed.
   bool run_open = false;
   std::vector<std::pair<int, JobId>> run_jobs;
 };
@@ -222,8 +227,9 @@ struct Scheduler::Impl {
   std::uint64_t stamp = 1;
   std::uint64_t dispatch_seq = 0;
   TimePoint min_wait = kNever;
-  // §15 overload: live jobs by (deadline, id), for the demand test; whether a release came
-  // since the last admission test; whether the lanes are judged overloaded this round.
+  // Overload (docs/DESIGN.md, "Overload"): live jobs by (deadline, id), for the demand test;
+  // whether a release came since the last admission test; whether the lanes are judged overloaded
+  // this round.
   std::vector<int> by_deadline;
   bool released_since_admission = false;
   // The offered load: work released (drop estimate, seconds), decayed over kOfferedWindow.
@@ -235,7 +241,8 @@ struct Scheduler::Impl {
   TimePoint offered_at{0};
   bool overloaded = false;
   bool demand_overrun = false;  // this round's demand test found more work than the lanes do
-  TimePoint overload_hold{0};   // red-robust ranks by job deadline until then (§15)
+  // red-robust ranks by job deadline until then (docs/DESIGN.md, "Overload").
+  TimePoint overload_hold{0};
   // The policy is EdfPolicy (final): its rank is the deadline it is shown, and it reads no
   // other field of the task's view.
   bool edf_rank = false;
@@ -268,8 +275,8 @@ struct Scheduler::Impl {
 
   void notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event);
 
-  // Makes snapshot `spec` the current definition of operation `i` (§4: one refinement per
-  // graph version, shared by every job released with it).
+  // Makes snapshot `spec` the current definition of operation `i` (docs/DESIGN.md, "Intermediate
+  // deadlines": one refinement per graph version, shared by every job released with it).
   void install(int i, const std::shared_ptr<const OperationSpec>& spec, TimePoint at, bool initial);
 
   Job& job(int slot) { return jobs[static_cast<std::size_t>(slot)]; }
@@ -294,16 +301,17 @@ struct Scheduler::Impl {
 
   // Rebuilds what changes only when one of the job's units starts or ends: the costs of
   // its units not yet started, per height, and — when none is running — the shares of the
-  // re-assigned budget (§4), which are then the same at every decision.
+  // re-assigned budget (docs/DESIGN.md, "Intermediate deadlines"), which are then the same at every
+  // decision.
   void refresh(Job& j) {
     if (j.dirty) rebuild(j);
   }
   void rebuild(Job& j);
 
-  // §4 re-assignment: the budget left, B = deadline − now, is spread over the heights that
-  // still have work in proportion to their remaining level costs (or per-node overrides);
-  // height h ends at now + B · frac[h], frac[h] the cumulative share up to h (exactly 1 for
-  // the last height: its deadline is the job's).
+  // Re-assignment (docs/DESIGN.md, "Re-assignment"): the budget left, B = deadline − now, is spread
+  // over the heights that still have work in proportion to their remaining level costs (or per-node
+  // overrides); height h ends at now + B · frac[h], frac[h] the cumulative share up to h (exactly 1
+  // for the last height: its deadline is the job's).
   void shares(const Job& j, const std::vector<Duration>& lvl, const std::vector<std::uint8_t>& has,
               std::vector<double>& frac) const;
 
@@ -313,43 +321,47 @@ struct Scheduler::Impl {
     return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
   }
 
-  // A job with running units: their remaining cost is c(x) − elapsed, at least 0 (§4), so
-  // level costs, the remaining work and the shares depend on now. Cached per decision.
+  // A job with running units: their remaining cost is c(x) − elapsed, at least 0 (docs/DESIGN.md,
+  // "Intermediate deadlines"), so level costs, the remaining work and the shares depend on now.
+  // Cached per decision.
   void eval(Job& j, TimePoint now) {
     refresh(j);
     if (j.stamp != stamp) eval_now(j, now);
   }
   void eval_now(Job& j, TimePoint now);
 
-  // Absolute intermediate deadline of height h of a job at `now` (§4, §7).
+  // Absolute intermediate deadline of height h of a job at `now` (docs/DESIGN.md, "Intermediate
+  // deadlines" and "Policies").
   TimePoint height_deadline(Job& j, int h, TimePoint now);
 
   // Estimated work left in a job (Σ remaining level costs: its critical-path estimate).
   Duration remaining_work(Job& j, TimePoint now);
 
-  // The job's remaining critical path under the drop estimate (§15: optimistic, so that a
-  // job that can still make it is kept): the longest path through its unfinished units, a
-  // running unit counting its remainder. A lower bound on its response from now on any
-  // number of lanes, unlike the §4 sum of level costs.
+  // The job's remaining critical path under the drop estimate (docs/DESIGN.md, "Overload":
+  // optimistic, so that a job that can still make it is kept): the longest path through its
+  // unfinished units, a running unit counting its remainder. A lower bound on its response from now
+  // on any number of lanes, unlike the docs/DESIGN.md, "Intermediate deadlines" sum of level costs.
   Duration remaining_for_drop(Job& j, TimePoint now);
 
   // The longest path through a job's unfinished units under estimate kind k, a running unit
   // counting its remainder.
   Duration critical_path(Job& j, TimePoint now, std::size_t k);
 
-  // Remaining cost of a running unit under estimate kind k (§4: c(x) − elapsed, at least 0).
+  // Remaining cost of a running unit under estimate kind k (docs/DESIGN.md, "Intermediate
+  // deadlines": c(x) − elapsed, at least 0).
   static Duration residual(const Job& j, std::size_t unit, TimePoint now, std::size_t k) {
     const Duration c = j.g->units[unit].costs[k];
     const TimePoint start = j.u[unit].start;
     return now > start ? std::max(Duration{0}, c - (now - start)) : c;
   }
 
-  // §15 demand: the lane time a job still needs under estimate kind k. A queued encoder run
-  // is shared by the members of its task and a running unit by the members of its dispatch,
-  // so shared encoder runs are counted once.
+  // docs/DESIGN.md, "Overload" demand: the lane time a job still needs under estimate kind k. A
+  // queued encoder run is shared by the members of its task and a running unit by the members of
+  // its dispatch, so shared encoder runs are counted once.
   Duration work_left(Job& j, TimePoint now, std::size_t k);
-  // Lookahead (§15, opt.lookahead): true while admission also counts the jobs periodic
-  // operations will release, i.e. once the offered load passes kLookaheadAt × the lanes.
+  // Lookahead (docs/DESIGN.md, "Overload", opt.lookahead): true while admission also counts the
+  // jobs periodic operations will release, i.e. once the offered load passes kLookaheadAt × the
+  // lanes.
   bool looking_ahead() const;
   // The work of the jobs periodic operations (own rate or triggered by a sensor) will release
   // after `now` with deadlines by `t`, at their current rates, on estimate kind k: a job its
@@ -361,23 +373,22 @@ struct Scheduler::Impl {
   std::vector<std::array<Duration, kEstimates>> expected_work;  // per operation: a job's work
   bool expected_stale = true;  // graphs or rates changed since expected_work was computed
 
-  // The demand test (§15): taking live jobs by deadline, the first that the lanes cannot
-  // finish by its deadline under estimate kind k; -1 when all of it fits. A position in
-  // by_deadline. On one lane that is the first whose deadline comes before the work due by
-  // it (its own and every earlier job's): exact for non-preemptive EDF up to blocking. On
-  // several lanes the work due does not say enough: a DAG's critical path cannot use the
-  // lanes' parallelism. `schedule` then list-schedules the remaining units (admission, at
-  // releases); without it (the per-round overload check) the bound is the larger of the
-  // job's own critical path and the work due spread over every lane, a lower bound.
-  // `margin` (percent) pads every estimate (admission's margin, §15); 0 in the per-round
-  // overload test.
+  // The demand test (docs/DESIGN.md, "Overload"): taking live jobs by deadline, the first that the
+  // lanes cannot finish by its deadline under estimate kind k; -1 when all of it fits. A position
+  // in by_deadline. On one lane that is the first whose deadline comes before the work due by it
+  // (its own and every earlier job's): exact for non-preemptive EDF up to blocking. On several
+  // lanes the work due does not say enough: a DAG's critical path cannot use the lanes'
+  // parallelism. `schedule` then list-schedules the remaining units (admission, at releases);
+  // without it (the per-round overload check) the bound is the larger of the job's own critical
+  // path and the work due spread over every lane, a lower bound. `margin` (percent) pads every
+  // estimate (admission's margin, docs/DESIGN.md, "Overload"); 0 in the per-round overload test.
   // Admission passes `from` (the first position that may be returned; earlier jobs still
   // count) and `skip_doomed` (jobs that cannot make it alone count for nothing).
   int first_overrun(TimePoint now, std::size_t k, bool schedule, int margin, std::size_t from,
                     bool skip_doomed);
 
-  // first_overrun(now, k, false, 0, 0, false) >= 0, the per-round overload test (§15),
-  // decided where it can be from bounds kept per job (work_base and work_most bracket
+  // first_overrun(now, k, false, 0, 0, false) >= 0, the per-round overload test (docs/DESIGN.md,
+  // "Overload"), decided where it can be from bounds kept per job (work_base and work_most bracket
   // work_left), walking the jobs' units only where the bounds do not tell.
   bool demand_overruns(TimePoint now, std::size_t k);
 
@@ -396,26 +407,27 @@ struct Scheduler::Impl {
   int first_overrun_lanes(TimePoint now, std::size_t k, int margin, std::size_t from,
                           bool skip_doomed);
 
-  // True when an operation that still releases jobs is at its max_inflight (§5).
+  // True when an operation that still releases jobs is at its max_inflight (docs/DESIGN.md,
+  // "max_inflight").
   bool saturated() const;
 
-  // Admission (§15 "shed early, shed little"): while the work due by some deadline exceeds
-  // what the lanes can do by then (on the optimistic drop estimate), reject one unstarted
-  // job due by then: the least critical, then the one whose removal saves the most work,
+  // Admission (docs/DESIGN.md, "Overload" "shed early, shed little"): while the work due by some
+  // deadline exceeds what the lanes can do by then (on the optimistic drop estimate), reject one
+  // unstarted job due by then: the least critical, then the one whose removal saves the most work,
   // then the latest. On one lane this is Moore and Hodgson's rule (1968: drop the longest
   // job when a deadline is overrun), which minimizes the number of late jobs.
   void admit(TimePoint now);
 
-  // §15 "shed early", by frame (opt.shed_lone, past capacity): rejects the jobs released
-  // now that no other job in flight shares a frame with (other operations read the sensor,
-  // but skipped or rejected this frame) and that leave their operation fewer than half its
+  // docs/DESIGN.md, "Overload" "shed early", by frame (opt.shed_lone, past capacity): rejects the
+  // jobs released now that no other job in flight shares a frame with (other operations read the
+  // sensor, but skipped or rejected this frame) and that leave their operation fewer than half its
   // max_inflight slots free. Called by admit() before Moore and Hodgson.
   void shed_lone_jobs(TimePoint now);
   std::vector<int> lone;  // shed_lone_jobs' victims, reused
 
   // The latest a batch may end for every member of task k to finish its job by the job's
   // deadline: the earliest over the members of the job deadline less the longest path
-  // after the member's unit (scheduler estimate). §15 batch_by_job.
+  // after the member's unit (scheduler estimate). docs/DESIGN.md, "Overload" batch_by_job.
   TimePoint latest_batch_end(const Task& k) const;
 
   // The longest path after a unit of j (the unit itself not counted) on the scheduler's
@@ -427,18 +439,19 @@ struct Scheduler::Impl {
   }
 
   // What ranking by job deadline reads for one member: the job's deadline, less the path
-  // after the unit with path_rank (§15; docs/BENCHMARKS.md round 9: on mean costs instead,
-  // one of the tests' 216 sets lost a job to edf at capacity).
+  // after the unit with path_rank (docs/DESIGN.md, "Overload"; docs/BENCHMARKS.md round 9: on mean
+  // costs instead, one of the tests' 216 sets lost a job to edf at capacity).
   TimePoint rank_deadline(const Job& j, int unit) const {
     return opt.path_rank ? j.deadline - path_after(j, unit) : j.deadline;
   }
 
-  // True when the offered load exceeds what the lanes can do (§15 detect from demand).
+  // True when the offered load exceeds what the lanes can do (docs/DESIGN.md, "Overload" detect
+  // from demand).
   bool past_capacity() const;
 
-  // §15 "shed early", by rate (the work bound's rule, cheapest jobs first; opt.shed_by_rate):
-  // periodic operations without sensors ordered by the lane time one job needs; one whose
-  // cheaper ones alone ask for every lane at their rates is `outranked`, and while past
+  // docs/DESIGN.md, "Overload" "shed early", by rate (the work bound's rule, cheapest jobs first;
+  // opt.shed_by_rate): periodic operations without sensors ordered by the lane time one job needs;
+  // one whose cheaper ones alone ask for every lane at their rates is `outranked`, and while past
   // capacity, with equal criticalities, and while one of those cheaper operations sheds
   // jobs itself (ahead_shed), its jobs are rejected at release. Recomputed when rates or
   // graphs change (rates_changed).
@@ -451,7 +464,8 @@ struct Scheduler::Impl {
   std::vector<std::uint8_t> outranked;               // per operation
   std::vector<std::pair<Duration, int>> rate_order;  // (a job's cost, operation), cheapest first
 
-  // Adds a released job's work to the offered load (§15 detect overload from demand).
+  // Adds a released job's work to the offered load (docs/DESIGN.md, "Overload" detect overload from
+  // demand).
   void note_offered(Job& j, TimePoint now);
 
   // ---- tasks --------------------------------------------------------------------------
@@ -473,9 +487,9 @@ struct Scheduler::Impl {
   // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
   Key key(int t, TimePoint now, TaskView& v);
 
-  // True when the policy ranks the task by its jobs' end-to-end deadline this round (§15:
-  // rank=job-deadline, or rank=overload while overloaded; a ready encoder on several lanes
-  // only when the demand test overran).
+  // True when the policy ranks the task by its jobs' end-to-end deadline this round
+  // (docs/DESIGN.md, "Overload": rank=job-deadline, or rank=overload while overloaded; a ready
+  // encoder on several lanes only when the demand test overran).
   bool by_job_deadline(const Task& k) const {
     return opt.rank == RankMode::JobDeadline ||
            (opt.rank == RankMode::Overload && overloaded &&
@@ -500,7 +514,7 @@ struct Scheduler::Impl {
   }
 
   // The predicted release, within γ of the task's first member, of another operation that
-  // samples the same sensor (§3 rule 2); kNever if none.
+  // samples the same sensor (docs/DESIGN.md, "DynamicMerge" rule 2); kNever if none.
   TimePoint predicted_member(const Task& k, TimePoint now) const;
 
   // A merge wait until `until` is taken only if every member's slack still covers it; the
@@ -513,14 +527,15 @@ struct Scheduler::Impl {
 
   int batch_limit(const Task& k) const;
 
-  // §6 on-demand: the task continues the run the lane's handler holds — its last unit
-  // completed just now and the task is ready work of a job of the run (a merged encoder's
-  // member heads, a job's ready units of a height, their successors) — so the handler goes
-  // on without a round trip. Anything else, or per-edge synchronization, pays one.
+  // docs/DESIGN.md, "Synchronization" on-demand: the task continues the run the lane's handler
+  // holds — its last unit completed just now and the task is ready work of a job of the run (a
+  // merged encoder's member heads, a job's ready units of a height, their successors) — so the
+  // handler goes on without a round trip. Anything else, or per-edge synchronization, pays one.
   bool on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const;
 
-  // The idle lane for a task (§6 placement): one whose run it continues, else one without
-  // an open run (keeping open runs for their own work), else the first idle lane; -1 if none.
+  // The idle lane for a task (docs/DESIGN.md, "Synchronization" placement): one whose run it
+  // continues, else one without an open run (keeping open runs for their own work), else the first
+  // idle lane; -1 if none.
   int choose_lane(const Task& k, TimePoint now) const;
 
   void start_dispatch(int lane_index, TimePoint now, TimePoint deadline);
@@ -531,10 +546,11 @@ struct Scheduler::Impl {
   // dispatch_ahead(): the successors that wait only on a unit `lane` holds become ready for
   // that lane alone (not encoders: they merge across lanes).
   void ready_in_lane_order(int lane);
-  // The round's overload state before a pick (§15): saturation, the demand test, the hold
-  // of "finish what was started" (dispatch() and dispatch_ahead()).
+  // The round's overload state before a pick (docs/DESIGN.md, "Overload"): saturation, the demand
+  // test, the hold of "finish what was started" (dispatch() and dispatch_ahead()).
   void assess_overload(TimePoint now);
-  // §15 admission of the jobs released since the last decision (a policy that sheds).
+  // docs/DESIGN.md, "Overload" admission of the jobs released since the last decision (a policy
+  // that sheds).
   void admit_released(TimePoint now) {
     if (opt.admission == Admission::Shed && released_since_admission) admit(now);
     released_since_admission = false;

@@ -14,8 +14,8 @@ namespace red {
 
 namespace {
 
-// Ahead: a lane's handler decides the unit it queues behind what it holds (§6 on a GPU
-// lane; SchedulerConfig::ahead_lead).
+// Ahead: a lane's handler decides the unit it queues behind what it holds (docs/DESIGN.md, "Queued
+// lanes"; SchedulerConfig::ahead_lead).
 enum class EvKind : std::uint8_t { Complete, Frame, Ahead };
 
 struct Ev {
@@ -86,8 +86,9 @@ SimResult Simulator::run() {
   };
   std::vector<std::deque<HeldUnit>> held(nlanes);
   std::vector<TimePoint> lane_end(nlanes, TimePoint{0});
-  // §6 on a GPU lane: with on-demand synchronization, a lane's handler queues its next unit
-  // behind what it holds `ahead_lead` before that is expected to end (the runtime's rule).
+  // docs/DESIGN.md, "Queued lanes": with on-demand synchronization, a lane's handler queues its
+  // next unit behind what it holds `ahead_lead` before that is expected to end (the runtime's
+  // rule).
   const bool ahead = scheduler_.config().queue_depth > 1 &&
                      scheduler_.policy().options().sync == SyncMode::OnDemand;
   std::vector<int> touched;  // lanes whose handler decides its queue this round

@@ -139,9 +139,9 @@ TEST(AnalyzeVerdict, EachPhaseThatEventsCreateIsJudged) {
   EXPECT_GE(nav.cp_coarse_mean, nav.cp_fine_mean);
 }
 
-// DESIGN §13's physical limit: the necessary work over the lanes, phases weighted by their
-// length in the measured window, a camera frame's encoder run counted once however many
-// operations it triggers, fixed release counts apart from what rate_scale scales.
+// The physical limit (docs/DESIGN.md, "Performance targets"): the necessary work over the lanes,
+// phases weighted by their length in the measured window, a camera frame's encoder run counted once
+// however many operations it triggers, fixed release counts apart from what rate_scale scales.
 TEST(NecessaryLoad, PlainWorkAtItsRateOverTheLanes) {
   const NecessaryLoad one = necessary_load(
       single(20, milliseconds{40}, milliseconds{10}, milliseconds{12}), default_profile());

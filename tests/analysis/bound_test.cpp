@@ -1,6 +1,6 @@
-// The work bound (red/analysis/bound.hpp, §15) is an upper bound: no policy's on-time
-// fraction exceeds it, on the bundled scenarios (shared and batched encoder runs of
-// MIMONet workloads, own-rate operations merged within γ, events) and on seeded random task
+// The work bound (red/analysis/bound.hpp, docs/DESIGN.md, "Overload") is an upper bound: no
+// policy's on-time fraction exceeds it, on the bundled scenarios (shared and batched encoder runs
+// of MIMONet workloads, own-rate operations merged within γ, events) and on seeded random task
 // sets, below and past capacity. And it is no looser than it must be where the answer is
 // known by hand.
 

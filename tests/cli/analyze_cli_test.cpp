@@ -1,4 +1,4 @@
-// `red analyze` run as a real process (§12, docs/ANALYSIS.md): the report, analysis.json,
+// `red analyze` run as a real process (docs/CLI.md, docs/ANALYSIS.md): the report, analysis.json,
 // --check's exit codes (0 all ok, 1 otherwise), bad input (2), and --export-nptest's files.
 
 #include <gtest/gtest.h>

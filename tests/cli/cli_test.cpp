@@ -1,4 +1,4 @@
-// The `red` command line (§12), run as a real process: exit codes, messages on stderr,
+// The `red` command line (docs/CLI.md), run as a real process: exit codes, messages on stderr,
 // and the files --out writes (summary.json schema, jobs.csv, units.csv, sweep.json/csv).
 
 #include <gtest/gtest.h>
@@ -443,9 +443,9 @@ TEST_F(Cli, SweepWritesOneColumnPerValue) {
   EXPECT_EQ(values, (std::set<std::string>{"0.8", "1", "1.2"}));
 }
 
-// DESIGN §13: a sweep over rate_scale reports each policy's breakdown rate beside the
-// physical limit, and every swept value up to a policy's breakdown rate keeps its misses
-// within 1 %, the next one does not.
+// docs/DESIGN.md, "Performance targets": a sweep over rate_scale reports each policy's breakdown
+// rate beside the physical limit, and every swept value up to a policy's breakdown rate keeps its
+// misses within 1 %, the next one does not.
 TEST_F(Cli, SweepOverRateScaleReportsTheBreakdownRate) {
   const fs::path out = dir_ / "sweep-rate";
   const RunResult r =

@@ -1,4 +1,4 @@
-// Interoperability with eProsima Fast DDS (§14): a Fast DDS program built with fastddsgen
+// Interoperability with eProsima Fast DDS (docs/ROS2.md): a Fast DDS program built with fastddsgen
 // from RED's IDL -- what a ROS 2 Humble user's nodes run on by default -- publishes camera
 // frames to `red node` over RTPS/UDP on loopback and receives every output type, each with
 // the stamp of a frame it sent, and the diagnostics.

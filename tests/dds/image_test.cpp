@@ -1,4 +1,4 @@
-// The node's image conversions (§14): nearest-neighbour resize to the model's input, as
+// The node's image conversions (docs/ROS2.md): nearest-neighbour resize to the model's input, as
 // luminance and as RGB, for every accepted encoding, padded rows, down- and upscaling.
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// The node's frame intake (§14, issue 8's first target): a received frame is released
+// The node's frame intake (docs/ROS2.md, issue 8's first target): a received frame is released
 // before its pixels are converted; the conversion runs once, on the first thread that needs
 // it, and no reader ever sees a half-converted frame; a frame no unit reads is never
 // converted; bad frames are still rejected before the release and counted.

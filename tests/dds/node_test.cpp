@@ -1,4 +1,4 @@
-// `red node` and `red camera` end to end over DDS on loopback (§14): the camera's frames
+// `red node` and `red camera` end to end over DDS on loopback (docs/ROS2.md): the camera's frames
 // are the node's releases, every output type arrives with the header of a frame the camera
 // sent, bad images are rejected, counted and reported, and bad command lines exit 2.
 

@@ -1,4 +1,4 @@
-// The independent ROS 2 serializer of the wire test (DESIGN.md §14): npm
+// The independent ROS 2 serializer of the wire test (docs/ROS2.md): npm
 // @foxglove/rosmsg2-serialization with the message definitions of ROS 2 Humble
 // (@foxglove/rosmsg-msgs-common) and vision_msgs 4.x (parsed by @foxglove/rosmsg).
 // stdin: {"cases": [{"type": "sensor_msgs/Image", "msg": {...}, "cdr": "hex"}]}

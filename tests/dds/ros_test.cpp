@@ -1,4 +1,4 @@
-// ROS 2 conventions on DDS (§14): topic names, remapping, QoS files, the loopback config.
+// ROS 2 conventions on DDS (docs/ROS2.md): topic names, remapping, QoS files, the loopback config.
 
 #include <unistd.h>
 

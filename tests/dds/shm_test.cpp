@@ -1,4 +1,4 @@
-// `red node --shm` (§14, docs/ROS2.md "Shared memory (iceoryx)"): `red camera` -> `red node`
+// `red node --shm` (docs/ROS2.md, "Shared memory (iceoryx)"): `red camera` -> `red node`
 // -> red_ros2_listener through iceoryx shared memory, with a RouDi of the test's own; and
 // --shm without a RouDi exits 2 with how to start one.
 

@@ -1,4 +1,4 @@
-// ROS 2 wire format, byte for byte (§14): every message type RED speaks, serialized by
+// ROS 2 wire format, byte for byte (docs/ROS2.md): every message type RED speaks, serialized by
 // Cyclone DDS from RED's IDL, equals what an independent ROS 2 serializer writes (npm
 // @foxglove/rosmsg2-serialization, run by node), and each side decodes the other's bytes.
 

@@ -1,5 +1,5 @@
 // libFuzzer target: a DDS sample as it arrives on the wire -> the decoding `red node` and
-// its listeners run on it (§14). Byte 0 picks the message type (Image, the one type the
+// its listeners run on it (docs/ROS2.md). Byte 0 picks the message type (Image, the one type the
 // node subscribes to, and the types its subscribers decode: Twist, TwistStamped,
 // Detection2DArray, DiagnosticArray); the rest is the serialized payload, a 4-byte
 // encapsulation header then CDR. The payload goes through Cyclone DDS's own receive path

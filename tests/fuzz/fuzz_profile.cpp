@@ -1,5 +1,5 @@
-// libFuzzer target: profile JSON text -> parse_profile (§8). A profile that parses must
-// survive a round trip: profile_to_json, parsed again, gives the same JSON.
+// libFuzzer target: profile JSON text -> parse_profile (docs/DESIGN.md, "Profiles"). A profile that
+// parses must survive a round trip: profile_to_json, parsed again, gives the same JSON.
 
 #include <cstddef>
 #include <cstdint>

@@ -1,5 +1,5 @@
-// libFuzzer target: scenario YAML text -> parse_scenario (parsing and validation, §11).
-// A scenario that validates is then simulated briefly (fuzz_support.hpp).
+// libFuzzer target: scenario YAML text -> parse_scenario (parsing and validation,
+// docs/SCENARIOS.md). A scenario that validates is then simulated briefly (fuzz_support.hpp).
 
 #include <cstddef>
 #include <cstdint>

@@ -1,6 +1,7 @@
-// Intermediate deadline assignment (§4): the worked example, equal and proportional
-// splits, level cost max vs sum, split_budget edge cases and per-node overrides, checked on
-// refine() and through the Scheduler driven with a virtual time (no simulator).
+// Intermediate deadline assignment (docs/DESIGN.md, "Intermediate deadlines"): the worked example,
+// equal and proportional splits, level cost max vs sum, split_budget edge cases and per-node
+// overrides, checked on refine() and through the Scheduler driven with a virtual time (no
+// simulator).
 
 #include <gtest/gtest.h>
 

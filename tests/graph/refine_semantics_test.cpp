@@ -1,6 +1,6 @@
-// Refinement is semantics-preserving (§3): on random DAG scenarios and under every preset
-// policy (coarse, fine with merging and batching, mono), every node output of every
-// completed job is produced exactly once, by a unit that read a frame of the node's own
+// Refinement is semantics-preserving (docs/DESIGN.md, "Refinement"): on random DAG scenarios and
+// under every preset policy (coarse, fine with merging and batching, mono), every node output of
+// every completed job is produced exactly once, by a unit that read a frame of the node's own
 // sensor — a frame that sensor had produced — and only after all its predecessors ended;
 // no unit of a job starts after the job was reported ended. The same holds for ablations
 // (option combinations no preset uses) and for sensors that start late.
@@ -181,8 +181,8 @@ operations:
   }
 }
 
-// Every column of §7's table is an option of its own, so ablations combine them freely;
-// refinement must stay semantics-preserving under any combination.
+// Every column of the table in docs/DESIGN.md, "Policies", is an option of its own, so ablations
+// combine them freely; refinement must stay semantics-preserving under any combination.
 TEST(RefineSemantics, AblationsKeepTheInvariant) {
   struct Ablation {
     const char* name;

@@ -1,4 +1,5 @@
-// Profiles (§8): the built-in default, JSON round trip, validation, quantiles, coverage.
+// Profiles (docs/DESIGN.md, "Profiles"): the built-in default, JSON round trip, validation,
+// quantiles, coverage.
 
 #include <gtest/gtest.h>
 
@@ -75,7 +76,7 @@ TEST(Profile, DefaultProfileFigures) {
   EXPECT_EQ(c2.mean, p.find("encoder")->at(2).mean + p.find("head/det")->at(2).mean);
   EXPECT_EQ(c2.max, p.find("encoder")->at(2).max + p.find("head/det")->at(2).max);
   EXPECT_TRUE(same(p.find("separate/lane")->at(4), p.find("coarse/lane")->at(4)));
-  // The encoder dominates every head (§9).
+  // The encoder dominates every head (docs/DESIGN.md, "Built-in model").
   for (const char* h : {"head/lane", "head/seg", "head/steer", "head/det"})
     EXPECT_LT(p.find(h)->at(1).p99, e1.mean) << h;
   EXPECT_EQ(p.find("head/nope"), nullptr);

@@ -1,6 +1,6 @@
-// Asynchronous lanes in the real-time runtime (§6 on a GPU lane), on the CPU stand-in: the
-// synthetic backend whose lanes are worker threads fed by Backend::enqueue and waited for
-// by Backend::wait. Assertions are structural (every job ends once, units end in the order
+// Asynchronous lanes in the real-time runtime (docs/DESIGN.md, "Queued lanes"), on the CPU
+// stand-in: the synthetic backend whose lanes are worker threads fed by Backend::enqueue and waited
+// for by Backend::wait. Assertions are structural (every job ends once, units end in the order
 // their lane was given them, who queued what, failures and timeouts reported), never about
 // timing.
 

@@ -1,6 +1,6 @@
-// Faults in the real-time runtime (§6), on the synthetic backend: a unit that throws, one
-// that runs out of memory, one that hangs past the watchdog. Assertions are structural
-// (who failed with which reason, every job accounted for, lanes that go on), never about
+// Faults in the real-time runtime (docs/DESIGN.md, "Synchronization"), on the synthetic backend: a
+// unit that throws, one that runs out of memory, one that hangs past the watchdog. Assertions are
+// structural (who failed with which reason, every job accounted for, lanes that go on), never about
 // how long anything took.
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
-// The real-time runtime (§6) with the synthetic backend: real threads and a real clock,
-// scaled-down unit times. Assertions are structural (accounting, failures, who decided),
-// never about timing.
+// The real-time runtime (docs/DESIGN.md, "Synchronization") with the synthetic backend: real
+// threads and a real clock, scaled-down unit times. Assertions are structural (accounting,
+// failures, who decided), never about timing.
 
 #include <gtest/gtest.h>
 

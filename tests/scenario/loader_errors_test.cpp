@@ -1,5 +1,5 @@
-// Every validation error of §11: one small file each under tests/data/scenarios/bad/, with
-// the exact line reported and a key part of the message.
+// Every validation error of docs/SCENARIOS.md: one small file each under tests/data/scenarios/bad/,
+// with the exact line reported and a key part of the message.
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // A scenario that uses every key parses, and replaying its events yields the right
-// snapshots (§11).
+// snapshots (docs/SCENARIOS.md).
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// `topic:` on sensors and inference nodes: the ROS 2 topics of `red node` (§14).
+// `topic:` on sensors and inference nodes: the ROS 2 topics of `red node` (docs/ROS2.md).
 
 #include <gtest/gtest.h>
 

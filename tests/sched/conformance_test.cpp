@@ -1,6 +1,7 @@
 // One conformance suite that every policy passes (as rclcpp runs one suite over all its
 // executors), on the bundled scenarios and on random ones:
-// * precedence respected for every job, and the refinement semantics of §3;
+// * precedence respected for every job, and the refinement semantics of docs/DESIGN.md,
+// "Refinement";
 // * every released job accounted for exactly once, and the summary agrees;
 // * no lane idles while a unit is ready (except a DynamicMerge wait), and a lane runs one
 //   unit at a time;
@@ -35,7 +36,7 @@ struct Source {
   std::string label;
   std::string path;        ///< bundled: the file
   std::uint64_t seed = 0;  ///< random: the generator's seed
-  int queue_depth = 0;     ///< > 0: lanes hold this many units (§6 on a GPU lane)
+  int queue_depth = 0;     ///< > 0: lanes hold this many units (docs/DESIGN.md, "Queued lanes")
 };
 
 // How gtest prints a parameter (instead of its bytes).
@@ -172,7 +173,8 @@ TEST_P(Conformance, EveryReleasedJobAccountedForOnce) {
   EXPECT_EQ(m.skipped, c_skipped);
   EXPECT_EQ(m.failed, c_failed);
   EXPECT_EQ(m.jobs, m.completed + m.dropped + m.unfinished);
-  EXPECT_EQ(m.met + (m.missed - m.dropped), m.completed);  // missed includes dropped (§10)
+  // missed includes dropped (docs/DESIGN.md, "Metrics")
+  EXPECT_EQ(m.met + (m.missed - m.dropped), m.completed);
   EXPECT_EQ(static_cast<std::int64_t>(r.jobs.size()), counted);
 }
 

@@ -1,4 +1,5 @@
-// Criticality (§5): under overload, lower-criticality operations are shed first.
+// Criticality (docs/DESIGN.md, "Criticality"): under overload, lower-criticality operations are
+// shed first.
 
 #include <gtest/gtest.h>
 
@@ -90,7 +91,7 @@ namespace {
 // put the criticality rule in force, so every unit of the critical operation's shared
 // encoder went ahead of drive's unfinished heads even though the lanes could carry both
 // (16.3 % of all jobs missed at 2x against red's 5.4 %). The rule now follows the demand
-// test alone, as §5 says.
+// test alone, as docs/DESIGN.md, "Criticality" says.
 double miss_pct(const PolicyRun& r, int operation = -1) {
   int jobs = 0, missed = 0;
   for (const JobRow& j : r.jobs) {

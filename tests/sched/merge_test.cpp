@@ -1,7 +1,7 @@
-// DynamicMerge(γ) and inter-DAG batching (§3), through the Scheduler driven with a virtual
-// time (no simulator). Inference nodes and the built-in default profile: encoder 12 ms
-// mean / 14 ms p99; heads lane 3.6, seg 4.8, steer 0.75 ms p99; batch b costs
-// (1 + 0.55 (b − 1)) single runs.
+// DynamicMerge(γ) and inter-DAG batching (docs/DESIGN.md, "DynamicMerge" and "Batching"), through
+// the Scheduler driven with a virtual time (no simulator). Inference nodes and the built-in default
+// profile: encoder 12 ms mean / 14 ms p99; heads lane 3.6, seg 4.8, steer 0.75 ms p99; batch b
+// costs (1 + 0.55 (b − 1)) single runs.
 
 #include <gtest/gtest.h>
 

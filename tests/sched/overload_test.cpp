@@ -1,6 +1,6 @@
-// Overload (§15): red-robust on seeded random DAG task sets (tests/support/load_grid.hpp)
-// against edf and red, the wasted lane time, the accounting of every release, and
-// criticality under combined overload.
+// Overload (docs/DESIGN.md, "Overload"): red-robust on seeded random DAG task sets
+// (tests/support/load_grid.hpp) against edf and red, the wasted lane time, the accounting of every
+// release, and criticality under combined overload.
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -189,9 +189,9 @@ TEST(Overload, RedRobustKeepsUpWithMonoOnTheMinibenchmarkPastItsLimit) {
   }
 }
 
-// §5 with issue 13's case: one lane, Hi (10 ms, deadline 11) and Lo (10 ms, deadline 12,
-// criticality 5); each fits alone, not both. The demand test sees the combined overload:
-// Lo, the critical one, goes first and meets its deadline; Hi is shed.
+// Criticality (docs/DESIGN.md, "Criticality") with issue 13's case: one lane, Hi (10 ms, deadline
+// 11) and Lo (10 ms, deadline 12, criticality 5); each fits alone, not both. The demand test sees
+// the combined overload: Lo, the critical one, goes first and meets its deadline; Hi is shed.
 class CombinedOverload : public testing::TestWithParam<std::string> {};
 
 TEST_P(CombinedOverload, TheLessCriticalJobIsShed) {
@@ -307,9 +307,9 @@ TEST(Overload, APessimisticProfileDoesNotMakeRedRobustRejectLoneJobs) {
   EXPECT_EQ(robust->metrics.completed, red->metrics.completed);
 }
 
-// Admission's margin (§15), worked out by hand: one lane, fixed costs, A and B (C ms each,
-// deadline 2.1 C) released together. On the bare estimates both fit (2 C of work by 2.1 C).
-// With C = 200 ms the offered load (0.4 s of work in the last 0.25 s) is past the lane's
+// Admission's margin (docs/DESIGN.md, "Overload"), worked out by hand: one lane, fixed costs, A and
+// B (C ms each, deadline 2.1 C) released together. On the bare estimates both fit (2 C of work
+// by 2.1 C). With C = 200 ms the offered load (0.4 s of work in the last 0.25 s) is past the lane's
 // capacity and the margin applies: at 10 % the work due is 2.2 C, so B (equal work and
 // criticality: the later of the two) is rejected at release and A runs alone from 0 to C;
 // at 5 % (2.1 C) both still fit. With C = 10 ms the lane is below capacity and no margin
@@ -456,7 +456,8 @@ operations:
   EXPECT_GT(looked.met, plain.met * 12 / 10) << looked.met << " vs " << plain.met;
 }
 
-// A boolean §15 option that only red-robust's preset sets, reachable from --with.
+// A boolean docs/DESIGN.md, "Overload" option that only red-robust's preset sets, reachable from
+// --with.
 void expect_option_of_red_robust_only(const std::string& key, bool PolicyOptions::*field) {
   for (const std::string& p : known_policies())
     EXPECT_EQ((*preset_options(p)).*field, p == "red-robust") << key << ", " << p;
@@ -533,10 +534,10 @@ operations:
                         "shared-frames.yaml");
 }
 
-// shed_lone (§15, docs/BENCHMARKS.md round 7), on grid set MIMONet chain seed 41 on 4 lanes:
-// four operations on one camera, 213 frames a second at 2.5x, max_inflight 4 each. Every
-// operation fills its slots and skips the frames that come meanwhile, so the frames each one
-// takes drift apart and an encoder run (12 ms, as long as the heads of a whole job) serves
+// shed_lone (docs/DESIGN.md, "Overload", docs/BENCHMARKS.md round 7), on grid set MIMONet chain
+// seed 41 on 4 lanes: four operations on one camera, 213 frames a second at 2.5x, max_inflight 4
+// each. Every operation fills its slots and skips the frames that come meanwhile, so the frames
+// each one takes drift apart and an encoder run (12 ms, as long as the heads of a whole job) serves
 // 1.9 jobs on average. Rejecting the jobs that would run their frame's encoder alone and leave
 // their operation fewer than half its slots keeps those for frames the operations share: more jobs
 // per encoder run, more jobs met. Below capacity it rejects nothing.
@@ -573,9 +574,9 @@ TEST(Overload, BatchByJobIsAnOptionOfRedRobustOnly) {
   expect_option_of_red_robust_only("batch_by_job", &PolicyOptions::batch_by_job);
 }
 
-// batch_by_job (§15, docs/BENCHMARKS.md round 7), on the same set: while ranked by job
-// deadline, a head batch was checked against the task's intermediate deadline, which is past
-// due under overload, so heads of different frames seldom ran together. Checked against
+// batch_by_job (docs/DESIGN.md, "Overload", docs/BENCHMARKS.md round 7), on the same set: while
+// ranked by job deadline, a head batch was checked against the task's intermediate deadline, which
+// is past due under overload, so heads of different frames seldom ran together. Checked against
 // each member's job deadline less the path after the head, they do: more batched head
 // dispatches, fewer head runs in all, more jobs met. Below capacity nothing changes.
 TEST(Overload, BatchByJobBatchesHeadsAcrossFramesUnderOverload) {
@@ -622,10 +623,10 @@ TEST(Overload, PathRankIsAnOptionOfRedRobustOnly) {
   expect_option_of_red_robust_only("path_rank", &PolicyOptions::path_rank);
 }
 
-// path_rank (§15, docs/BENCHMARKS.md round 9): while ranked by job deadline, every unit of
-// a job ranked alike, so on several lanes a job's units off its critical path ran ahead of
-// another job's critical path, and red-robust fell to edf's figure below capacity, where the
-// demand test fires on a job's own critical path (plain fork-join and wide sets of the grid).
+// path_rank (docs/DESIGN.md, "Overload", docs/BENCHMARKS.md round 9): while ranked by job deadline,
+// every unit of a job ranked alike, so on several lanes a job's units off its critical path ran
+// ahead of another job's critical path, and red-robust fell to edf's figure below capacity, where
+// the demand test fires on a job's own critical path (plain fork-join and wide sets of the grid).
 // Ranked by the job's deadline less the path after the unit (p99), it meets as many as red
 // and edf there.
 TEST(Overload, PathRankRunsOtherJobsCriticalPathsFirstOnSeveralLanes) {

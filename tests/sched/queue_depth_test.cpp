@@ -1,6 +1,6 @@
-// Lanes that hold more than one unit (SchedulerConfig::queue_depth, §6 on a GPU lane): the
-// scheduler driven directly with a virtual time. A lane's handler queues a unit behind the
-// one running (dispatch_ahead); what is queued counts as dispatched; the lane completes its
+// Lanes that hold more than one unit (SchedulerConfig::queue_depth, docs/DESIGN.md, "Queued
+// lanes"): the scheduler driven directly with a virtual time. A lane's handler queues a unit behind
+// the one running (dispatch_ahead); what is queued counts as dispatched; the lane completes its
 // units in the order given; a successor of a unit a lane holds is ready for that lane only.
 
 #include <gtest/gtest.h>

@@ -1,7 +1,8 @@
 // The Scheduler driven directly with a virtual time (a fake scheduling context, no
-// simulator): §4 re-assignment, dynamic workloads (§2 events), drop modes and overload
-// (§5), failed units (§6) and deterministic EDF tie-breaking (§5). Scenarios use plain
-// nodes (`cost_ms`) so every cost is exact.
+// simulator): re-assignment (docs/DESIGN.md, "Re-assignment"), dynamic workloads (docs/DESIGN.md,
+// "Task model" events), drop modes and overload (docs/DESIGN.md, "Dispatch"), failed units
+// (docs/DESIGN.md, "Synchronization") and deterministic EDF tie-breaking (docs/DESIGN.md,
+// "Dispatch"). Scenarios use plain nodes (`cost_ms`) so every cost is exact.
 
 #include <gtest/gtest.h>
 
@@ -101,7 +102,8 @@ PolicyOptions options_of(const char* preset, DropMode drop) {
   return o;
 }
 
-// ---- §4 re-assignment ---------------------------------------------------------------------
+// ---- re-assignment (docs/DESIGN.md, "Re-assignment")
+// ---------------------------------------------------------------------
 
 TEST(Reassignment, LongRunningUnitMovesLaterDeadlines) {
   const TimePoint r = 100ms;
@@ -193,7 +195,8 @@ TEST(Reassignment, LateJobGetsItsEndToEndDeadline) {
   EXPECT_EQ(d[0].deadline, r + 120ms);
 }
 
-// ---- §2 dynamic workload -------------------------------------------------------------------
+// ---- docs/DESIGN.md, "Task model" dynamic workload
+// -------------------------------------------------------------------
 
 TEST(DynamicWorkload, EventChangesTheGraphForLaterJobsOnly) {
   const std::string text = R"(name: evt
@@ -246,7 +249,8 @@ events:
   EXPECT_EQ(h.rec().dispatches_of(rel[4].id), 3);
 }
 
-// ---- §5 drops and overload -----------------------------------------------------------------
+// ---- docs/DESIGN.md, "Drops" drops and overload
+// -----------------------------------------------------------------
 
 TEST(Drops, StrictAbortsAtTheDeadlineAndDiscardsTheRunningUnit) {
   for (const char* policy : {"red-fg", "red-ida", "edf"}) {
@@ -438,7 +442,8 @@ TEST(Failures, OutOfMemoryWithoutReasonNamesTheStatus) {
   EXPECT_EQ(h.rec().ended[1].outcome, JobOutcome::Met);
 }
 
-// ---- §5 EDF tie-breaking -------------------------------------------------------------------
+// ---- docs/DESIGN.md, "Dispatch" EDF tie-breaking
+// -------------------------------------------------------------------
 
 constexpr const char* kTwoOps = R"(name: ties
 duration_s: 10

@@ -1,6 +1,6 @@
-// §6 on-demand synchronization, placement, round trips in dispatch estimates and the end
-// of a run, on small scenarios with fixed costs (every unit's min = max), so that each
-// schedule is worked out by hand in the comments and compared row by row with units.csv's
+// docs/DESIGN.md, "Synchronization" on-demand synchronization, placement, round trips in dispatch
+// estimates and the end of a run, on small scenarios with fixed costs (every unit's min = max), so
+// that each schedule is worked out by hand in the comments and compared row by row with units.csv's
 // records. Encoder 10 ms; heads lane 2, seg 3, steer 1, det 4 ms; batch of two heads of a
 // kind 1.5 × one.
 

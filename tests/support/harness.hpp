@@ -26,7 +26,8 @@ inline Scenario parse(const std::string& text) {
   return std::move(s).value();
 }
 
-/// §4 worked example: D = 120 ms; A and B at height 0 cost 20 ms; C at height 1 costs 40 ms.
+/// docs/DESIGN.md, "Intermediate deadlines" worked example: D = 120 ms; A and B at height 0 cost 20
+/// ms; C at height 1 costs 40 ms.
 inline constexpr const char* kWorked = R"(name: worked
 duration_s: 10
 sensors:

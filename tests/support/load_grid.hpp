@@ -1,12 +1,11 @@
 #pragma once
 /// \file
-/// The overload grid (§15): seeded random DAG task sets — chains, fork-joins and wide DAGs
-/// of plain-cost nodes or MIMONet inference nodes, on 1, 2 or 4 lanes — sized to a target
-/// utilization of the necessary work, and the yardsticks a policy is judged by at each
-/// load: the on-time fraction, the work bound (the most jobs that fit the lane time when
-/// the cheapest are admitted first, jobs whose critical path exceeds the deadline
-/// excluded) and the wasted lane time. Shared by tests/sched/overload_test.cpp and
-/// bench/load_grid.cpp. Deterministic for a seed.
+/// The overload grid (docs/DESIGN.md, "Overload"): seeded random DAG task sets — chains, fork-joins
+/// and wide DAGs of plain-cost nodes or MIMONet inference nodes, on 1, 2 or 4 lanes — sized to a
+/// target utilization of the necessary work, and the yardsticks a policy is judged by at each load:
+/// the on-time fraction, the work bound (the most jobs that fit the lane time when the cheapest are
+/// admitted first, jobs whose critical path exceeds the deadline excluded) and the wasted lane
+/// time. Shared by tests/sched/overload_test.cpp and bench/load_grid.cpp. Deterministic for a seed.
 
 #include <fmt/format.h>
 
@@ -222,9 +221,9 @@ inline Point evaluate(const Scenario& s, const Profile& p, const std::string& po
   return pt;
 }
 
-/// The work bound (§15): of the jobs released after warm-up in the run of `s`, the largest
-/// share that fits the lanes' time when the cheapest are admitted first (red/analysis/bound.hpp,
-/// the same figure `red analyze` reports).
+/// The work bound (docs/DESIGN.md, "Overload"): of the jobs released after warm-up in the run of
+/// `s`, the largest share that fits the lanes' time when the cheapest are admitted first
+/// (red/analysis/bound.hpp, the same figure `red analyze` reports).
 inline double work_bound(const Scenario& s, const Profile& p) {
   return red::work_bound(s, p);
 }

@@ -68,7 +68,8 @@ inline std::string random_scenario_yaml(std::uint64_t seed, const RandomScenario
     std::string name;
     int head = -1, sensor = -1;
     double cost_ms = 0, p99_ms = 0;  // plain nodes
-    bool deadline_override = false;  // per-node deadline (§4 overrides)
+    // Per-node deadline overrides (docs/DESIGN.md, "Intermediate deadlines").
+    bool deadline_override = false;
   };
   struct Op {
     int trigger = -1;
@@ -120,7 +121,8 @@ inline std::string random_scenario_yaml(std::uint64_t seed, const RandomScenario
       op.work_ms += cost[static_cast<std::size_t>(v)];
     }
     if (o.knobs && chance(15)) {
-      // §4 per-node override on a random node: a share of the end-to-end deadline.
+      // docs/DESIGN.md, "Intermediate deadlines" per-node override on a random node: a share of the
+      // end-to-end deadline.
       op.nodes[static_cast<std::size_t>(pick(0, n - 1))].deadline_override = true;
     }
     if (chance(20)) op.max_inflight = pick(1, 3);
@@ -206,8 +208,8 @@ inline std::string random_scenario_yaml(std::uint64_t seed, const RandomScenario
     }
   }
   if (o.events) {
-    // A node joins op0 for the middle third of the run (§2 environmental dynamics), and a
-    // sensor changes rate.
+    // A node joins op0 for the middle third of the run (docs/DESIGN.md, "Task model" environmental
+    // dynamics), and a sensor changes rate.
     const Op& op0 = ops.front();
     const int from = pick(0, static_cast<int>(op0.nodes.size()) - 1);
     y += "events:\n";

@@ -113,8 +113,8 @@ class RecordingObserver final : public Observer {
 
   void on_decision(TimePoint now, int ready, int idle_lanes, int waiting) override {
     ++decisions_;
-    // §5: a free lane with a ready task must take it, unless the task waits for a
-    // predicted merge member (DynamicMerge rule 2).
+    // docs/DESIGN.md, "Dispatch": a free lane with a ready task must take it, unless the task waits
+    // for a predicted merge member (DynamicMerge rule 2).
     if (idle_lanes > 0 && ready != waiting && idle_violations_.size() < 20)
       idle_violations_.push_back({now, ready, idle_lanes, waiting});
     if (idle_lanes > 0 && ready != waiting) ++idle_violation_count_;

@@ -1,9 +1,9 @@
 #pragma once
 /// \file
-/// Test support: checks a recorded run against the semantics of §3 and §5 — every node
-/// output of every completed job produced exactly once, from a frame of the right sensor,
-/// after all its predecessors; no unit of a job starting after the job ended; lanes that
-/// run one unit at a time. Returns human-readable violations (empty: all good).
+/// Test support: checks a recorded run against the semantics of docs/DESIGN.md, "Refinement" and
+/// "Dispatch" — every node output of every completed job produced exactly once, from a frame of the
+/// right sensor, after all its predecessors; no unit of a job starting after the job ended; lanes
+/// that run one unit at a time. Returns human-readable violations (empty: all good).
 
 #include <algorithm>
 #include <cstdint>
@@ -137,7 +137,8 @@ inline std::vector<std::string> check_semantics(const Scenario& s, const Recordi
       const detail::Exec& e = list.front();
       const Dispatch& d = e.unit->d;
       const Member& m = *e.member;
-      // §5 strict abort: queued units leave; only units already running may still end.
+      // docs/DESIGN.md, "Drops" strict abort: queued units leave; only units already running may
+      // still end.
       if (e.unit->start_event > end_event)
         fail(fmt::format("{}: unit {} ({}) started at {} after the job ended", who, unit,
                          to_string(ru.kind), d.start.count()));
@@ -148,7 +149,8 @@ inline std::vector<std::string> check_semantics(const Scenario& s, const Recordi
                          to_string(ru.kind), to_string(d.kind)));
       if (m.node != ru.node)
         fail(fmt::format("{}: unit {} reported node {} (expected {})", who, unit, m.node, ru.node));
-      // Precedence (§3): every predecessor unit ended, completed, before this one started.
+      // Precedence (docs/DESIGN.md, "Refinement"): every predecessor unit ended, completed, before
+      // this one started.
       for (int p : ru.preds) {
         const detail::Exec* pe = exec_of(p);
         // A unit queued behind its predecessor on the same lane (device.queue_depth > 1) is
@@ -170,7 +172,7 @@ inline std::vector<std::string> check_semantics(const Scenario& s, const Recordi
           fail(fmt::format("{}: unit {} started before job {} it depends on ended", who, unit,
                            dj->second->id));
       }
-      // The right sensor and a frame that sensor produced (§3).
+      // The right sensor and a frame that sensor produced (docs/DESIGN.md, "Refinement").
       int sensor = ru.sensor;
       if (ru.kind == UnitKind::Mono) sensor = g.sensors.empty() ? -1 : g.sensors.front();
       if (ru.node >= 0 && ru.kind != UnitKind::Plain) {

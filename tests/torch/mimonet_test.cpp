@@ -113,8 +113,8 @@ TEST(MimoNet, HeadSubsetInGivenOrder) {
 }
 
 TEST(MimoNet, EncoderDominatesTheWork) {
-  // §9: the encoder must dominate the cost, as in the paper. Checked on multiply-adds
-  // and parameters, not on time.
+  // docs/DESIGN.md, "Built-in model": the encoder must dominate the cost, as in the paper. Checked
+  // on multiply-adds and parameters, not on time.
   const Model& m = shared_model();
   const UnitCost enc = m.encoder_cost();
   std::int64_t head_macs = 0;
@@ -148,7 +148,8 @@ TEST(MimoNet, SeparateModeHasFourEncoders) {
   for (int h = 0; h < 4; ++h) {
     EXPECT_EQ(s->head_cost(h).parameter_bytes, m.head_cost(h).parameter_bytes);
   }
-  // §13 target: shared ≤ 0.5x the parameters of four separate networks.
+  // docs/DESIGN.md, "Performance targets" target: shared ≤ 0.5x the parameters of four separate
+  // networks.
   EXPECT_LT(static_cast<double>(m.parameter_bytes()),
             0.5 * static_cast<double>(s->parameter_bytes()));
 

@@ -1,5 +1,5 @@
 /// \file
-/// `red node` and `red camera` (§14): RED as a ROS 2-compatible node on Cyclone DDS, and a
+/// `red node` and `red camera` (docs/ROS2.md): RED as a ROS 2-compatible node on Cyclone DDS, and a
 /// camera publisher for demos and tests. Built only with the DDS bridge (RED_HAVE_DDS).
 
 #include <fmt/format.h>
@@ -242,7 +242,7 @@ int run_node(const NodeArgs& a) {
       "red node: frame pushed -> released (runtime) p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
       percentile(report.frame_release_us, 0.5), percentile(report.frame_release_us, 0.99),
       report.frame_release_us.size());
-  // DESIGN §14's "frame received -> job released", frame by frame: taken from the reader ->
+  // docs/ROS2.md's "frame received -> job released", frame by frame: taken from the reader ->
   // the job released, stamped by the node's observer when the runtime released it on the
   // receiving thread; for a frame posted to the global synchronizer, taken -> pushed plus
   // the runtime's pushed -> released.

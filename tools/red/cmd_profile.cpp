@@ -1,7 +1,8 @@
 /// \file
-/// `red profile`: measures every unit of a model on the LibTorch backend (§8), prints a
-/// table with the shared-versus-separate comparison (§13) and writes the profile JSON.
-/// Without the LibTorch backend the command exists but only says how to get it.
+/// `red profile`: measures every unit of a model on the LibTorch backend (docs/DESIGN.md,
+/// "Profiles"), prints a table with the shared-versus-separate comparison (docs/DESIGN.md,
+/// "Performance targets") and writes the profile JSON. Without the LibTorch backend the command
+/// exists but only says how to get it.
 
 #include <algorithm>
 #include <iostream>
@@ -32,7 +33,8 @@ namespace red::cli {
 #if !defined(RED_HAVE_TORCH)
 
 void register_profile(CLI::App& app, int& exit_code) {
-  CLI::App* cmd = app.add_subcommand("profile", "Measure every unit on the LibTorch backend (§8)");
+  CLI::App* cmd =
+      app.add_subcommand("profile", "Measure every unit on the LibTorch backend (docs/MODELS.md)");
   cmd->allow_extras();
   cmd->callback([&exit_code] {
     std::cerr << "red profile needs the LibTorch backend (build with -DRED_TORCH=ON)\n";
@@ -149,7 +151,8 @@ void print_table(const Profile& p, const std::vector<std::string>& heads) {
   if (p.separate_memory) memory_row("separate (one per head)", *p.separate_memory);
 
   // One frame through every head at batch 1: the shared encoder once plus each head,
-  // against every separate network (§13: ≥ 2.5x faster, ≤ 0.5x memory).
+  // against every separate network (docs/DESIGN.md, "Performance targets": ≥ 2.5x faster, ≤ 0.5x
+  // memory).
   const UnitProfile* enc = p.find("encoder");
   Duration shared{0};
   Duration separate{0};
@@ -416,7 +419,7 @@ int run_profile(const ProfileArgs& a) {
 void register_profile(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<ProfileArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "profile", "Measure every unit of a model on the LibTorch backend and write a profile (§8)");
+      "profile", "Measure every unit of a model on the LibTorch backend and write a profile");
   cmd->add_option("--model", args->model, "'builtin' (MIMONet) or a model manifest (YAML)")
       ->capture_default_str();
   cmd->add_option("--heads", args->heads,

@@ -194,7 +194,8 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
 
 // Runs the given policies on one scenario and prints and writes the results. In the
 // simulator every policy sees the same releases and the same sampled unit times (common
-// random numbers, §10); on a real backend the same releases. Returns the exit code.
+// random numbers, docs/DESIGN.md, "Metrics"); on a real backend the same releases. Returns the exit
+// code.
 int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool table) {
   install_stop_signals();
   {
@@ -472,7 +473,8 @@ void add_common(CLI::App* cmd, RunArgs& a) {
                   "Simulator only: draw unit costs from this profile (e.g. a calibration, "
                   "docs/FIDELITY.md) while the scheduler plans with --profile");
   cmd->add_option("--sync", a.sync,
-                  "Synchronization: per-edge or on-demand (default: each policy's own, §7)")
+                  "Synchronization: per-edge or on-demand (default: each policy's own; "
+                  "docs/DESIGN.md#synchronization)")
       ->check(CLI::IsMember({"per-edge", "on-demand"}));
   cmd->add_option("--trace-events", a.trace_events,
                   "Most events in trace.json, over all policies (0: no trace.json)")
@@ -542,7 +544,7 @@ void register_compare(CLI::App& app, int& exit_code) {
 void register_run(CLI::App& app, int& exit_code) {
   auto a = std::make_shared<RunArgs>();
   a->backend = "torch";
-  a->policy = "red-robust";  // §15: the flagship on a real robot
+  a->policy = "red-robust";  // docs/DESIGN.md, "Overload": the flagship on a real robot
   CLI::App* cmd = app.add_subcommand("run", "Real execution in real time (LibTorch inference)");
   add_common(cmd, *a);
   add_real(cmd, *a);

@@ -84,8 +84,9 @@ Expected<std::pair<std::string, std::vector<double>>> parse_sweep(const std::str
   return std::pair{key, values};
 }
 
-// DESIGN §13's breakdown rate of one policy over a rate_scale sweep: the largest swept scale
-// up to which (every smaller swept scale included) the miss rate stays within the limit.
+// docs/DESIGN.md, "Performance targets"'s breakdown rate of one policy over a rate_scale sweep: the
+// largest swept scale up to which (every smaller swept scale included) the miss rate stays within
+// the limit.
 struct Breakdown {
   std::optional<double> scale;  // none: the smallest swept scale already misses more
   bool censored = false;        // no swept scale missed more: the rate is at least `scale`
@@ -221,7 +222,8 @@ void register_sweep(CLI::App& app, int& exit_code) {
     std::string text = table("miss rate", [](const PolicyMetrics& m) { return m.miss_rate; });
     text += table("mean latency (ms)", [](const PolicyMetrics& m) { return m.latency.mean; });
     text += table("QoE", [](const PolicyMetrics& m) { return m.qoe; });
-    // §13: over rate_scale, each policy's breakdown rate beside the physical limit.
+    // docs/DESIGN.md, "Performance targets": over rate_scale, each policy's breakdown rate beside
+    // the physical limit.
     std::vector<Breakdown> breakdowns;
     NecessaryLoad need;
     double limit = 0;
@@ -248,7 +250,8 @@ void register_sweep(CLI::App& app, int& exit_code) {
              b.scale && has_limit ? fmt::format("{}{:.3f}", ge, *b.scale / limit) : "-", past});
       }
       text += fmt::format(
-          "breakdown rate (miss rate <= {:g} % at every swept rate_scale up to it, DESIGN §13)\n"
+          "breakdown rate (miss rate <= {:g} % at every swept rate_scale up to it; see "
+          "docs/DESIGN.md#targets)\n"
           "physical limit: {}\n{:<10} {:>9} {:>12}\n",
           100 * kBreakdownMiss, limit_text, "policy", "breakdown", "of the limit");
       for (const auto& r : bd_rows)
@@ -322,10 +325,11 @@ void register_sweep(CLI::App& app, int& exit_code) {
         sec.id = "breakdown";
         sec.heading = "Breakdown rate";
         sec.paragraphs = {
-            fmt::format("The largest swept rate_scale up to which each policy misses at most "
-                        "{:g} % of its jobs at every swept value (DESIGN §13), and its fraction "
-                        "of the physical limit.",
-                        100 * kBreakdownMiss),
+            fmt::format(
+                "The largest swept rate_scale up to which each policy misses at most "
+                "{:g} % of its jobs at every swept value, and its fraction of the physical limit "
+                "(docs/DESIGN.md, \"Performance targets\").",
+                100 * kBreakdownMiss),
             "Physical limit: " + limit_text + "."};
         HtmlTable t;
         t.header = {"policy", "breakdown rate_scale", "fraction of the limit",

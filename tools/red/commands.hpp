@@ -8,7 +8,7 @@
 
 namespace red::cli {
 
-/// Exit codes of §12.
+/// Exit codes of docs/CLI.md.
 inline constexpr int kOk = 0;
 inline constexpr int kRunFailure = 1;
 inline constexpr int kBadInput = 2;

@@ -1,5 +1,5 @@
 /// \file
-/// `red`: validate, simulate, compare, sweep, profile (§12).
+/// `red`: validate, simulate, compare, sweep, profile (docs/CLI.md).
 
 #include <algorithm>
 #include <cerrno>
@@ -122,7 +122,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     // Bad usage: CLI11 explains, and a misspelt option gets the closest one the command has;
-    // RED's exit code for bad input is 2.
+    // RED's exit code for bad input is 2 (docs/CLI.md).
     app.exit(e);
     for (const CLI::App* sub : app.get_subcommands()) std::cerr << suggestions(*sub, argc, argv);
     return red::cli::kBadInput;

@@ -1,5 +1,6 @@
 /// \file
-/// Real runs: backends by name, one policy on the runtime, its report (§6, §12).
+/// Real runs: backends by name, one policy on the runtime, its report (docs/DESIGN.md,
+/// "Synchronization", docs/CLI.md).
 
 #include <fmt/format.h>
 #include <malloc.h>

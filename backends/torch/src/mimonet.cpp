@@ -1,9 +1,8 @@
-// The built-in MIMONet (§9): a shared convolutional encoder with feature maps at strides
-// 4, 8 and 16, and four heads shaped like the paper's task models (Table 1): lane
-// (ENet-like light decoder to a 1-channel mask), seg (UNet-like decoder with skips),
-// steer (PilotNet-like convolutions and fully connected layers to one value) and det
-// (YOLO-like grid head). Weights are seeded random; compute and memory are real, outputs
-// are not meaningful.
+// The built-in MIMONet (docs/DESIGN.md, "Built-in model"): a shared convolutional encoder with
+// feature maps at strides 4, 8 and 16, and four heads shaped like the paper's task models (Table
+// 1): lane (ENet-like light decoder to a 1-channel mask), seg (UNet-like decoder with skips), steer
+// (PilotNet-like convolutions and fully connected layers to one value) and det (YOLO-like grid
+// head). Weights are seeded random; compute and memory are real, outputs are not meaningful.
 //
 // Sizing (`red profile`, 2 intra-op threads on a 2-core x86 CPU, input [3,192,384],
 // batch 1): encoder about 13 ms, encoder + four heads about 19 ms, the encoder about

@@ -75,7 +75,7 @@ class Window {
 
 // A frame's model input: a tensor made at once (a synthetic frame, or pixels given with the
 // call), or a received frame whose pixels and tensor are made when the encoder first asks
-// for them (§14: a DDS frame is released first, converted later; LazyFrame). Thread-safe:
+// for them (docs/ROS2.md: a DDS frame is released first, converted later; LazyFrame). Thread-safe:
 // the first lane to ask converts, others wait for it.
 struct FrameInput {
   std::shared_ptr<const LazyFrame> lazy;
@@ -116,13 +116,14 @@ class TorchBackend final : public Backend {
 
   [[nodiscard]] std::string_view name() const noexcept override { return name_; }
 
-  // A GPU lane is a stream: units are enqueued on it and waited for (§6). On the CPU only
-  // when asked (make_torch_backend's stand-in for tests).
+  // A GPU lane is a stream: units are enqueued on it and waited for (docs/DESIGN.md,
+  // "Synchronization"). On the CPU only when asked (make_torch_backend's stand-in for tests).
   [[nodiscard]] bool asynchronous() const noexcept override { return asynchronous_; }
 
-  // On a GPU every lane runs on its own stream from the device's pool (§6: one lane per
-  // CUDA stream), set as the lane thread's current stream. Device-generic c10 interface:
-  // it builds against a CPU-only LibTorch and uses CUDA when the LibTorch has it.
+  // On a GPU every lane runs on its own stream from the device's pool (docs/DESIGN.md,
+  // "Synchronization": one lane per CUDA stream), set as the lane thread's current stream.
+  // Device-generic c10 interface: it builds against a CPU-only LibTorch and uses CUDA when the
+  // LibTorch has it.
   void init_lane(int /*lane*/) override {
     const c10::Device device = model_->device();
     if (device.is_cpu() || !c10::impl::hasDeviceGuardImpl(device.type())) return;
@@ -287,9 +288,9 @@ class TorchBackend final : public Backend {
   }
 
  private:
-  // Runs fn, turning LibTorch's exceptions into the runtime's (§6): out of memory into
-  // OutOfMemoryError, any other c10::Error into a runtime_error naming LibTorch. Others
-  // (the backend's own runtime_errors) pass unchanged.
+  // Runs fn, turning LibTorch's exceptions into the runtime's (docs/DESIGN.md, "Synchronization"):
+  // out of memory into OutOfMemoryError, any other c10::Error into a runtime_error naming LibTorch.
+  // Others (the backend's own runtime_errors) pass unchanged.
   template <typename F>
   static void translated(F&& fn) {
     try {

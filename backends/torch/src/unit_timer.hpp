@@ -1,8 +1,8 @@
 #pragma once
 /// \file
-/// Times one call of a unit on its device (§8, `red profile`): host wall time on the CPU;
-/// on a GPU, the time between two device events recorded on the current stream around the
-/// call, which is what the device spent, without the host's launch gaps. LibTorch's
+/// Times one call of a unit on its device (docs/DESIGN.md, "Profiles", `red profile`): host wall
+/// time on the CPU; on a GPU, the time between two device events recorded on the current stream
+/// around the call, which is what the device spent, without the host's launch gaps. LibTorch's
 /// device-generic event (c10::Event) times events in LibTorch 2.6 (checked against its
 /// headers; it came in 2.4 or 2.5); with an older LibTorch a GPU unit is timed by the host
 /// clock after a device sync.

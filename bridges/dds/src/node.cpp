@@ -56,9 +56,9 @@ constexpr std::size_t kLatencyWindow = 1024;  // latencies kept per operation
 constexpr std::size_t kDecisionWindow = 4096;
 constexpr std::size_t kIntakeWindow = 16384;  // frame intake times kept (newest)
 
-// What a frame's outputs are computed from (fixed rules, §9: the built-in model's weights
-// are random), once per frame however many heads publish it, on the receiving thread after
-// the release (off the way from a job's end to its outputs).
+// What a frame's outputs are computed from (fixed rules, docs/DESIGN.md, "Built-in model": the
+// built-in model's weights are random), once per frame however many heads publish it, on the
+// receiving thread after the release (off the way from a job's end to its outputs).
 struct FrameStats {
   double mean = 0;
   double left = 0, right = 0;            // luminance sums of the left and right halves
@@ -145,7 +145,7 @@ struct Output {
 
 // The node whose receiving thread is inside Runtime::push_frame() on this thread: the
 // runtime releases a pushed frame's job on the pushing thread when its lock is free (a
-// direct release), and the node's observer stamps that moment (taken -> released, §14).
+// direct release), and the node's observer stamps that moment (taken -> released, docs/ROS2.md).
 thread_local const void* pushing_node = nullptr;
 
 std::string fmt_double(double v) {
@@ -213,7 +213,7 @@ struct Node::Impl final : Observer {
 
   Impl(const Scenario& s, const Profile& p, Backend& b, NodeOptions o)
       : scenario(s), profile(p), backend(b), options(std::move(o)) {
-    // Frame arrivals are the releases (§14): run until stop() or the given duration.
+    // Frame arrivals are the releases (docs/ROS2.md): run until stop() or the given duration.
     scenario.duration = options.duration.value_or(std::chrono::hours{24 * 365});
     topics = node_topics(scenario, options.remaps);
     sensors.resize(scenario.sensors.size());
@@ -391,7 +391,7 @@ struct Node::Impl final : Observer {
       ring[n % kIntakeWindow] = v;
   }
 
-  // A checked frame is a release (§14): the pixels are moved out of the sample, not
+  // A checked frame is a release (docs/ROS2.md): the pixels are moved out of the sample, not
   // converted; the backend gets them as a LazyFrame that converts them to the model's input
   // when a unit first needs them (the encoder's start), so a frame whose job is dropped
   // before it runs is never converted. Only after the release is the frame's luminance (what
@@ -551,7 +551,7 @@ struct Node::Impl final : Observer {
         ++st.dropped;
       }
     }
-    // A finished job publishes what it computed; a dropped one (strict) nothing (§14).
+    // A finished job publishes what it computed; a dropped one (strict) nothing (docs/ROS2.md).
     if (!completed) {
       std::lock_guard lock(counters_mu);
       if (j.outcome != JobOutcome::Unfinished) ++counters.jobs_without_output;
@@ -583,8 +583,8 @@ struct Node::Impl final : Observer {
   }
 
   // The published values are computed from the frame by fixed rules (the built-in model's
-  // weights are random, §9): lane a bright-pixel mask, seg four luminance classes, steer the
-  // left/right balance, det the box around the brightest pixels.
+  // weights are random, docs/DESIGN.md, "Built-in model"): lane a bright-pixel mask, seg four
+  // luminance classes, steer the left/right balance, det the box around the brightest pixels.
   void publish(const Output& o, const FrameView& g, const FrameStats& f, const HeaderValue& hv) {
     const std::string& head = scenario.model.heads[static_cast<std::size_t>(o.head)];
     const auto topic = topics.nodes.find(std::make_pair(o.operation, o.node));

@@ -121,7 +121,7 @@ dds_qos_t* make_qos(const EndpointQos& q) {
   dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, q.depth);
   dds_qset_durability(qos,
                       q.transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
-  // XCDR1, ROS 2's data representation (§14).
+  // XCDR1, ROS 2's data representation (docs/ROS2.md).
   const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
   dds_qset_data_representation(qos, 1, &xcdr1);
   return qos;

@@ -43,8 +43,8 @@ struct OperationAnalysis {
   std::string name;
   double rate_hz = 0;
   Duration deadline{0};
-  /// Critical paths (§3): coarse and fine graph, on mean costs and on the scheduler's
-  /// estimate.
+  /// Critical paths (docs/DESIGN.md, "Refinement"): coarse and fine graph, on mean costs and on the
+  /// scheduler's estimate.
   Duration cp_coarse_mean{0}, cp_coarse_estimate{0}, cp_fine_mean{0}, cp_fine_estimate{0};
   /// The shortest response of a job alone on the device on the policy's graph: max(critical
   /// path, the job's own work / lanes), on best-case (min) and on mean costs.

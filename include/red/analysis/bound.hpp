@@ -1,18 +1,18 @@
 #pragma once
 /// \file
-/// The work bound on the on-time fraction (§15): of the jobs a scenario releases after its
-/// warm-up, the largest share that fits the lanes' time when the cheapest jobs are admitted
-/// first. No policy can do better on average-cost work, so `red analyze` reports it for the
-/// whole device and the overload grid (tests/support/load_grid.hpp) judges policies by it.
+/// The work bound on the on-time fraction (docs/DESIGN.md, "Overload"): of the jobs a scenario
+/// releases after its warm-up, the largest share that fits the lanes' time when the cheapest jobs
+/// are admitted first. No policy can do better on average-cost work, so `red analyze` reports it
+/// for the whole device and the overload grid (tests/support/load_grid.hpp) judges policies by it.
 
 #include "red/profile/profile.hpp"
 #include "red/scenario/scenario.hpp"
 
 namespace red {
 
-/// The work bound (§15): of the jobs released after warm-up in a run of `s`, the largest
-/// share that fits the lanes' time when the cheapest are admitted first, jobs whose coarse
-/// critical path exceeds their deadline excluded. A job's cost is the least lane time any
+/// The work bound (docs/DESIGN.md, "Overload"): of the jobs released after warm-up in a run of `s`,
+/// the largest share that fits the lanes' time when the cheapest are admitted first, jobs whose
+/// coarse critical path exceeds their deadline excluded. A job's cost is the least lane time any
 /// policy can spend on it when it is on time, on mean costs: its plain costs; per head, and
 /// per sensor it reads an encoder run, the least over batch sizes b of C(b) divided by the
 /// most on-time jobs a batch of b can serve. A batch is at most `max_batch`; it serves at
@@ -21,7 +21,7 @@ namespace red {
 /// of the longest path and the lane time over the lanes; none if that exceeds D), at most
 /// max_inflight of them; an encoder run on a frame serves one job of each operation the
 /// frame triggers, and of an operation sampling the newest frame its releases within γ or
-/// while the frame stays the newest (DynamicMerge, §3); a batch of frames of several
+/// while the frame stays the newest (docs/DESIGN.md, "DynamicMerge"); a batch of frames of several
 /// sensors is split among them as serves the most jobs. Where a sensor's frames are read
 /// only by the operations they trigger, serving m jobs of a frame also costs at least a run
 /// (the least share of a batch of frames that may all serve on-time jobs) and the m

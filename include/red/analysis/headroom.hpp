@@ -17,7 +17,8 @@ namespace red {
 
 /// Knobs of the search.
 struct HeadroomOptions {
-  double miss_limit = 0.01;              ///< an operation fails above this miss rate (§10)
+  /// An operation fails above this miss rate (docs/DESIGN.md, "Metrics").
+  double miss_limit = 0.01;
   double max_rate_scale = 16.0;          ///< the rate search stops (passing) here
   double min_rate_scale = 1.0 / 64;      ///< the rate search stops (failing) here
   double max_deadline_scale = 16.0;      ///< the deadline search stops (failing) here
@@ -56,7 +57,8 @@ struct Headroom {
 };
 
 /// Per-operation miss rates of `policy` on `s` (seed: the scenario's); Error for an unknown
-/// policy. A miss is a job finished late or dropped, over completed + dropped (§10).
+/// policy. A miss is a job finished late or dropped, over completed + dropped (docs/DESIGN.md,
+/// "Metrics").
 Expected<Trial> run_trial(const Scenario& s, const Profile& p, const std::string& policy,
                           double miss_limit);
 

@@ -8,7 +8,7 @@
 /// synchronous busy period of J. P. Lehoczky, "Fixed priority scheduling of periodic task
 /// sets with arbitrary deadlines", RTSS 1990, and of L. George, N. Rivierre, M. Spuri,
 /// "Preemptive and non-preemptive real-time uniprocessor scheduling", INRIA RR-2966, 1996,
-/// §4: under any work-conserving policy a job released in a busy period finishes by its
+/// section 4: under any work-conserving policy a job released in a busy period finishes by its
 /// end, and no busy period is longer than L). Where the setting differs (several lanes,
 /// merge waits, batching, depends_on, one-shot releases), the result says why no analysis
 /// applies instead of inventing one.

@@ -2,9 +2,9 @@
 /// \file
 /// Static figures of a workload for `red analyze` (docs/ANALYSIS.md): unit costs at one point
 /// of their distributions, the workload in effect in each phase that events create, critical
-/// paths and work per job on the coarse, fine and merged graphs (§3), release rates, and the
-/// worst-case variant of a scenario and profile (every cost at its max) that the verdicts
-/// and the headroom search simulate.
+/// paths and work per job on the coarse, fine and merged graphs (docs/DESIGN.md, "Refinement"),
+/// release rates, and the worst-case variant of a scenario and profile (every cost at its max) that
+/// the verdicts and the headroom search simulate.
 
 #include <cstdint>
 #include <memory>
@@ -68,9 +68,9 @@ struct PhaseWorkload {
 /// snapshots and sensor rates that the events up to its start leave in effect.
 std::vector<PhaseWorkload> phase_workloads(const Scenario& s, TimePoint end);
 
-/// Longest path through one job of `op` on the graph `mode` builds (§3): coarse nodes cost
-/// encoder + head; on the fine graph every encoder is a source, so a node finishes at
-/// max(encoder, its predecessors) + its head; mono is the whole job in one unit (one
+/// Longest path through one job of `op` on the graph `mode` builds (docs/DESIGN.md, "Refinement"):
+/// coarse nodes cost encoder + head; on the fine graph every encoder is a source, so a node
+/// finishes at max(encoder, its predecessors) + its head; mono is the whole job in one unit (one
 /// encoder run per sensor, then every node).
 Duration critical_path(const OperationSpec& op, GraphMode mode, const UnitCosts& c);
 
@@ -86,20 +86,20 @@ Duration work_fine(const OperationSpec& op, const UnitCosts& c);
 double release_rate(const OperationSpec& op, const PhaseWorkload& ph, const Scenario& s);
 
 /// Encoder runs per job of every operation of phase `ph` (by index; 0 when absent or it
-/// reads no sensor) with DynamicMerge across operations (§3): operations triggered by the
-/// same camera share one run per frame; operations sampling the newest frame of a camera at
-/// their own rates are estimated to share one run per release of the fastest of them when
-/// γ covers half of the slowest one's period, else to run one each, never more runs than
-/// the camera has frames. An estimate; the simulator counts the real runs.
+/// reads no sensor) with DynamicMerge across operations (docs/DESIGN.md, "DynamicMerge"):
+/// operations triggered by the same camera share one run per frame; operations sampling the newest
+/// frame of a camera at their own rates are estimated to share one run per release of the fastest
+/// of them when γ covers half of the slowest one's period, else to run one each, never more runs
+/// than the camera has frames. An estimate; the simulator counts the real runs.
 std::vector<double> merged_encoder_runs(const Scenario& s, const PhaseWorkload& ph);
 
 /// Work of one job with its encoder runs shared across operations: every node's own part on
 /// the fine graph plus `encoder_runs` (merged_encoder_runs) encoder runs.
 Duration work_merged(const OperationSpec& op, const UnitCosts& c, double encoder_runs);
 
-/// The necessary work of DESIGN §13 as a share of the lanes' time: per job of each operation
-/// its work_merged at mean costs, over the lanes; averaged over the
-/// phases of the measured window (warm-up to the end), weighted by their length.
+/// The necessary work of docs/DESIGN.md, "Performance targets" as a share of the lanes' time: per
+/// job of each operation its work_merged at mean costs, over the lanes; averaged over the phases of
+/// the measured window (warm-up to the end), weighted by their length.
 struct NecessaryLoad {
   double scaled = 0;  ///< the share that grows with rate_scale (sensor and own rates)
   double fixed = 0;   ///< operations with a fixed release count (rate_scale leaves them)

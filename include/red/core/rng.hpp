@@ -1,8 +1,8 @@
 #pragma once
 /// \file
-/// Counter-based random numbers for common random numbers (§10 paired comparison): a
-/// sample is a pure function of (seed, what, which instance), so every policy sees the
-/// same execution time for the same unit instance, whatever order it runs things in.
+/// Counter-based random numbers for common random numbers (docs/DESIGN.md, "Metrics" paired
+/// comparison): a sample is a pure function of (seed, what, which instance), so every policy sees
+/// the same execution time for the same unit instance, whatever order it runs things in.
 
 #include <cstdint>
 #include <string_view>

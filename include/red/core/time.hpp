@@ -1,6 +1,7 @@
 #pragma once
 /// \file
-/// Time in RED: integer nanoseconds inside, milliseconds or seconds only at the edges (§2).
+/// Time in RED: integer nanoseconds inside, milliseconds or seconds only at the edges
+/// (docs/DESIGN.md, "Task model").
 
 #include <algorithm>
 #include <chrono>

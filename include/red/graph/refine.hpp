@@ -1,10 +1,10 @@
 #pragma once
 /// \file
-/// Refinement (§3): an operation's DAG as the policy sees it. Coarse: one unit per node
-/// (encoder + head run back to back). Fine: every inference node v becomes e_v (encoder on
-/// v's frame, always a source) and d_v (its head). Mono: the whole job as one unit.
-/// Also the static part of §4: heights, level costs and static intermediate deadlines,
-/// computed once per graph version and cached.
+/// Refinement (docs/DESIGN.md, "Refinement"): an operation's DAG as the policy sees it. Coarse: one
+/// unit per node (encoder + head run back to back). Fine: every inference node v becomes e_v
+/// (encoder on v's frame, always a source) and d_v (its head). Mono: the whole job as one unit.
+/// Also the static part of docs/DESIGN.md, "Intermediate deadlines": heights, level costs and
+/// static intermediate deadlines, computed once per graph version and cached.
 
 #include <array>
 #include <cstdint>
@@ -21,7 +21,8 @@ namespace red {
 /// How an operation's nodes become schedulable units.
 enum class GraphMode : std::uint8_t { Coarse, Fine, Mono };
 
-/// How a job's end-to-end deadline becomes intermediate deadlines (§4, §7).
+/// How a job's end-to-end deadline becomes intermediate deadlines (docs/DESIGN.md, "Intermediate
+/// deadlines" and "Policies").
 enum class DeadlineMode : std::uint8_t {
   None,          ///< no deadlines: release order (fifo)
   EndToEnd,      ///< every unit gets the job's end-to-end deadline (coarse edf)
@@ -68,7 +69,7 @@ struct RefinedGraph {
   int levels = 0;                    ///< K + 1
   std::vector<Duration> level_cost;  ///< static L_h
   /// Weight of height h in proportional (re-)assignment: L_h, or the per-node override
-  /// when a node at that height has one (§4 overrides).
+  /// when a node at that height has one (docs/DESIGN.md, "Intermediate deadlines" overrides).
   std::vector<Duration> override_budget;  ///< per height; 0 = none
   /// Static relative intermediate deadline of height h: Σ_{k ≤ h} D_k.
   std::vector<Duration> static_offset;
@@ -111,7 +112,8 @@ Duration coarse_critical_path(const OperationSpec& op, const CostModel& costs);
 /// Resolves an operation's relative end-to-end deadline.
 Duration resolve_deadline(const OperationSpec& op, const CostModel& costs);
 
-/// Refines one operation snapshot (§3) and computes heights and static deadlines (§4).
+/// Refines one operation snapshot (docs/DESIGN.md, "Refinement") and computes heights and static
+/// deadlines (docs/DESIGN.md, "Intermediate deadlines").
 std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> op, int operation,
                                            const CostModel& costs, const RefineOptions& opt);
 

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// Metrics (§10), collected by an observer of the scheduler: per-job records, per-unit
-/// records, and the summary of one policy's run. The warm-up window is excluded.
+/// Metrics (docs/DESIGN.md, "Metrics"), collected by an observer of the scheduler: per-job records,
+/// per-unit records, and the summary of one policy's run. The warm-up window is excluded.
 
 #include <cstdint>
 #include <map>
@@ -64,7 +64,8 @@ struct PolicyMetrics {
   /// Dropped, skipped and failed jobs by reason ("deadline passed", "hopeless", "rejected at
   /// release", "max_inflight", or the failure).
   std::map<std::string, std::int64_t> drop_reasons;
-  /// Share of the busy lane time spent on jobs that were then dropped or failed (§15).
+  /// Share of the busy lane time spent on jobs that were then dropped or failed (docs/DESIGN.md,
+  /// "Overload").
   double wasted_lane_fraction = 0;
   LatencySummary latency;
   std::int64_t encoder_runs = 0, encoder_runs_saved = 0;
@@ -74,7 +75,7 @@ struct PolicyMetrics {
   std::map<std::string, double> throughput_hz;  ///< outputs per second, per head
   double frame_age_mean_ms = 0, frame_age_p99_ms = 0;
   double measured_s = 0;  ///< length of the measured window (after warm-up)
-  /// Ratios vs the baseline (§12): miss_rate, latency_mean, qoe; absent without baseline.
+  /// Ratios vs the baseline (docs/CLI.md): miss_rate, latency_mean, qoe; absent without baseline.
   std::optional<double> ratio_miss, ratio_latency, ratio_qoe;
   /// Runtime only: measured scheduler decision time (μs): p50, p99.
   std::optional<double> decision_p50_us, decision_p99_us;
@@ -103,8 +104,8 @@ double percentile_sorted(const std::vector<double>& sorted, double p);
 /// Nearest-rank percentile of unsorted values (sorts a copy).
 double percentile(std::vector<double> values, double p);
 
-/// QoE of one completed job (§10, the paper's Eq. 1): 1 / (1 + e^λ · max(0, R − D)), R and
-/// D in seconds.
+/// QoE of one completed job (docs/DESIGN.md, "Metrics", the paper's Eq. 1): 1 / (1 + e^λ · max(0, R
+/// − D)), R and D in seconds.
 double qoe_score(Duration response, Duration deadline, double lambda);
 
 /// Where a collector hands each job and unit row as it is made (a streamed jobs.csv and

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// Execution-time profiles (§8): per unit and batch size, the measured latency
-/// distribution. The simulator samples from it; the scheduler's deadline arithmetic uses
+/// Execution-time profiles (docs/DESIGN.md, "Profiles"): per unit and batch size, the measured
+/// latency distribution. The simulator samples from it; the scheduler's deadline arithmetic uses
 /// one statistic of it (EstimateKind). One JSON file with a schema version carries it.
 
 #include <cstdint>
@@ -78,8 +78,8 @@ struct Calibration {
 /// Inverse CDF of a quantile table (u = i / (n - 1)), linear between points; u in [0, 1).
 Duration table_quantile(const std::vector<Duration>& table, double u) noexcept;
 
-/// How `red profile` measured the units (§8): the clock that timed them and the warm-up
-/// before each (unit, batch size).
+/// How `red profile` measured the units (docs/DESIGN.md, "Profiles"): the clock that timed them and
+/// the warm-up before each (unit, batch size).
 struct Measurement {
   std::string timing;  ///< "host wall clock" (CPU) or "device events" (GPU)
   int warmup_min = 0;  ///< untimed runs at least, per unit and batch size
@@ -101,7 +101,7 @@ struct MemoryStats {
 
 /// A profile: unit names are `encoder`, `head/<name>` (a head of the shared model),
 /// `coarse/<name>` (encoder + head run back to back) and `separate/<name>` (a full
-/// separate network, §9 separate mode).
+/// separate network, docs/DESIGN.md, "Built-in model" separate mode).
 struct Profile {
   static constexpr int kSchema = 1;
 

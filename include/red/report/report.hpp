@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Writing results: summary.json (schema of §12), jobs.csv, units.csv, and the
+/// Writing results: summary.json (schema of docs/CLI.md), jobs.csv, units.csv, and the
 /// paper-style comparison table for the terminal.
 
 #include <optional>

@@ -21,7 +21,8 @@
 
 namespace red {
 
-/// A merge wait (DynamicMerge, §3): an encoder run of `sensor` held from `at` to `until`.
+/// A merge wait (docs/DESIGN.md, "DynamicMerge"): an encoder run of `sensor` held from `at` to
+/// `until`.
 struct TimelineWait {
   TimePoint at{0};
   TimePoint until{0};

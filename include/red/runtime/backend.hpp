@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// What a runtime lane executes units on (§6). The LibTorch backend lives in its own
-/// target (backends/torch); the core knows only this interface.
+/// What a runtime lane executes units on (docs/DESIGN.md, "Synchronization"). The LibTorch backend
+/// lives in its own target (backends/torch); the core knows only this interface.
 ///
 ///     class MyBackend : public red::Backend {
 ///       std::string_view name() const noexcept override { return "mine"; }
@@ -45,7 +45,7 @@ struct UnitDone {
 /// Pixels of an external frame (e.g. received over DDS), already at the model's input height
 /// and width: 8-bit, row-major, `channels` interleaved (RGB order, or gray). `data` is
 /// borrowed for the duration of the call only. A frame released before its pixels are
-/// converted (§14: a DDS node) comes with `data` null and `lazy` set: a backend may keep
+/// converted (docs/ROS2.md: a DDS node) comes with `data` null and `lazy` set: a backend may keep
 /// `lazy` and ask for the pixels when it needs them (LazyFrame::pixels()).
 struct FrameView {
   int width = 0;
@@ -55,11 +55,11 @@ struct FrameView {
   std::shared_ptr<const LazyFrame> lazy;  ///< the frame, converted on first use; may be null
 };
 
-/// An external frame whose pixels are converted when first asked for (§14: a received frame
-/// is released first and converted when the encoder starts). Thread-safe: the first caller
-/// of pixels() runs convert(), concurrent callers wait for that one call, and every caller
-/// then reads the whole converted frame (std::call_once orders the conversion's writes
-/// before every return); a frame no one asks for is never converted.
+/// An external frame whose pixels are converted when first asked for (docs/ROS2.md: a received
+/// frame is released first and converted when the encoder starts). Thread-safe: the first caller of
+/// pixels() runs convert(), concurrent callers wait for that one call, and every caller then reads
+/// the whole converted frame (std::call_once orders the conversion's writes before every return); a
+/// frame no one asks for is never converted.
 ///
 ///     struct Gray : red::LazyFrame {
 ///       Gray() : LazyFrame(384, 192, 1) {}
@@ -115,7 +115,8 @@ class LazyFrame {
 
 /// Executes units. run() is called from the lane's own thread; different lanes call it
 /// concurrently, one lane never twice at once. on_frame() is called from the camera
-/// thread. A failing unit throws; the runtime turns that into a failed job (§6).
+/// thread. A failing unit throws; the runtime turns that into a failed job (docs/DESIGN.md,
+/// "Synchronization").
 ///
 /// An asynchronous backend (a GPU: a lane is a stream) says so with asynchronous() and
 /// implements enqueue() and wait() instead of run(): the lane's handler enqueues a unit

@@ -1,8 +1,8 @@
 #pragma once
 /// \file
-/// The real-time runtime (§6): one global synchronizer (the scheduler loop, on the thread
-/// that calls run()) and one handler thread per lane, each with a local synchronizer that
-/// owns the handler's state machine
+/// The real-time runtime (docs/DESIGN.md, "Synchronization"): one global synchronizer (the
+/// scheduler loop, on the thread that calls run()) and one handler thread per lane, each with a
+/// local synchronizer that owns the handler's state machine
 ///
 ///     Idle -> Assigned -> Running -> {Completed | Failed | OutOfMemory | Cancelled} -> Idle
 ///
@@ -32,7 +32,7 @@
 
 namespace red {
 
-/// States of a handler's state machine (§6).
+/// States of a handler's state machine (docs/DESIGN.md, "Synchronization").
 enum class HandlerState : std::uint8_t {
   Idle,
   Assigned,
@@ -148,7 +148,7 @@ class Runtime {
   /// Runs the scenario in real time (duration, then draining); blocks until done.
   RuntimeReport run();
 
-  /// External-frame mode: frame `frame` of `sensor` arrived now, a release (§14); its
+  /// External-frame mode: frame `frame` of `sensor` arrived now, a release (docs/ROS2.md); its
   /// pixels, when given, go to the backend (Backend::on_external_frame). Frame ids of one
   /// sensor must increase. Thread-safe; ignored before run() starts and after releases
   /// ended. Returns false when ignored. When the scheduler's lock is free the release (and

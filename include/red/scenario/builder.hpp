@@ -14,7 +14,8 @@
 ///     red::Expected<red::Scenario> s = b.build();
 ///     if (!s) { std::cerr << s.error().to_string() << '\n'; return 2; }
 ///
-/// Workload events (§2) are not covered: a scenario with events comes from a file.
+/// Workload events (docs/DESIGN.md, "Task model") are not covered: a scenario with events comes
+/// from a file.
 
 #include <cstdint>
 #include <memory>
@@ -56,7 +57,8 @@ class OperationBuilder {
   OperationBuilder& plain(std::string node, Duration cost);
   /// A plain compute node with a mean and a 99th-percentile cost (p99 >= mean).
   OperationBuilder& plain(std::string node, Duration mean, Duration p99);
-  /// Per-node override of its level's deadline budget (§4); the node must exist already.
+  /// Per-node override of its level's deadline budget (docs/DESIGN.md, "Intermediate deadlines");
+  /// the node must exist already.
   OperationBuilder& node_deadline(const std::string& node, Duration d);
   /// A precedence edge between two nodes of this operation.
   OperationBuilder& edge(std::string from, std::string to);
@@ -110,11 +112,11 @@ class ScenarioBuilder {
   ScenarioBuilder& heads(std::vector<std::string> names);
   /// Profile file to use (empty: the built-in default).
   ScenarioBuilder& profile(std::string path);
-  /// DynamicMerge window γ (§3).
+  /// DynamicMerge window γ (docs/DESIGN.md, "DynamicMerge").
   ScenarioBuilder& gamma(Duration d);
   /// Largest inter-DAG batch.
   ScenarioBuilder& max_batch(int n);
-  /// λ of the QoE score (§10).
+  /// λ of the QoE score (docs/DESIGN.md, "Metrics").
   ScenarioBuilder& qoe_lambda(double lambda);
   /// A sensor (camera) with its rate, first-frame phase and jitter.
   ScenarioBuilder& sensor(std::string name, double rate_hz, Duration phase = Duration{0},

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Reading scenario files (§11): YAML text in, a completely validated Scenario out.
+/// Reading scenario files (docs/SCENARIOS.md): YAML text in, a completely validated Scenario out.
 /// Every problem comes back as an Error naming the file, the 1-based line and what is
 /// wrong; nothing throws and no half-built scenario is ever returned.
 ///

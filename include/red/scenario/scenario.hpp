@@ -1,8 +1,9 @@
 #pragma once
 /// \file
-/// The workload model of a scenario file (§2, §11), with every name resolved to an index.
-/// A Scenario is produced only by load_scenario(), which validates it completely; the
-/// scheduler and the simulator may therefore rely on every invariant documented here.
+/// The workload model of a scenario file (docs/DESIGN.md, "Task model", docs/SCENARIOS.md), with
+/// every name resolved to an index. A Scenario is produced only by load_scenario(), which validates
+/// it completely; the scheduler and the simulator may therefore rely on every invariant documented
+/// here.
 
 #include <cstdint>
 #include <memory>
@@ -14,10 +15,12 @@
 
 namespace red {
 
-/// Which execution-time statistic stands for a unit's cost c(x) in deadline arithmetic (§4).
+/// Which execution-time statistic stands for a unit's cost c(x) in deadline arithmetic
+/// (docs/DESIGN.md, "Intermediate deadlines").
 enum class EstimateKind : std::uint8_t { Mean, P95, P99, Max };
 
-/// How the cost of one DAG level is formed from its units (§4).
+/// How the cost of one DAG level is formed from its units (docs/DESIGN.md, "Intermediate
+/// deadlines").
 enum class LevelCost : std::uint8_t {
   Max,  ///< L_h = max cost at height h (the paper's rule, parallel lanes)
   Sum,  ///< L_h = sum of costs at height h (one serial lane)
@@ -29,7 +32,7 @@ struct SensorSpec {
   double rate_hz = 0.0;  ///< > 0
   Duration phase{0};     ///< time of the first frame
   Duration jitter{0};    ///< each frame is late by a uniform amount in [0, jitter]
-  std::string topic;     ///< ROS 2 topic of `red node` (§14), or empty for the default
+  std::string topic;     ///< ROS 2 topic of `red node` (docs/ROS2.md), or empty for the default
   int line = 0;          ///< line in the scenario file, for messages
 };
 
@@ -46,8 +49,9 @@ struct NodeSpec {
   int head = -1;                  ///< index into ModelSpec::heads, or -1 for a plain node
   int sensor = -1;                ///< index into Scenario::sensors for an inference node, else -1
   std::optional<PlainCost> cost;  ///< set exactly when head == -1
-  std::optional<Duration> deadline;  ///< per-node override of its level's budget (§4)
-  std::string topic;  ///< ROS 2 topic of its output in `red node` (§14), or empty: default
+  std::optional<Duration> deadline;  ///< per-node override of its level's budget (docs/DESIGN.md,
+                                     ///< "Intermediate deadlines")
+  std::string topic;  ///< ROS 2 topic of its output in `red node` (docs/ROS2.md), or empty: default
   int line = 0;
 
   [[nodiscard]] bool is_plain() const noexcept { return head < 0; }
@@ -65,7 +69,8 @@ struct DeadlineSpec {
   std::optional<double> critical_path_x;  ///< multiple of the coarse critical path (profile)
 };
 
-/// A DAG task τ (§2). One snapshot of its definition; events produce new snapshots.
+/// A DAG task τ (docs/DESIGN.md, "Task model"). One snapshot of its definition; events produce new
+/// snapshots.
 struct OperationSpec {
   std::string name;
   int trigger_sensor = -1;  ///< released on every frame of this sensor, or -1
@@ -74,7 +79,8 @@ struct OperationSpec {
   std::optional<int> release_count;  ///< release exactly this many jobs, then stop
   DeadlineSpec deadline;
   int criticality = 0;
-  int max_inflight = 2;  ///< releases beyond this many unfinished jobs are skipped (§5)
+  int max_inflight = 2;  ///< releases beyond this many unfinished jobs are skipped (docs/DESIGN.md,
+                         ///< "max_inflight")
   int depends_on = -1;   ///< operation whose newest job must finish first ("use: latest")
   std::vector<NodeSpec> nodes;
   std::vector<EdgeSpec> edges;
@@ -90,9 +96,9 @@ struct OperationSpec {
 
 /// The multi-task network the inference nodes run.
 struct ModelSpec {
-  std::string builtin = "mimonet";               ///< name of a built-in model, or empty
-  std::string manifest;                          ///< path of a user model manifest (§9), or empty
-  std::vector<std::string> heads;                ///< head names; NodeSpec::head indexes this
+  std::string builtin = "mimonet";  ///< name of a built-in model, or empty
+  std::string manifest;             ///< path of a user model manifest (docs/MODELS.md), or empty
+  std::vector<std::string> heads;   ///< head names; NodeSpec::head indexes this
   std::vector<std::int64_t> input{3, 192, 384};  ///< C, H, W
 
   [[nodiscard]] int head_index(const std::string& name) const noexcept {
@@ -114,15 +120,17 @@ struct DeviceSpec {
   std::optional<int> queue_depth;
 };
 
-/// Scheduler knobs a scenario may set; presets (§7) fill the rest.
+/// Scheduler knobs a scenario may set; presets (docs/DESIGN.md, "Policies") fill the rest.
 struct SchedulerSpec {
-  Duration gamma = std::chrono::milliseconds{100};  ///< DynamicMerge window γ (§3)
+  /// DynamicMerge window γ (docs/DESIGN.md, "DynamicMerge").
+  Duration gamma = std::chrono::milliseconds{100};
   EstimateKind estimate = EstimateKind::P99;
   LevelCost level_cost = LevelCost::Max;
   int max_batch = 4;
   double qoe_lambda = 1.0;
   /// Policy options the scenario sets for every policy run on it ("key=value,…", keys of
-  /// red::option_keys(): graph, deadlines, reassign, … — ablations, §15); validated.
+  /// red::option_keys(): graph, deadlines, reassign, … — ablations, docs/DESIGN.md, "Overload");
+  /// validated.
   std::string policy_with;
 };
 
@@ -132,8 +140,9 @@ struct InterferenceSpec {
   double intensity = 0.0;  ///< 0 (none) .. 1 (one busy thread per core)
 };
 
-/// A timed change of the workload (§2 events). The loader resolves each event into the
-/// operation snapshots it produces, so applying it at run time swaps definitions only.
+/// A timed change of the workload (docs/DESIGN.md, "Task model" events). The loader resolves each
+/// event into the operation snapshots it produces, so applying it at run time swaps definitions
+/// only.
 struct EventSpec {
   Duration at{0};
   int line = 0;

@@ -15,7 +15,7 @@ namespace red {
 
 using JobId = std::uint64_t;
 
-/// How a job ended (§5, §10).
+/// How a job ended (docs/DESIGN.md, "Dispatch" and "Metrics").
 enum class JobOutcome : std::uint8_t {
   Met,         ///< completed by its deadline
   Missed,      ///< completed after its deadline
@@ -27,7 +27,7 @@ enum class JobOutcome : std::uint8_t {
 
 const char* to_string(JobOutcome o) noexcept;
 
-/// How a unit execution ended (the handler's terminal states, §6).
+/// How a unit execution ended (the handler's terminal states, docs/DESIGN.md, "Synchronization").
 enum class UnitStatus : std::uint8_t {
   Completed,
   Failed,
@@ -99,7 +99,7 @@ class Observer {
   /// A dispatch was decided; `d.start` is when its unit begins.
   virtual void on_unit_start(const Dispatch& /*d*/) {}
   virtual void on_unit_end(const Dispatch& /*d*/, TimePoint /*end*/, UnitStatus /*s*/) {}
-  /// An encoder run waits for a predicted member until `until` (DynamicMerge, §3).
+  /// An encoder run waits for a predicted member until `until` (docs/DESIGN.md, "DynamicMerge").
   virtual void on_merge_wait(int /*sensor*/, TimePoint /*now*/, TimePoint /*until*/) {}
   virtual void on_workload_event(int /*index*/, TimePoint /*at*/) {}
   /// After each dispatch round: ready tasks left, idle lanes left, tasks in a merge wait.

@@ -1,8 +1,8 @@
 #pragma once
 /// \file
-/// Scheduling policies (§7). A policy is small: it names the combination of mechanisms it
-/// uses (PolicyOptions) and ranks ready tasks; the Scheduler does the bookkeeping. The
-/// same policy object drives the simulator and the real runtime, and never reads a clock.
+/// Scheduling policies (docs/DESIGN.md, "Policies"). A policy is small: it names the combination of
+/// mechanisms it uses (PolicyOptions) and ranks ready tasks; the Scheduler does the bookkeeping.
+/// The same policy object drives the simulator and the real runtime, and never reads a clock.
 ///
 ///     auto p = make_policy("red");          // a preset
 ///     Scheduler s(scenario, profile, std::move(p), {});
@@ -19,27 +19,28 @@
 
 namespace red {
 
-/// How handlers synchronize with the global synchronizer (§6).
+/// How handlers synchronize with the global synchronizer (docs/DESIGN.md, "Synchronization").
 enum class SyncMode : std::uint8_t {
   PerEdge,   ///< one round trip after every completed unit
   OnDemand,  ///< back-to-back runs; a round trip only when the run breaks
 };
 
-/// What happens to late jobs (§5).
+/// What happens to late jobs (docs/DESIGN.md, "Drops").
 enum class DropMode : std::uint8_t {
   None,      ///< late jobs run to completion (soft real time)
   Strict,    ///< abort a job once its end-to-end deadline has passed
   Hopeless,  ///< also abort at dispatch when now + remaining critical path > deadline
 };
 
-/// What the policy ranks ready work by while the scheduler judges the lanes overloaded (§15).
+/// What the policy ranks ready work by while the scheduler judges the lanes overloaded
+/// (docs/DESIGN.md, "Overload").
 enum class RankMode : std::uint8_t {
   Policy,       ///< always the policy's own deadlines (the paper's presets)
   JobDeadline,  ///< always the job's end-to-end deadline: finish what was started
   Overload,     ///< the policy's deadlines, the job's deadline while overloaded (red-robust)
 };
 
-/// Admission control at release (§15).
+/// Admission control at release (docs/DESIGN.md, "Overload").
 enum class Admission : std::uint8_t {
   None,  ///< every release is admitted (max_inflight aside)
   Shed,  ///< when the work due by some deadline exceeds the lanes' capacity by then, reject
@@ -51,46 +52,48 @@ const char* to_string(DropMode m) noexcept;
 const char* to_string(RankMode m) noexcept;
 const char* to_string(Admission m) noexcept;
 
-/// The mechanisms a policy combines; every column of §7's table is one field.
+/// The mechanisms a policy combines; every column of the table in docs/DESIGN.md, "Policies", is
+/// one field.
 struct PolicyOptions {
   GraphMode graph = GraphMode::Fine;
   DeadlineMode deadlines = DeadlineMode::Proportional;
-  bool reassign = false;  ///< §4 re-assignment at every scheduling point
-  bool merge = false;     ///< DynamicMerge(γ) of encoder runs (§3)
-  bool batching = false;  ///< inter-DAG batching (§3)
+  /// Re-assignment at every scheduling point (docs/DESIGN.md, "Re-assignment").
+  bool reassign = false;
+  bool merge = false;     ///< DynamicMerge(γ) of encoder runs (docs/DESIGN.md, "DynamicMerge")
+  bool batching = false;  ///< inter-DAG batching (docs/DESIGN.md, "Batching")
   SyncMode sync = SyncMode::PerEdge;
   DropMode drop = DropMode::Strict;
   /// The cost estimate hopeless aborts and admission judge by: an optimistic one (mean)
-  /// keeps the jobs that can still make it (§15).
+  /// keeps the jobs that can still make it (docs/DESIGN.md, "Overload").
   EstimateKind drop_estimate = EstimateKind::Mean;
   Admission admission = Admission::None;
-  /// Admission's margin (§15), in percent of the estimates it plans with: admitting work up
-  /// to exactly the lanes' capacity on mean costs lets every overrun cost a job.
+  /// Admission's margin (docs/DESIGN.md, "Overload"), in percent of the estimates it plans with:
+  /// admitting work up to exactly the lanes' capacity on mean costs lets every overrun cost a job.
   int admit_margin = 0;
   RankMode rank = RankMode::Policy;
-  /// With admission=shed, past capacity (§15): reject at release the jobs of an operation
-  /// that operations with cheaper jobs (at equal criticality) fill the lanes without, while
-  /// one of those sheds jobs itself — the work bound's rule, cheapest jobs first.
+  /// With admission=shed, past capacity (docs/DESIGN.md, "Overload"): reject at release the jobs of
+  /// an operation that operations with cheaper jobs (at equal criticality) fill the lanes without,
+  /// while one of those sheds jobs itself — the work bound's rule, cheapest jobs first.
   bool shed_by_rate = false;
-  /// With admission=shed, once the offered load passes 1.1 × the lanes (§15): admission
-  /// also counts the work of the jobs periodic operations will release with deadlines by
-  /// each pending one, at their current rates, and rejects a pending job only when none of
-  /// those jobs to come, no more critical than it, needs more work. On several lanes past
+  /// With admission=shed, once the offered load passes 1.1 × the lanes (docs/DESIGN.md,
+  /// "Overload"): admission also counts the work of the jobs periodic operations will release with
+  /// deadlines by each pending one, at their current rates, and rejects a pending job only when
+  /// none of those jobs to come, no more critical than it, needs more work. On several lanes past
   /// capacity admission runs a list schedule, which does not place the jobs to come; there
   /// only the last part applies.
   bool lookahead = false;
-  /// With admission=shed, past capacity (§15): reject at release a job that is alone on
-  /// its trigger frame (no other job in flight reads that frame, though other operations
-  /// read the sensor) and leaves its operation fewer than half its max_inflight slots: it
-  /// would pay a whole encoder run for one job and hold a slot that a frame shared with the
+  /// With admission=shed, past capacity (docs/DESIGN.md, "Overload"): reject at release a job that
+  /// is alone on its trigger frame (no other job in flight reads that frame, though other
+  /// operations read the sensor) and leaves its operation fewer than half its max_inflight slots:
+  /// it would pay a whole encoder run for one job and hold a slot that a frame shared with the
   /// other operations could use.
   bool shed_lone = false;
-  /// While ranked by job deadline (§15): a head batch is checked against each member's job
-  /// deadline less the path after the head, not the task's intermediate deadline, which is
-  /// past due under overload and let no batch form.
+  /// While ranked by job deadline (docs/DESIGN.md, "Overload"): a head batch is checked against
+  /// each member's job deadline less the path after the head, not the task's intermediate deadline,
+  /// which is past due under overload and let no batch form.
   bool batch_by_job = false;
-  /// While ranked by job deadline (§15): a unit ranks by its job's deadline less the
-  /// longest path after it on the scheduler's estimate (the latest it may end for the job
+  /// While ranked by job deadline (docs/DESIGN.md, "Overload"): a unit ranks by its job's deadline
+  /// less the longest path after it on the scheduler's estimate (the latest it may end for the job
   /// to make it: EDF on deadlines modified for precedence), not by the job's deadline
   /// alone, which ran a job's off-path units ahead of another job's critical path on
   /// several lanes.
@@ -120,7 +123,8 @@ struct TaskView {
   Duration remaining{0};      ///< largest remaining critical-path estimate of member jobs
   Duration cost{0};           ///< estimated cost of the task itself
   int criticality = 0;        ///< highest criticality among member operations
-  bool overloaded = false;    ///< the scheduler judges the lanes overloaded now (§15)
+  /// The scheduler judges the lanes overloaded now (docs/DESIGN.md, "Overload").
+  bool overloaded = false;
 };
 
 /// A scheduling policy. Implementations must be deterministic and allocation-free in rank().
@@ -183,7 +187,7 @@ class LeastSlackPolicy final : public Policy {
   PolicyOptions options_;
 };
 
-/// The options of a preset (§7 table), or nullopt for an unknown name.
+/// The options of a preset (docs/DESIGN.md, "Policies" table), or nullopt for an unknown name.
 std::optional<PolicyOptions> preset_options(std::string_view name);
 
 /// A preset policy by name: fifo, mono, edf, red-fg, red-ida, red, red-robust, lst; nullptr

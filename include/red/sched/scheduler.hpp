@@ -1,13 +1,14 @@
 #pragma once
 /// \file
-/// The scheduler core (the paper's global synchronizer logic, §3–§5): jobs, refinement,
-/// deadline (re-)assignment, DynamicMerge, batching, drops and dispatch. It reads no clock:
-/// the driver (simulator or real runtime) passes the time in. Same code, both backends.
+/// The scheduler core (the paper's global synchronizer logic, docs/DESIGN.md, "Refinement" to
+/// "Dispatch"): jobs, refinement, deadline (re-)assignment, DynamicMerge, batching, drops and
+/// dispatch. It reads no clock: the driver (simulator or real runtime) passes the time in. Same
+/// code, both backends.
 ///
 /// Driving it, at every scheduling point `now` (non-decreasing):
 ///
-///     s.apply_events(now);                 // workload events due by now (§2)
-///     s.on_complete(lane, now, status);    // units that finished at now
+///     s.apply_events(now);                 // workload events due by now (docs/DESIGN.md, "Task
+///     model") s.on_complete(lane, now, status);    // units that finished at now
 ///     s.on_frame(sensor, frame_id, now);   // frames that arrived at now
 ///     s.advance(now);                      // own-rate releases, strict drops
 ///     for (const Dispatch* d : s.dispatch(now)) executor.start(*d);
@@ -38,10 +39,11 @@ struct SchedulerConfig {
   EstimateKind estimate = EstimateKind::P99;
   LevelCost level_cost = LevelCost::Max;
   TimePoint warmup{0};
-  /// What one synchronizer round trip costs (§6): every estimate that decides a dispatch
-  /// (batching, merge waits, hopeless aborts) includes the round trip the dispatch pays.
+  /// What one synchronizer round trip costs (docs/DESIGN.md, "Synchronization"): every estimate
+  /// that decides a dispatch (batching, merge waits, hopeless aborts) includes the round trip the
+  /// dispatch pays.
   Duration sync_cost{0};
-  /// Dispatches a lane holds at once (§6 on a GPU lane): the running unit and those
+  /// Dispatches a lane holds at once (docs/DESIGN.md, "Queued lanes"): the running unit and those
   /// enqueued behind it. 1: a lane takes work only when idle. More: with on-demand
   /// synchronization the lane's handler queues its next unit(s) while one runs
   /// (dispatch_ahead()), so the device does not wait for the host between units.
@@ -69,7 +71,7 @@ struct SchedulerStats {
   std::uint64_t round_trips = 0;  ///< dispatches that needed a synchronizer round trip
   std::uint64_t merge_waits = 0;
   std::uint64_t releases = 0;
-  std::uint64_t rejected = 0;  ///< jobs shed at release by admission (§15)
+  std::uint64_t rejected = 0;  ///< jobs shed at release by admission (docs/DESIGN.md, "Overload")
   std::uint64_t hopeless = 0;  ///< jobs aborted at dispatch as hopeless
 };
 
@@ -86,7 +88,8 @@ class Scheduler {
   void add_observer(Observer* o);
 
   // ---- inputs -----------------------------------------------------------------------
-  /// Applies workload events with at ≤ now (§2): later releases use the new graphs.
+  /// Applies workload events with at ≤ now (docs/DESIGN.md, "Task model"): later releases use the
+  /// new graphs.
   void apply_events(TimePoint now);
   /// A frame of `sensor` arrived (frame ids increase per sensor). Releases every operation
   /// triggered by this sensor.
@@ -106,8 +109,8 @@ class Scheduler {
   void advance(TimePoint now);
 
   // ---- decisions ----------------------------------------------------------------------
-  /// Assigns work to idle lanes (§5). The returned dispatches stay valid until their lane
-  /// completes them. Allocation-free in steady state.
+  /// Assigns work to idle lanes (docs/DESIGN.md, "Dispatch"). The returned dispatches stay valid
+  /// until their lane completes them. Allocation-free in steady state.
   std::span<Dispatch* const> dispatch(TimePoint now);
   /// Assigns at most one more unit to `lane`, which holds a unit and has room in its queue
   /// (config().queue_depth): the lane's handler enqueues it behind what the lane holds, at

@@ -1,8 +1,8 @@
 #pragma once
 /// \file
 /// Execution times for the simulator (and fake backends in tests), with common random
-/// numbers (§10): the time of a unit instance is a pure function of (seed, what runs, on
-/// which frame or job), so every policy sees the same time for the same instance.
+/// numbers (docs/DESIGN.md, "Metrics"): the time of a unit instance is a pure function of (seed,
+/// what runs, on which frame or job), so every policy sees the same time for the same instance.
 
 #include <cstdint>
 #include <vector>

@@ -34,9 +34,9 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
                                     std::optional<SyncMode> sync = std::nullopt,
                                     const Profile* costs = nullptr);
 
-/// The options a preset runs with on this scenario: the preset's (§7), then the scenario's
-/// `scheduler:` policy options (which include the CLI's --with), then `sync` if given.
-/// nullopt for an unknown preset.
+/// The options a preset runs with on this scenario: the preset's (docs/DESIGN.md, "Policies"), then
+/// the scenario's `scheduler:` policy options (which include the CLI's --with), then `sync` if
+/// given. nullopt for an unknown preset.
 std::optional<PolicyOptions> policy_options(const Scenario& s, const std::string& policy,
                                             std::optional<SyncMode> sync = std::nullopt);
 

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// Deterministic discrete-event simulator (§10, as SimGrid/ns-3): events ordered by
-/// (time, sequence number), so equal times always come out in the same order. It drives
+/// Deterministic discrete-event simulator (docs/DESIGN.md, "Metrics", as SimGrid/ns-3): events
+/// ordered by (time, sequence number), so equal times always come out in the same order. It drives
 /// the same Scheduler and Policy the real runtime drives; only the clock (virtual) and the
 /// executor (sampled execution times) differ.
 

@@ -1,6 +1,6 @@
 // A ROS 2 Humble user's side of the wire, without ROS 2: an eProsima Fast DDS program whose
 // types fastddsgen generated from RED's IDL (bridges/dds/idl). It publishes camera frames to
-// `red node` over RTPS/UDP on loopback and receives every output type (DESIGN §14).
+// `red node` over RTPS/UDP on loopback and receives every output type (docs/ROS2.md).
 //
 //     red_fastdds_peer DOMAIN FRAMES RATE_HZ LINGER_S   -> JSON report on stdout
 

@@ -1,8 +1,8 @@
 #pragma once
 /// \file
-/// A multi-task network on LibTorch (§9): one shared encoder unit and named head units.
-/// Either the built-in MIMONet (seeded random weights: compute and memory are real, the
-/// outputs are not meaningful) or a user model given as TorchScript files listed in a
+/// A multi-task network on LibTorch (docs/DESIGN.md, "Built-in model"): one shared encoder unit and
+/// named head units. Either the built-in MIMONet (seeded random weights: compute and memory are
+/// real, the outputs are not meaningful) or a user model given as TorchScript files listed in a
 /// model manifest (docs/MODELS.md).
 ///
 ///     red::torchb::ModelOptions o;                 // built-in MIMONet, four heads, CPU
@@ -38,8 +38,8 @@ struct ModelOptions {
   /// Input shape (C, H, W) of the built-in model; H and W multiples of 16. Ignored for a
   /// manifest (its `input` key gives the shape).
   std::vector<std::int64_t> input{3, 192, 384};
-  /// Separate mode (§2, the paper's "traditional DNNs"): one full network per head, each
-  /// with its own copy of the encoder.
+  /// Separate mode (docs/DESIGN.md, "Task model", the paper's "traditional DNNs"): one full network
+  /// per head, each with its own copy of the encoder.
   bool separate = false;
   /// Seed of the built-in model's random weights (deterministic for a given seed).
   std::uint64_t seed = 1;

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// Offline profiling (§8): measures every unit of a model on its device and fills a
-/// red::Profile that the simulator and the runtime read.
+/// Offline profiling (docs/DESIGN.md, "Profiles"): measures every unit of a model on its device and
+/// fills a red::Profile that the simulator and the runtime read.
 ///
 ///     red::torchb::ModelOptions m;  m.threads = 2;
 ///     auto p = red::torchb::profile_model(m, {}, [](const std::string& s) { std::cerr << s; });
@@ -33,9 +33,11 @@ struct ProfileOptions {
   int max_batch = 4;  ///< `encoder` and `head/<h>` are measured at batch sizes 1..max_batch
   /// `coarse/<h>` and `separate/<h>` are measured at batch sizes 1..min(this, max_batch).
   /// Default 1: the policies that run coarse units (fifo, edf, mono) never batch them
-  /// (§3 batches fine units only), and it keeps the whole profile within its time budget.
+  /// (batching, docs/DESIGN.md "Batching", applies to fine units only), and it keeps the whole
+  /// profile within its time budget.
   int coarse_max_batch = 1;
-  bool separate = true;  ///< also build and measure separate mode (§9)
+  /// Also build and measure separate mode (docs/DESIGN.md, "Task model").
+  bool separate = true;
 };
 
 /// Progress messages, one line each (without a trailing newline).

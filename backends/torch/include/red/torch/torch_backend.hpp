@@ -1,9 +1,9 @@
 #pragma once
 /// \file
-/// The runtime's LibTorch backend (§6, §9): synthetic camera frames as real tensors in
-/// memory, real inference of the scenario's model (the built-in MIMONet or a manifest's
-/// TorchScript modules). Merged members share one encoder output; a batch runs as one
-/// tensor batch. On a CUDA device each lane gets its own CUDA stream.
+/// The runtime's LibTorch backend (docs/DESIGN.md, "Synchronization" and "Built-in model"):
+/// synthetic camera frames as real tensors in memory, real inference of the scenario's model (the
+/// built-in MIMONet or a manifest's TorchScript modules). Merged members share one encoder output;
+/// a batch runs as one tensor batch. On a CUDA device each lane gets its own CUDA stream.
 
 #include <memory>
 #include <string>

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// `red camera` (§14): publishes sensor_msgs/Image frames at a rate, for demos and tests
+/// `red camera` (docs/ROS2.md): publishes sensor_msgs/Image frames at a rate, for demos and tests
 /// (the paper's simulated camera node). Frames are synthetic -- a gradient with a bright
 /// square that moves, so that every output of `red node` changes with the frame -- or the
 /// PNG/JPEG images of a directory, in name order, in a loop.

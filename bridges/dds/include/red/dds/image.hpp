@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Checking a received sensor_msgs/Image and bringing it to the model's input size (§14).
+/// Checking a received sensor_msgs/Image and bringing it to the model's input size (docs/ROS2.md).
 
 #include <array>
 #include <cstdint>
@@ -107,7 +107,7 @@ class ReceivedImage {
   bool moved_ = false;
 };
 
-/// A received image converted, when first asked for, to the model's input size (§14:
+/// A received image converted, when first asked for, to the model's input size (docs/ROS2.md:
 /// released first, converted later): RGB (channels 3) or luminance (channels 1), nearest
 /// neighbour. The received image is let go once converted. Thread-safe (LazyFrame).
 class ConvertedImage final : public LazyFrame {

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Images from files for `red camera --from DIR` (§14): PNG (libpng) and JPEG (libjpeg),
+/// Images from files for `red camera --from DIR` (docs/ROS2.md): PNG (libpng) and JPEG (libjpeg),
 /// decoded to 8-bit RGB.
 
 #include <cstdint>

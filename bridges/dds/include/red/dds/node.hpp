@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// `red node` (§14): RED as one ROS 2-compatible node on Cyclone DDS. Each sensor of the
+/// `red node` (docs/ROS2.md): RED as one ROS 2-compatible node on Cyclone DDS. Each sensor of the
 /// scenario is a subscribed sensor_msgs/Image topic whose frame arrivals are the releases;
 /// the real runtime schedules the scenario's operations under a policy on a backend; each
 /// inference node of a finished job publishes its output with the header of the frame it

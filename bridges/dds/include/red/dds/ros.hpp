@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// ROS 2 conventions on plain DDS (§14): topic names (`/a/b` is the DDS topic `rt/a/b`),
+/// ROS 2 conventions on plain DDS (docs/ROS2.md): topic names (`/a/b` is the DDS topic `rt/a/b`),
 /// `--remap from:=to`, the QoS ROS 2 uses (sensor data in, reliable results out) and a
 /// loopback-only Cyclone DDS configuration. The participant of a process lives in Domain.
 
@@ -42,7 +42,7 @@ struct EndpointQos {
   bool transient_local = false;
 };
 
-/// The QoS of the node's endpoints (§14): inputs as ROS 2's sensor-data profile, outputs
+/// The QoS of the node's endpoints (docs/ROS2.md): inputs as ROS 2's sensor-data profile, outputs
 /// reliable, keep last 10, volatile.
 struct QosSettings {
   EndpointQos input{false, 5, false};
