@@ -424,6 +424,13 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin)
     const OpState& o = ops[static_cast<std::size_t>(j.op)];
     if (j.release != now || j.started || o.own_rate || o.trigger < 0) continue;
     if (2 * o.inflight <= o.max_inflight) continue;  // half its slots or more still free
+    // Its slots must be what limits it: a release of it skipped at max_inflight within the
+    // offered-load window, or the demand test overrun. Past capacity by the offered load
+    // alone is not enough (issue 37: on a robot workload at 1x with max_inflight 1 this rule
+    // lost 41 % of the jobs, all of which red met). Gating on the demand test alone cost the
+    // overload grid 31 of 464 points (worst -8.2 points); with the skips, 11 (worst -5.7).
+    if ((o.last_skip == kNever || now - o.last_skip > from_s(kOfferedWindow)) && !demand_overrun)
+      continue;
     const int t = o.trigger;
     const auto tu = static_cast<std::size_t>(t);
     bool others = false;  // another operation reads the sensor: the frame could be shared
@@ -443,9 +450,7 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin)
   }
   // Criticality (§5): a lone job more critical than some job in flight goes only when the
   // jobs of its criticality or more overrun by themselves (pick() runs them ahead of the
-  // others under overload). Gating every lone job on the demand test instead (issue 37: on
-  // one robot workload at 1x with max_inflight 1 this rule lost 41 % of jobs red all met)
-  // cost the overload grid 31 of 464 points (worst -8.2 points): not done.
+  // others under overload).
   if (mixed_criticality && !lone.empty()) {
     const int least = least_criticality();
     std::erase_if(lone, [&](int slot) {

@@ -150,6 +150,7 @@ struct OpState {
   JobId last_job = 0;
   std::vector<int> sensors_read;  // sensors of its inference nodes
   TimePoint last_shed = kNever;   // its last job shed for want of lane time (§15), kNever: none
+  TimePoint last_skip = kNever;   // its last release skipped at max_inflight (§5), kNever: none
 };
 
 struct SensorState {
@@ -412,7 +413,9 @@ struct Scheduler::Impl {
   // §15 "shed early", by frame (opt.shed_lone, past capacity): rejects the jobs released
   // now that no other job in flight shares a frame with (other operations read the sensor,
   // but skipped or rejected this frame) and that leave their operation fewer than half its
-  // max_inflight slots free. Called by admit() before Moore and Hodgson.
+  // max_inflight slots free, while those slots limit it (a release of it skipped at
+  // max_inflight lately, or the demand test overrun). Called by admit() before Moore and
+  // Hodgson.
   // Lone jobs more critical than some job in flight go only when the jobs of their
   // criticality or more overrun by themselves (first_overrun's min_crit; k and margin its).
   void shed_lone_jobs(TimePoint now, std::size_t k, int margin);

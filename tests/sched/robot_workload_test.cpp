@@ -114,9 +114,9 @@ struct Known {
   int below_red, below_edf, critical_below_red;
 };
 constexpr Known kKnown[] = {
-    {"builtin", 69, 2, 149},
-    {"robot-mnv3s", 76, 4, 198},
-    {"robot-r18", 80, 4, 208},
+    {"builtin", 51, 2, 145},
+    {"robot-mnv3s", 46, 1, 200},
+    {"robot-r18", 46, 0, 202},
 };
 
 TEST(RobotWorkload, RedRobustIsNeverTheWorseChoice) {
