@@ -9,6 +9,8 @@
 ///
 ///     red_load_grid [--seeds N] [--duration S] [--markdown docs/BENCHMARKS.md] [--points F]
 ///     red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES LOAD [--with K=V,…]
+///     red_load_grid --robots N [--profile F] [--with K=V,…]
+///     red_load_grid --robot SEED [--profile F] --yaml
 ///
 /// --point prints one grid point's diagnostics instead: per policy the on-time fraction,
 /// drops by reason and wasted lane time, and the jobs edf or red met that red-robust did
@@ -33,6 +35,7 @@
 
 #include "load_grid.hpp"
 #include "red/core/file.hpp"
+#include "robot_workload.hpp"
 
 namespace {
 
@@ -221,6 +224,79 @@ red::Scenario with_options(const red::Scenario& s, const std::string& policy,
   return out;
 }
 
+// --robots: edf, red and red-robust on N seeded robot workloads (robot_workload.hpp) at
+// 0.5 to 2.5x load; the worst point of red-robust against each, and of every operation more
+// critical than the workload's least against red (on-time fractions, after warm-up).
+int robots(int n, const red::Profile& profile, const std::string& with) {
+  const std::vector<double> loads{0.5, 1.0, 1.5, 2.0, 2.5};
+  double worst_red = 1, worst_edf = 1, worst_crit = 1;
+  std::string at_red, at_edf, at_crit;
+  int points = 0, below_red = 0, below_edf = 0, crit_below = 0;
+  for (int seed = 1; seed <= n; ++seed)
+    for (double load : loads) {
+      const red::Scenario s = red::robot::workload(static_cast<std::uint64_t>(seed), profile, load);
+      std::map<std::string, std::vector<double>> op_on_time;
+      std::map<std::string, double> on_time;
+      for (const char* pol : {"edf", "red", "red-robust"}) {
+        auto r = red::simulate_policy(with_options(s, pol, with), profile, pol, s.seed, {}, false);
+        if (!r) {
+          std::cerr << r.error().to_string() << "\n";
+          return 1;
+        }
+        on_time[pol] = r->metrics.on_time;
+        std::vector<int> jobs(static_cast<std::size_t>(s.operation_count()), 0), met(jobs);
+        for (const red::JobRow& j : r->jobs) {
+          if (j.release < red::TimePoint{} + s.warmup) continue;
+          ++jobs[static_cast<std::size_t>(j.operation)];
+          met[static_cast<std::size_t>(j.operation)] += j.outcome == red::JobOutcome::Met ? 1 : 0;
+        }
+        for (std::size_t i = 0; i < jobs.size(); ++i)
+          op_on_time[pol].push_back(jobs[i] == 0 ? -1.0 : static_cast<double>(met[i]) / jobs[i]);
+      }
+      ++points;
+      const std::string at = fmt::format("robot seed {} at {:.1f}x", seed, load);
+      const double dr = on_time["red-robust"] - on_time["red"];
+      const double de = on_time["red-robust"] - on_time["edf"];
+      below_red += dr < -0.005 ? 1 : 0;
+      below_edf += de < -0.005 ? 1 : 0;
+      if (dr < worst_red) {
+        worst_red = dr;
+        at_red = at;
+      }
+      if (de < worst_edf) {
+        worst_edf = de;
+        at_edf = at;
+      }
+      auto crit = [&](int i) {
+        if (const auto& o = s.initial[static_cast<std::size_t>(i)]) return o->criticality;
+        for (const red::EventSpec& e : s.events)
+          for (const auto& [k, snap] : e.changes)
+            if (k == i && snap) return snap->criticality;
+        return 0;
+      };
+      int least = 1 << 30;
+      for (int i = 0; i < s.operation_count(); ++i) least = std::min(least, crit(i));
+      for (int i = 0; i < s.operation_count(); ++i) {
+        const auto ii = static_cast<std::size_t>(i);
+        if (crit(i) <= least || op_on_time["red"][ii] < 0) continue;
+        const double d = op_on_time["red-robust"][ii] - op_on_time["red"][ii];
+        crit_below += d < -0.005 ? 1 : 0;
+        if (d < worst_crit) {
+          worst_crit = d;
+          at_crit = at + " " + s.operation_name(i);
+        }
+      }
+    }
+  std::cout << fmt::format(
+      "{} points ({} robot workloads x {} loads)\n"
+      "red-robust - red:  worst {:+.4f} ({}), {} points below -0.005\n"
+      "red-robust - edf:  worst {:+.4f} ({}), {} points below -0.005\n"
+      "more critical operations, red-robust - red: worst {:+.4f} ({}), {} below -0.005\n",
+      points, n, loads.size(), worst_red, at_red, below_red, worst_edf, at_edf, below_edf,
+      worst_crit, at_crit, crit_below);
+  return 0;
+}
+
 // One point's diagnostics (--point): where red-robust loses jobs that edf or red keep.
 int diagnose(const red::grid::SetSpec& spec, double load, const std::string& with) {
   const red::Profile profile = red::default_profile();
@@ -277,6 +353,9 @@ int main(int argc, char** argv) {
   bool yaml = false;        // --point: print the point's scenario instead
   std::string points_file;  // every point's on-time fractions, bound and waste (TSV)
   std::optional<std::pair<red::grid::SetSpec, double>> point;
+  int robot_count = 0;  // --robots N
+  int robot_seed = 0;   // --robot SEED (with --yaml)
+  std::string profile_file;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -296,6 +375,12 @@ int main(int argc, char** argv) {
       with = next();
     } else if (a == "--points") {
       points_file = next();
+    } else if (a == "--robots") {
+      robot_count = std::atoi(next().c_str());
+    } else if (a == "--robot") {
+      robot_seed = std::atoi(next().c_str());
+    } else if (a == "--profile") {
+      profile_file = next();
     } else if (a == "--yaml") {
       yaml = true;
     } else if (a == "--point") {
@@ -322,13 +407,32 @@ int main(int argc, char** argv) {
       std::cerr << "usage: red_load_grid [--seeds N] [--duration S] [--markdown FILE] "
                    "[--points FILE]\n"
                    "       red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES "
-                   "LOAD [--duration S] [--with K=V,...] [--yaml]\n";
+                   "LOAD [--duration S] [--with K=V,...] [--yaml]\n"
+                   "       red_load_grid --robots N [--profile F] [--with K=V,...]\n"
+                   "       red_load_grid --robot SEED [--profile F] --yaml\n";
       return 2;
     }
   }
   if (seeds < 1 || !(duration > 1.0)) {
     std::cerr << "red_load_grid: --seeds must be >= 1 and --duration > 1\n";
     return 2;
+  }
+  if (robot_count > 0 || robot_seed > 0) {
+    red::Profile rp = red::default_profile();
+    if (!profile_file.empty()) {
+      auto p = red::load_profile(profile_file);
+      if (!p) {
+        std::cerr << p.error().to_string() << "\n";
+        return 2;
+      }
+      rp = std::move(*p);
+    }
+    if (robot_seed > 0) {
+      // The workload at load 1; `red compare FILE --set rate_scale=LOAD` runs a point.
+      std::cout << red::robot::workload_yaml(static_cast<std::uint64_t>(robot_seed), rp);
+      return 0;
+    }
+    return robots(robot_count, rp, with);
   }
   if (point) {
     point->first.duration_s = duration;

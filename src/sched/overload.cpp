@@ -57,7 +57,7 @@ bool Scheduler::Impl::looking_ahead() const {
 }
 
 Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k, Duration* largest,
-                                       int criticality) {
+                                       int criticality, int min_crit) {
   if (expected_stale) {
     expected_stale = false;
     std::vector<int> sharing(sensors.size(), 0);
@@ -79,7 +79,7 @@ Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k
   Duration due{0};
   for (std::size_t i = 0; i < ops.size(); ++i) {
     const OpState& o = ops[i];
-    if (o.g == nullptr || o.remaining == 0) continue;
+    if (o.g == nullptr || o.remaining == 0 || o.criticality < min_crit) continue;
     // The next release: the own-rate tick, or the triggering sensor's next frame.
     double hz = 0;
     TimePoint next = kNever;
@@ -106,12 +106,13 @@ Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k
 }
 
 int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, int margin,
-                                   std::size_t from, bool skip_doomed) {
+                                   std::size_t from, bool skip_doomed, int min_crit) {
   // Admission (skip_doomed) looking ahead counts, by each job's deadline, the work of the
   // jobs still to come that are due by then too.
   const bool ahead = skip_doomed && looking_ahead();
   const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
-  if (lane_count > 1 && schedule) return first_overrun_lanes(now, k, margin, from, skip_doomed);
+  if (lane_count > 1 && schedule)
+    return first_overrun_lanes(now, k, margin, from, skip_doomed, min_crit);
   // Admission on one lane counts the unit running there first, whatever its job's deadline
   // (it is not preempted): that blocking made jobs with little slack hopeless at once.
   const bool blocking = skip_doomed && lane_count == 1;
@@ -128,6 +129,7 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
     }
   for (std::size_t i = 0; i < by_deadline.size(); ++i) {
     Job& j = job(by_deadline[i]);
+    if (ops[static_cast<std::size_t>(j.op)].criticality < min_crit) continue;
     if (skip_doomed && doomed(j, now, k)) continue;
     const Duration w = work_left(j, now, k);
     due += w;
@@ -137,7 +139,8 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
         due -= residual(j, u, now, k) / std::max(1, j.u[u].share);
       }
     if (i < from) continue;
-    const Duration coming = ahead ? expected_due(now, j.deadline, k) : Duration{0};
+    const Duration coming =
+        ahead ? expected_due(now, j.deadline, k, nullptr, 0, min_crit) : Duration{0};
     if (lane_count == 1) {
       if (now + padded(due + coming, margin) > j.deadline) return static_cast<int>(i);
       continue;
@@ -198,7 +201,7 @@ bool Scheduler::Impl::doomed(Job& j, TimePoint now, std::size_t k) {
 }
 
 int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k, int margin, std::size_t from,
-                                         bool skip_doomed) {
+                                         bool skip_doomed, int min_crit) {
   lane_free.assign(lanes.size(), now);
   gap_begin.assign(lanes.size(), now);
   gap_end.assign(lanes.size(), now);
@@ -217,6 +220,7 @@ int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k, int margi
   }
   for (std::size_t i = 0; i < by_deadline.size(); ++i) {
     Job& j = job(by_deadline[i]);
+    if (ops[static_cast<std::size_t>(j.op)].criticality < min_crit) continue;
     if (skip_doomed && doomed(j, now, k)) continue;
     const RefinedGraph& g = *j.g;
     unit_end.assign(g.units.size(), now);
@@ -338,7 +342,12 @@ void Scheduler::Impl::admit(TimePoint now) {
   // cannot make it even alone (on the estimate, from now) counts for nothing: the hopeless
   // check ends it, and its work would make every later window overrun.
   const bool ahead = looking_ahead();
-  if (opt.shed_lone && schedule) shed_lone_jobs(now);
+  if (opt.shed_lone && schedule) shed_lone_jobs(now, k, margin);
+  // Criticality (docs/DESIGN.md, "Criticality"): under overload pick() runs the most critical work
+  // first, so a job is in the way of a more critical one only through the units the lanes hold. A
+  // job is rejected for a window only if the jobs of its criticality or more overrun by themselves;
+  // jobs at carried_from or above are known not to (rejections only make room).
+  int carried_from = std::numeric_limits<int>::max();
   std::size_t from = 0;
   for (;;) {
     const int over = first_overrun(now, k, schedule, margin, from, true);
@@ -358,6 +367,7 @@ void Scheduler::Impl::admit(TimePoint now) {
       refresh(j);
       if (j.started || doomed(j, now, k)) continue;
       const int crit = ops[static_cast<std::size_t>(j.op)].criticality;
+      if (crit >= carried_from) continue;
       const Duration w = work_left(j, now, k);
       const bool better = victim < 0 || crit < victim_crit ||
                           (crit == victim_crit && w > victim_work) ||
@@ -369,6 +379,13 @@ void Scheduler::Impl::admit(TimePoint now) {
       }
     }
     if (victim < 0) continue;  // only started jobs are due by then: hopeless checks decide
+    if (mixed_criticality && victim_crit > least_criticality()) {
+      // Less critical jobs (started, or past this window) share the overrun: whether the
+      // victim's class alone overruns decides. The victim is the least critical candidate.
+      const int own = first_overrun(now, k, schedule, margin, 0, true, victim_crit);
+      if (own < 0) carried_from = victim_crit;
+      if (own < 0 || own > over) continue;
+    }
     if (ahead) {
       // Moore and Hodgson over the jobs to come as well: where one of them, no more critical,
       // has more work due by then than the victim, it is that job that goes, at its release.
@@ -384,7 +401,14 @@ void Scheduler::Impl::admit(TimePoint now) {
   }
 }
 
-void Scheduler::Impl::shed_lone_jobs(TimePoint now) {
+int Scheduler::Impl::least_criticality() {
+  int least = std::numeric_limits<int>::max();
+  for (const int slot : by_deadline)
+    least = std::min(least, ops[static_cast<std::size_t>(job(slot).op)].criticality);
+  return least;
+}
+
+void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin) {
   // With max_inflight, an operation's throughput is its slots over its jobs' response time.
   // Past capacity every operation of a MIMONet set fills its slots, each skips the frames
   // that come while it is full, and the frames each one takes drift apart: an encoder run
@@ -400,6 +424,13 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now) {
     const OpState& o = ops[static_cast<std::size_t>(j.op)];
     if (j.release != now || j.started || o.own_rate || o.trigger < 0) continue;
     if (2 * o.inflight <= o.max_inflight) continue;  // half its slots or more still free
+    // Its slots must be what limits it: a release of it skipped at max_inflight within the
+    // offered-load window, or the demand test overrun. Past capacity by the offered load
+    // alone is not enough (issue 37: on a robot workload at 1x with max_inflight 1 this rule
+    // lost 41 % of the jobs, all of which red met). Gating on the demand test alone cost the
+    // overload grid 31 of 464 points (worst -8.2 points); with the skips, 11 (worst -5.7).
+    if ((o.last_skip == kNever || now - o.last_skip > from_s(kOfferedWindow)) && !demand_overrun)
+      continue;
     const int t = o.trigger;
     const auto tu = static_cast<std::size_t>(t);
     bool others = false;  // another operation reads the sensor: the frame could be shared
@@ -416,6 +447,16 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now) {
       }
     }
     if (!shared) lone.push_back(slot);
+  }
+  // Criticality (docs/DESIGN.md, "Criticality"): a lone job more critical than some job in flight
+  // goes only when the jobs of its criticality or more overrun by themselves (pick() runs them
+  // ahead of the others under overload).
+  if (mixed_criticality && !lone.empty()) {
+    const int least = least_criticality();
+    std::erase_if(lone, [&](int slot) {
+      const int crit = ops[static_cast<std::size_t>(job(slot).op)].criticality;
+      return crit > least && first_overrun(now, est, true, margin, 0, true, crit) < 0;
+    });
   }
   for (const int slot : lone) {
     job(slot).reason = "rejected at release";

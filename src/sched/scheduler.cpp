@@ -191,6 +191,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   const RefinedGraph& g = *o.g;
   if (o.inflight >= o.max_inflight) {
     // max_inflight (docs/DESIGN.md, "max_inflight"): the frame is skipped and counted as a drop.
+    o.last_skip = now;
     Job tmp;
     tmp.id = next_job_id++;
     tmp.op = op_index;

@@ -154,6 +154,8 @@ struct OpState {
   std::vector<int> sensors_read;  // sensors of its inference nodes
   // Its last job shed for want of lane time (docs/DESIGN.md, "Overload"), kNever: none.
   TimePoint last_shed = kNever;
+  // Its last release skipped at max_inflight (docs/DESIGN.md, "max_inflight"), kNever: none.
+  TimePoint last_skip = kNever;
 };
 
 struct SensorState {
@@ -367,9 +369,10 @@ struct Scheduler::Impl {
   // after `now` with deadlines by `t`, at their current rates, on estimate kind k: a job its
   // units' cost, a frame's encoder run divided among the operations it triggers. `largest`,
   // when given, is raised to the largest one such job of criticality at most `criticality`
-  // needs.
+  // needs. Operations less critical than `min_crit` are left out.
   Duration expected_due(TimePoint now, TimePoint t, std::size_t k, Duration* largest = nullptr,
-                        int criticality = 0);
+                        int criticality = 0, int min_crit = kAnyCriticality);
+  static constexpr int kAnyCriticality = std::numeric_limits<int>::min();
   std::vector<std::array<Duration, kEstimates>> expected_work;  // per operation: a job's work
   bool expected_stale = true;  // graphs or rates changed since expected_work was computed
 
@@ -384,8 +387,11 @@ struct Scheduler::Impl {
   // estimate (admission's margin, docs/DESIGN.md, "Overload"); 0 in the per-round overload test.
   // Admission passes `from` (the first position that may be returned; earlier jobs still
   // count) and `skip_doomed` (jobs that cannot make it alone count for nothing).
+  // `min_crit`: only the jobs (and jobs to come) of that criticality or more count, besides
+  // the units the lanes hold: the test for what pick() runs first under overload (docs/DESIGN.md,
+  // "Criticality").
   int first_overrun(TimePoint now, std::size_t k, bool schedule, int margin, std::size_t from,
-                    bool skip_doomed);
+                    bool skip_doomed, int min_crit = kAnyCriticality);
 
   // first_overrun(now, k, false, 0, 0, false) >= 0, the per-round overload test (docs/DESIGN.md,
   // "Overload"), decided where it can be from bounds kept per job (work_base and work_most bracket
@@ -405,7 +411,7 @@ struct Scheduler::Impl {
   // start (its predecessors' end, a lane's end) on the lane that leaves the smallest gap (or in an
   // idle gap it fits).
   int first_overrun_lanes(TimePoint now, std::size_t k, int margin, std::size_t from,
-                          bool skip_doomed);
+                          bool skip_doomed, int min_crit);
 
   // True when an operation that still releases jobs is at its max_inflight (docs/DESIGN.md,
   // "max_inflight").
@@ -418,11 +424,17 @@ struct Scheduler::Impl {
   // job when a deadline is overrun), which minimizes the number of late jobs.
   void admit(TimePoint now);
 
-  // docs/DESIGN.md, "Overload" "shed early", by frame (opt.shed_lone, past capacity): rejects the
-  // jobs released now that no other job in flight shares a frame with (other operations read the
-  // sensor, but skipped or rejected this frame) and that leave their operation fewer than half its
-  // max_inflight slots free. Called by admit() before Moore and Hodgson.
-  void shed_lone_jobs(TimePoint now);
+  // docs/DESIGN.md, "Overload" "shed early", by frame (opt.shed_lone, past capacity): rejects
+  // the jobs released now that no other job in flight shares a frame with (other operations
+  // read the sensor, but skipped or rejected this frame) and that leave their operation fewer
+  // than half its max_inflight slots free, while those slots limit it (a release of it
+  // skipped at max_inflight lately, or the demand test overrun). Called by admit() before
+  // Moore and Hodgson. Lone jobs more critical than some job in flight go only when the jobs
+  // of their criticality or more overrun by themselves (first_overrun's min_crit; k and
+  // margin its).
+  void shed_lone_jobs(TimePoint now, std::size_t k, int margin);
+  // The least criticality of the jobs in flight (INT_MAX with none).
+  int least_criticality();
   std::vector<int> lone;  // shed_lone_jobs' victims, reused
 
   // The latest a batch may end for every member of task k to finish its job by the job's
