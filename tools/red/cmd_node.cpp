@@ -157,7 +157,14 @@ int run_node(const NodeArgs& a) {
   metrics.set_keep_rows(false);
   std::unique_ptr<CsvRowStream> stream;
   std::optional<RowQueue> queue;
+  std::optional<OutputSet> set;  // the run's files, ended by manifest.json (docs/REPORTS.md)
   if (a.out) {
+    auto begun = OutputSet::begin(*a.out, "node");
+    if (!begun) {
+      print_error(begun.error());
+      return kRunFailure;
+    }
+    set = std::move(begun.value());
     auto st = CsvRowStream::open(*a.out, *s, true);
     if (!st) {
       print_error(st.error());
@@ -279,12 +286,22 @@ int run_node(const NodeArgs& a) {
       run.jobs = std::move(rows->front().jobs);
       run.units = std::move(rows->front().units);
     }
+    if (auto e = stream->finish()) {
+      print_error(*e);
+      return kRunFailure;
+    }
     OutputOptions oo;
     oo.gnuplot = "none";
     oo.rows_written = true;
+    oo.rows_files = stream->finished();
+    oo.set = &*set;
     OutputReport wrote;
     if (auto e = write_outputs(*a.out, *s, *p, std::string((*backend)->name()), s->seed, {run}, oo,
                                &wrote)) {
+      for (const Error& f : wrote.errors) print_error(f);
+      return kRunFailure;
+    }
+    if (auto e = set->finish()) {
       print_error(*e);
       return kRunFailure;
     }
