@@ -94,6 +94,8 @@ std::string html_escape(const std::string& text) {
 
 std::string render_html(const HtmlPage& page) {
   std::string out = "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+  if (!page.run_id.empty())
+    out += "<meta name=\"red-run-id\" content=\"" + html_escape(page.run_id) + "\">\n";
   out += "<title>" + html_escape(page.title) + "</title>\n";
   out += std::string("<style>\n") + kStyle + "\n</style>\n</head>\n<body>\n";
   out += "<h1>" + html_escape(page.title) + "</h1>\n";
@@ -161,6 +163,7 @@ HtmlPage compare_page(const SummaryHeader& header, const std::vector<PolicyMetri
                       const PlotReport& plots, const std::vector<HtmlLink>& files) {
   HtmlPage page;
   page.title = "RED: " + header.scenario;
+  page.run_id = header.run_id;
   page.facts = {{"scenario", header.scenario},
                 {"backend", header.backend},
                 {"seed", std::to_string(header.seed)},

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <set>
 
+#include "red/core/output_file.hpp"
 #include "red/report/report.hpp"
 
 namespace red {
@@ -141,28 +142,45 @@ class Plotter {
                           s.height)
             : fmt::format("set terminal png noenhanced size {},{} font 'Sans,10'", s.width,
                           s.height);
-    std::string gp = fmt::format(
-        "# {} (written by red; edit and run `gnuplot {}.gp` to redraw)\n"
-        "# data: {}.dat\n{}\nset output '{}.png'\n{}unset output\n",
-        s.title, s.name, s.name, terminal_png, s.name, s.body);
-    if (o_.svg)
-      gp += fmt::format(
-          "set terminal svg noenhanced size {},{} dynamic font 'Sans,11' background rgb "
-          "'white'\nset output '{}.svg'\n{}unset output\n",
-          s.width, s.height, s.name, s.body);
+    // The script as kept (it draws NAME.png and NAME.svg), and as run now: it draws them
+    // under their .partial names, renamed into place once gnuplot has finished them.
+    auto script = [&](const std::string& png, const std::string& svg) {
+      std::string gp = fmt::format(
+          "# {} (written by red; edit and run `gnuplot {}.gp` to redraw)\n"
+          "# data: {}.dat\n{}\nset output '{}'\n{}unset output\n",
+          s.title, s.name, s.name, terminal_png, png, s.body);
+      if (o_.svg)
+        gp += fmt::format(
+            "set terminal svg noenhanced size {},{} dynamic font 'Sans,11' background rgb "
+            "'white'\nset output '{}'\n{}unset output\n",
+            s.width, s.height, svg, s.body);
+      return gp;
+    };
+    const std::string png_name = s.name + ".png", svg_name = s.name + ".svg";
     if (auto e = write_file(path_, s.name + ".dat", s.data)) return note(e->to_string());
-    if (auto e = write_file(path_, s.name + ".gp", gp)) return note(e->to_string());
+    report_.files.push_back(o_.subdir + "/" + s.name + ".dat");
+    if (auto e = write_file(path_, s.name + ".gp", script(png_name, svg_name)))
+      return note(e->to_string());
+    report_.files.push_back(o_.subdir + "/" + s.name + ".gp");
     if (terminal_.empty()) return;
+    const std::string run = partial_path(s.name + ".gp");
+    if (auto e = write_file(path_, run, script(partial_path(png_name), partial_path(svg_name))))
+      return note(e->to_string());
     const std::string log = s.name + ".log";
     const std::string cmd = "cd " + shell_quote(path_) + " && " + shell_quote(o_.gnuplot) + " " +
-                            shell_quote(s.name + ".gp") + " > " + shell_quote(log) + " 2>&1";
+                            shell_quote(run) + " > " + shell_quote(log) + " 2>&1";
     const int rc = std::system(cmd.c_str());
     std::error_code ec;
-    const fs::path png = fs::path(path_) / (s.name + ".png");
-    const fs::path svg = fs::path(path_) / (s.name + ".svg");
+    fs::remove(fs::path(path_) / run, ec);
+    const fs::path png = fs::path(path_) / partial_path(png_name);
+    const fs::path svg = fs::path(path_) / partial_path(svg_name);
     const bool ok = rc == 0 && fs::exists(png, ec) && fs::file_size(png, ec) > 0 &&
                     (!o_.svg || (fs::exists(svg, ec) && fs::file_size(svg, ec) > 0));
-    if (!ok) {
+    if (ok) fs::rename(png, fs::path(path_) / png_name, ec);
+    if (ok && !ec && o_.svg) fs::rename(svg, fs::path(path_) / svg_name, ec);
+    if (!ok || ec) {
+      fs::remove(png, ec);
+      fs::remove(svg, ec);
       note("gnuplot failed on " + o_.subdir + "/" + s.name + ".gp (see " + o_.subdir + "/" + log +
            ")");
       return;

@@ -1,5 +1,7 @@
 #include "red/report/report.hpp"
 
+#include "red/core/output_file.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -65,6 +67,7 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
   j["baseline"] = h.baseline;
   j["seed"] = h.seed;
   j["profile"] = h.profile_source;
+  if (!h.run_id.empty()) j["run_id"] = h.run_id;
   j["policies"] = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < policies.size(); ++i) {
     const PolicyMetrics& m = policies[i];
@@ -230,13 +233,7 @@ std::optional<Error> write_file(const std::string& dir, const std::string& name,
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) return Error{dir, 0, "cannot create directory: " + ec.message()};
-  const std::string path = (std::filesystem::path(dir) / name).string();
-  std::ofstream f(path, std::ios::binary);
-  if (!f) return Error{path, 0, "cannot open for writing"};
-  f << text;
-  f.close();
-  if (!f) return Error{path, 0, "write failed"};
-  return std::nullopt;
+  return write_file_atomically((std::filesystem::path(dir) / name).string(), text);
 }
 
 }  // namespace red

@@ -41,6 +41,7 @@ void RowQueue::forward_pending() {
   const std::lock_guard<std::mutex> write(write_mutex_);
   {
     const std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (queue_.empty()) return;
     batch_.swap(queue_);
   }
   for (const Row& r : batch_) {
@@ -62,9 +63,13 @@ void RowQueue::writer() {
   while (!stop_) {
     stop_cv_.wait_for(lock, period_, [this] { return stop_; });
     if (stop_) break;
-    if (queue_.empty()) continue;
     lock.unlock();
     forward_pending();
+    {
+      // Even with no new rows: what the sink buffers is written out in time (stream.hpp).
+      const std::lock_guard<std::mutex> write(write_mutex_);
+      inner_.poll();
+    }
     lock.lock();
   }
 }

@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "red/core/output_file.hpp"
 #include "red/report/report.hpp"
 
 namespace red {
@@ -40,23 +41,31 @@ bool write_all(int fd, const std::string& text) {
 
 }  // namespace
 
+CsvRowStream::CsvRowStream(const Scenario& s, std::size_t window, const Clock* clock)
+    : scenario_(s), clock_(clock != nullptr ? clock : &own_clock_), window_(window) {
+  last_write_ = clock_->now();
+}
+
 Expected<std::unique_ptr<CsvRowStream>> CsvRowStream::open(const std::string& dir,
                                                            const Scenario& s, bool units,
-                                                           std::size_t window) {
+                                                           std::size_t window, const Clock* clock) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) return Error{dir, 0, "cannot create directory: " + ec.message()};
-  std::unique_ptr<CsvRowStream> out(new CsvRowStream(s, window));
+  std::unique_ptr<CsvRowStream> out(new CsvRowStream(s, window, clock));
   out->with_units_ = units;
-  auto start = [&dir](File& f, const std::string& name,
-                      const std::string& header) -> std::optional<Error> {
+  auto start = [&dir, &out](File& f, const std::string& name,
+                            const std::string& header) -> std::optional<Error> {
+    f.name = name;
     f.path = (std::filesystem::path(dir) / name).string();
-    f.fd = open_truncated(f.path);
-    if (f.fd < 0)
-      return Error{f.path, 0, std::string("cannot open for writing: ") + strerror(errno)};
-    if (!write_all(f.fd, header))
-      return Error{f.path, 0, std::string("write failed: ") + strerror(errno)};
+    f.partial = partial_path(f.path);
+    f.fd = open_truncated(f.partial);
+    if (f.fd < 0) return Error{f.partial, 0, "cannot open for writing: " + system_reason(errno)};
     f.buffer.reserve(kBufferBytes + 1024);
+    // A header that cannot be written (a full disk) stops this file as a later row would:
+    // the run goes on, flush() returns the error.
+    f.buffer = header;
+    out->write_out(f);
     return std::nullopt;
   };
   if (auto e = start(out->jobs_, "jobs.csv", jobs_csv_header())) return *e;
@@ -79,9 +88,27 @@ void CsvRowStream::begin_policy(std::string policy) {
 
 void CsvRowStream::write_out(File& f) {
   if (f.fd < 0 || f.buffer.empty()) return;
-  if (!write_all(f.fd, f.buffer) && !error_)
-    error_ = Error{f.path, 0, std::string("write failed: ") + strerror(errno)};
+  if (!write_all(f.fd, f.buffer)) {
+    // This file stops here (its later rows are dropped); the run and the other file go on.
+    const int err = errno;
+    if (!error_) error_ = Error{f.partial, 0, "write failed: " + system_reason(err)};
+    f.failed = true;
+    ::close(f.fd);
+    f.fd = -1;
+  }
   f.buffer.clear();
+}
+
+void CsvRowStream::flush_if_due() {
+  const TimePoint now = clock_->now();
+  if (now - last_write_ < kFlushInterval) return;
+  write_out(jobs_);
+  write_out(units_);
+  last_write_ = now;
+}
+
+void CsvRowStream::poll() {
+  flush_if_due();
 }
 
 void CsvRowStream::keep(bool job, const JobRow* j, const UnitRow* u) {
@@ -102,22 +129,50 @@ void CsvRowStream::keep(bool job, const JobRow* j, const UnitRow* u) {
 
 void CsvRowStream::on_job_row(const JobRow& row) {
   ++job_rows_;
-  append_job_row(jobs_.buffer, scenario_, policy_, row);
+  if (!jobs_.failed) append_job_row(jobs_.buffer, scenario_, policy_, row);
   if (jobs_.buffer.size() >= kBufferBytes) write_out(jobs_);
+  flush_if_due();
   keep(true, &row, nullptr);
 }
 
 void CsvRowStream::on_unit_row(const UnitRow& row) {
   if (!with_units_) return;
   ++unit_rows_;
-  append_unit_row(units_.buffer, scenario_, policy_, row);
+  if (!units_.failed) append_unit_row(units_.buffer, scenario_, policy_, row);
   if (units_.buffer.size() >= kBufferBytes) write_out(units_);
+  flush_if_due();
   keep(false, nullptr, &row);
 }
 
 std::optional<Error> CsvRowStream::flush() {
   write_out(jobs_);
   write_out(units_);
+  last_write_ = clock_->now();
+  return error_;
+}
+
+std::optional<Error> CsvRowStream::finish() {
+  (void)flush();
+  for (File* f : {&jobs_, &units_}) {
+    if (f->fd < 0 || f->renamed) continue;
+    // close() can report a delayed write error (NFS, some full file systems).
+    if (::close(f->fd) != 0) {
+      const int err = errno;
+      if (!error_) error_ = Error{f->partial, 0, "write failed: " + system_reason(err)};
+      f->failed = true;
+    }
+    f->fd = -1;
+    if (f->failed) continue;
+    if (std::rename(f->partial.c_str(), f->path.c_str()) != 0) {
+      const int err = errno;
+      if (!error_)
+        error_ =
+            Error{f->path, 0, "cannot rename " + f->partial + " into place: " + system_reason(err)};
+      continue;
+    }
+    f->renamed = true;
+    finished_.push_back(f->name);
+  }
   return error_;
 }
 
@@ -127,11 +182,14 @@ std::size_t CsvRowStream::kept() const noexcept {
 
 Expected<std::vector<StreamedRows>> CsvRowStream::rows() const {
   if (!overflowed_) return kept_;
-  auto jobs = read_job_rows(jobs_.path, scenario_);
+  for (const File* f : {&jobs_, &units_})
+    if (f->failed)
+      return Error{f->partial, 0, "cannot read the rows back: an earlier write failed"};
+  auto jobs = read_job_rows(jobs_.renamed ? jobs_.path : jobs_.partial, scenario_);
   if (!jobs) return jobs.error();
   std::vector<std::pair<std::string, std::vector<UnitRow>>> units;
   if (with_units_) {
-    auto u = read_unit_rows(units_.path, scenario_);
+    auto u = read_unit_rows(units_.renamed ? units_.path : units_.partial, scenario_);
     if (!u) return u.error();
     units = std::move(u.value());
   }

@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -199,6 +200,44 @@ TEST_F(Signals, RunStopsOnSigintWithJobsUnfinished) {
   json trace;
   EXPECT_NO_THROW(trace = json::parse(read_text(fs::path(out_dir()) / "trace.json")));
   EXPECT_TRUE(trace.contains("traceEvents")) << "trace.json is whole";
+  // The files written are a whole set of a stopped run (docs/REPORTS.md).
+  const json m = json::parse(read_text(fs::path(out_dir()) / "manifest.json"));
+  EXPECT_TRUE(m["complete"].get<bool>()) << m.dump();
+  EXPECT_EQ(m["stopped_by"], "SIGINT");
+  EXPECT_EQ(m["run_id"], json::parse(read_text(fs::path(out_dir()) / "summary.json"))["run_id"]);
+}
+
+// Issue 39 item 3: a run killed outright (SIGKILL: no clean stop) into a directory that holds
+// an earlier run's complete result leaves no complete set: the old manifest was replaced
+// before the run wrote anything, the rows so far are whole rows in jobs.csv.partial (written
+// out at least once a second), and no jobs.csv of this run exists.
+TEST_F(Signals, AKilledRunLeavesNoCompleteSetAndItsRowsSoFar) {
+  const fs::path out = out_dir();
+  fs::create_directories(out);
+  std::ofstream(out / "summary.json") << "{\"old\": true}\n";
+  std::ofstream(out / "jobs.csv") << "old\n";
+  std::ofstream(out / "manifest.json")
+      << R"({"run_id": "old", "complete": true, "files": [{"path": "summary.json", "bytes": 14}]})";
+  start({"run", data("signal.yaml"), "--backend", "synthetic", "--policy", "edf", "--no-realtime",
+         "--out", out.string()});
+  ASSERT_TRUE(wait_for_stderr("measuring")) << err();
+  // Rows reach the file while the run goes on (the writer's flush interval is 1 s): wait,
+  // up to a minute, for a first whole row after the header.
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::minutes{1};
+  std::size_t lines = 0;
+  while (std::chrono::steady_clock::now() < give_up && lines < 2) {
+    const std::string text = read_text(out / "jobs.csv.partial");
+    lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+    std::this_thread::sleep_for(std::chrono::milliseconds{20});
+  }
+  ASSERT_GE(lines, 2U) << "no row reached jobs.csv.partial while the run went on";
+  EXPECT_EQ(stop_with(SIGKILL), -1);
+  const json m = json::parse(read_text(out / "manifest.json"));
+  EXPECT_NE(m["run_id"], "old");
+  EXPECT_FALSE(m["complete"].get<bool>()) << m.dump();
+  EXPECT_TRUE(m["files"].empty());
+  EXPECT_GE(whole_csv(out / "jobs.csv.partial").size(), 1U);
+  EXPECT_EQ(read_text(out / "jobs.csv"), "old\n") << "the old file is left, but listed nowhere";
 }
 
 TEST_F(Signals, RunStopsOnSigterm) {

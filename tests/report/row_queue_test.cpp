@@ -10,6 +10,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <mutex>
 #include <string>
@@ -126,6 +127,37 @@ TEST(RowQueue, TheWriterThreadForwardsWithoutBeingAsked) {
   for (const auto& s : sink.seen()) EXPECT_NE(s.thread, std::this_thread::get_id());
 }
 
+// Counts the polls it gets and says when the first came.
+class PolledSink final : public RowSink {
+ public:
+  void on_job_row(const JobRow&) override {}
+  void on_unit_row(const UnitRow&) override {}
+  void poll() override {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    ++polls_;
+    polled_.notify_all();
+  }
+  // Waits for a first poll; false if none came within `limit` (a hang, not a timing).
+  bool wait_for_poll(std::chrono::seconds limit) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return polled_.wait_for(lock, limit, [this] { return polls_ > 0; });
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable polled_;
+  int polls_ = 0;
+};
+
+// With no rows at all the writer still polls its sink, so that a stream writes out its
+// buffered rows in time after the last row (stream.hpp, kFlushInterval).
+TEST(RowQueue, TheWriterPollsItsSinkWithoutRows) {
+  PolledSink sink;
+  RowQueue queue(sink, std::chrono::milliseconds(1));
+  EXPECT_TRUE(sink.wait_for_poll(std::chrono::seconds(60)));
+  EXPECT_EQ(queue.forwarded(), 0);
+}
+
 TEST(RowQueue, TheDestructorForwardsWhatIsLeft) {
   RecordingSink sink;
   {
@@ -183,6 +215,8 @@ TEST(RowQueue, StreamedThroughItTheCsvFilesAreTheDirectStreamsBytes) {
     EXPECT_EQ((*b)->job_rows(), (*a)->job_rows());
     EXPECT_GT((*b)->job_rows(), 0);
     EXPECT_EQ((*b)->unit_rows(), (*a)->unit_rows());
+    EXPECT_FALSE((*a)->finish().has_value());
+    EXPECT_FALSE((*b)->finish().has_value());
   }
   for (const char* f : {"jobs.csv", "units.csv"})
     EXPECT_EQ(test::read_text(queued / f), test::read_text(direct / f)) << f;

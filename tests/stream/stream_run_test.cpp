@@ -82,6 +82,7 @@ TEST(StreamedRun, RowsEqualTheInMemoryRowsAndTheSummaryNeedsNone) {
   rt.add_observer(&bounded);
   const RuntimeReport report = rt.run();
   ASSERT_FALSE((*stream)->flush().has_value());
+  ASSERT_FALSE((*stream)->finish().has_value());
 
   ASSERT_FALSE(kept.jobs().empty());
   ASSERT_FALSE(kept.units().empty());

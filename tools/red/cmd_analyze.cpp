@@ -7,6 +7,7 @@
 
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -60,11 +61,26 @@ int run_analyze(const AnalyzeArgs& a) {
   }
   fmt::print("{}", analysis_text(*an));
   if (a.out) {
-    if (auto e = write_file(*a.out, "analysis.json", analysis_json(*an))) {
+    // One file, marked with the run id and ended by the manifest (docs/REPORTS.md).
+    auto set = OutputSet::begin(*a.out, "analyze");
+    if (!set) {
+      print_error(set.error());
+      return kRunFailure;
+    }
+    auto doc = nlohmann::ordered_json::parse(analysis_json(*an));
+    doc["run_id"] = set->run_id();
+    if (auto e = write_file(
+            *a.out, "analysis.json",
+            doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n")) {
       print_error(*e);
       return kRunFailure;
     }
-    fmt::print("wrote {}/analysis.json\n", *a.out);
+    set->add("analysis.json");
+    if (auto e = set->finish()) {
+      print_error(*e);
+      return kRunFailure;
+    }
+    fmt::print("wrote {}/analysis.json, manifest.json\n", *a.out);
   }
   if (a.nptest) {
     std::optional<Duration> window;

@@ -160,7 +160,14 @@ int run_node(const NodeArgs& a) {
   metrics.set_keep_rows(false);
   std::unique_ptr<CsvRowStream> stream;
   std::optional<RowQueue> queue;
+  std::optional<OutputSet> set;  // the run's files, ended by manifest.json (docs/REPORTS.md)
   if (a.out) {
+    auto begun = OutputSet::begin(*a.out, "node");
+    if (!begun) {
+      print_error(begun.error());
+      return kRunFailure;
+    }
+    set = std::move(begun.value());
     auto st = CsvRowStream::open(*a.out, *s, true);
     if (!st) {
       print_error(st.error());
@@ -286,17 +293,24 @@ int run_node(const NodeArgs& a) {
       run.jobs = std::move(rows->front().jobs);
       run.units = std::move(rows->front().units);
     }
-    OutputOptions oo;
-    oo.gnuplot = "none";
-    oo.rows_written = true;
-    OutputReport wrote;
-    if (auto e = write_outputs(*a.out, *s, *p, std::string((*backend)->name()), s->seed, {run}, oo,
-                               &wrote)) {
+    if (auto e = stream->finish()) {
       print_error(*e);
       return kRunFailure;
     }
+    OutputOptions oo;
+    oo.gnuplot = "none";
+    oo.rows_written = true;
+    oo.rows_files = stream->finished();
+    oo.set = &*set;
+    OutputReport wrote;
+    if (auto e = write_outputs(*a.out, *s, *p, std::string((*backend)->name()), s->seed, {run}, oo,
+                               &wrote)) {
+      for (const Error& f : wrote.errors) print_error(f);
+      return kRunFailure;
+    }
     // What the node took and could not take, by reason: summary.json holds the jobs only.
-    nlohmann::json nj{{"frames", c.frames},
+    nlohmann::json nj{{"run_id", set->run_id()},
+                      {"frames", c.frames},
                       {"released", c.released},
                       {"not_taken", rejected + undelivered},
                       {"published",
@@ -310,10 +324,18 @@ int run_node(const NodeArgs& a) {
       by_reason[dds::to_string(static_cast<dds::Reject>(r))] =
           c.rejected[static_cast<std::size_t>(r)];
     nj["not_taken_by_reason"] = std::move(by_reason);
-    if (auto e = write_file(*a.out, "node.json", nj.dump(2) + "\n")) {
+    const std::optional<Error> node_json = write_file(*a.out, "node.json", nj.dump(2) + "\n");
+    if (node_json) {
+      print_error(*node_json);
+      set->fail(*node_json);
+    } else {
+      set->add("node.json");
+    }
+    if (auto e = set->finish()) {
       print_error(*e);
       return kRunFailure;
     }
+    if (node_json) return kRunFailure;
     std::cerr << "red node: " << wrote_message(*a.out, wrote) << ", node.json\n";
   }
   return kOk;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "red/core/output_file.hpp"
 
 #if defined(RED_HAVE_TORCH)
 #include <fmt/format.h>
@@ -324,11 +325,9 @@ int run_profile(const ProfileArgs& a);
 /// Writes the profile JSON to `path` (nothing when empty); the exit code.
 int write_profile(const Profile& p, const std::string& path) {
   if (path.empty()) return kOk;
-  std::ofstream out(path, std::ios::binary);
-  out << profile_to_json(p);
-  out.close();
-  if (!out) {
-    print_error(Error{path, 0, "cannot write the profile"});
+  // Atomically: a profile being replaced is never left half written (output_file.hpp).
+  if (auto e = write_file_atomically(path, profile_to_json(p))) {
+    print_error(*e);
     return kRunFailure;
   }
   fmt::print("wrote {}\n", path);

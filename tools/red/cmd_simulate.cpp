@@ -194,9 +194,10 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
 
 // Runs the given policies on one scenario and prints and writes the results. In the
 // simulator every policy sees the same releases and the same sampled unit times (common
-// random numbers, docs/DESIGN.md, "Metrics"); on a real backend the same releases. Returns the exit
-// code.
-int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool table) {
+// random numbers, docs/DESIGN.md, "Metrics"); on a real backend the same releases. Returns the
+// exit code.
+int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool table,
+                 const char* command) {
   install_stop_signals();
   {
     // The device first: a device that is not there is an error, never a CPU run.
@@ -293,15 +294,39 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   // one: the scheduler, the simulator and the prediction beside a real run all plan so.
   if ((a.real.asynchronous || (backend && backend->asynchronous())) && !s->device.queue_depth)
     s->device.queue_depth = 2;
+  // The output directory's old manifest goes before anything else is written, so that the
+  // files of an earlier run are never taken for this run's (docs/REPORTS.md).
+  std::optional<OutputSet> set;
+  if (a.out) {
+    auto begun = OutputSet::begin(*a.out, command);
+    if (!begun) {
+      print_error(begun.error());
+      return kRunFailure;
+    }
+    set = std::move(begun.value());
+  }
+  // A file that fails is reported as it fails and at the end; the run and the other files
+  // go on, and the exit code is 1.
+  bool write_failed = false;
+  auto failed = [&](const Error& e) {
+    print_error(e);
+    if (set) set->fail(e);
+    write_failed = true;
+  };
   std::unique_ptr<CsvRowStream> stream;
   std::optional<RowQueue> queue;
   if (!sim && a.out) {
     auto st = CsvRowStream::open(*a.out, *s, true);
     if (!st) {
-      print_error(st.error());
+      failed(st.error());
       return kRunFailure;
     }
     stream = std::move(st.value());
+    if (auto e = stream->flush()) {
+      // No room even for the headers (a full disk): said now, and the runs go on.
+      failed(*e);
+      std::cerr << "red: the runs go on; the table and summary.json follow at the end\n";
+    }
     // Rows are formatted and written on the queue's thread, not on the lane that reports
     // them between one unit and the next (the hand-off, docs/BENCHMARKS.md).
     queue.emplace(*stream);
@@ -337,10 +362,12 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       return sim ? kBadInput : kRunFailure;
     }
     if (queue) queue->drain();
-    if (stream)
+    if (stream && !write_failed)
       if (auto e = stream->flush()) {
-        print_error(*e);
-        return kRunFailure;
+        // The file stops there; the runs go on, and the table and the summary are still
+        // given at the end.
+        failed(*e);
+        std::cerr << "red: the runs go on; the table and summary.json follow at the end\n";
       }
     if (sim)
       std::cerr << fmt::format(
@@ -372,17 +399,27 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
                              runs.empty() || !a.out ? "" : "; writing what they measured");
     if (runs.empty()) return stop_exit_code();
   }
+  std::vector<std::string> streamed;  // the streamed files renamed into place
   if (stream) {
     // The report's rows: the window kept in memory, or read back from the streamed files.
+    // Without them (a file failed) the summary and the table still come from the metrics.
     auto rows = stream->rows();
     if (!rows) {
-      print_error(rows.error());
-      return kRunFailure;
+      if (!write_failed)
+        failed(rows.error());
+      else
+        std::cerr << "red: " << rows.error().to_string()
+                  << "; summary.json has no figures per phase, and the plots and the "
+                     "timeline no rows\n";
+    } else {
+      for (std::size_t i = 0; i < runs.size() && i < rows->size(); ++i) {
+        runs[i].jobs = std::move((*rows)[i].jobs);
+        runs[i].units = std::move((*rows)[i].units);
+      }
     }
-    for (std::size_t i = 0; i < runs.size() && i < rows->size(); ++i) {
-      runs[i].jobs = std::move((*rows)[i].jobs);
-      runs[i].units = std::move((*rows)[i].units);
-    }
+    const bool before = write_failed;
+    if (auto e = stream->finish(); e && !before) failed(*e);
+    streamed = stream->finished();
   }
   std::vector<PolicyMetrics> metrics;
   for (const PolicyRun& r : runs) metrics.push_back(r.metrics);
@@ -438,25 +475,41 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     }
     o.timeline = timeline;
     o.rows_written = stream != nullptr;
+    o.rows_files = streamed;
+    o.set = &*set;
     OutputReport written;
-    if (auto e = write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written)) {
-      print_error(*e);
-      return kRunFailure;
-    }
+    (void)write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written);
+    for (const Error& e : written.errors) print_error(e);
+    write_failed = write_failed || !written.errors.empty();
+    auto put = [&](const std::string& name, const std::string& text) {
+      if (auto e = write_file(*a.out, name, text))
+        failed(*e);
+      else
+        set->add(name);
+    };
     if (!sim) {
-      if (auto e = write_file(*a.out, "rss.csv", samples_csv(names, reports))) {
-        print_error(*e);
-        return kRunFailure;
-      }
-      if (auto e = prediction.empty() ? std::nullopt
-                                      : write_file(*a.out, "prediction.json", prediction)) {
-        print_error(*e);
-        return kRunFailure;
+      put("rss.csv", samples_csv(names, reports));
+      if (!prediction.empty()) {
+        // The run id, where the format has room for it (docs/REPORTS.md).
+        auto doc = nlohmann::ordered_json::parse(prediction);
+        doc["run_id"] = set->run_id();
+        put("prediction.json",
+            doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n");
       }
     }
-    fmt::print("{}\n", wrote_message(*a.out, written));
+    if (stop_signal() != 0) set->stopped(stop_signal_name());
+    // Last: the manifest that marks the files as this run's complete set.
+    const std::optional<Error> manifest = set->finish();
+    if (manifest) failed(*manifest);
+    fmt::print("{}{}\n", wrote_message(*a.out, written), manifest ? "" : ", manifest.json");
+    if (write_failed)
+      std::cerr << fmt::format(
+          "red: not every file could be written into {} (errors above): the result there is "
+          "not complete\n",
+          *a.out);
   }
-  return stop_signal() != 0 ? stop_exit_code() : kOk;
+  if (stop_signal() != 0) return stop_exit_code();
+  return write_failed ? kRunFailure : kOk;
 }
 
 void add_common(CLI::App* cmd, RunArgs& a) {
@@ -507,7 +560,7 @@ void register_simulate(CLI::App& app, int& exit_code) {
   cmd->add_option("--policy", a->policy,
                   "Policy preset: fifo, mono, edf, red-fg, red-ida, red, red-robust, lst")
       ->capture_default_str();
-  cmd->callback([a, &exit_code] { exit_code = run_policies(*a, {a->policy}, false); });
+  cmd->callback([a, &exit_code] { exit_code = run_policies(*a, {a->policy}, false, "simulate"); });
 }
 
 void register_compare(CLI::App& app, int& exit_code) {
@@ -537,7 +590,7 @@ void register_compare(CLI::App& app, int& exit_code) {
           exit_code = kBadInput;
           return;
         }
-    exit_code = run_policies(*a, names, true);
+    exit_code = run_policies(*a, names, true, "compare");
   });
 }
 
@@ -555,7 +608,7 @@ void register_run(CLI::App& app, int& exit_code) {
                   "torch (real inference) or synthetic (spends profiled unit times)")
       ->check(CLI::IsMember({"torch", "synthetic"}))
       ->capture_default_str();
-  cmd->callback([a, &exit_code] { exit_code = run_policies(*a, {a->policy}, false); });
+  cmd->callback([a, &exit_code] { exit_code = run_policies(*a, {a->policy}, false, "run"); });
 }
 
 }  // namespace red::cli

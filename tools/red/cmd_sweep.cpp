@@ -299,6 +299,15 @@ void register_sweep(CLI::App& app, int& exit_code) {
         }
         j["policies"].push_back(row);
       }
+      // The files are one set: the old manifest goes first, the new one comes last
+      // (docs/REPORTS.md, "The output directory").
+      auto set = OutputSet::begin(*a->out, "sweep");
+      if (!set) {
+        print_error(set.error());
+        exit_code = kRunFailure;
+        return;
+      }
+      j["run_id"] = set->run_id();
       if (auto e = write_file(
               *a->out, "sweep.json",
               j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n")) {
@@ -306,11 +315,13 @@ void register_sweep(CLI::App& app, int& exit_code) {
         exit_code = kRunFailure;
         return;
       }
+      set->add("sweep.json");
       if (auto e = write_file(*a->out, "sweep.csv", csv)) {
         print_error(*e);
         exit_code = kRunFailure;
         return;
       }
+      set->add("sweep.csv");
       std::vector<SweepSeries> series;
       for (std::size_t i = 0; i < names.size(); ++i) series.push_back({names[i], results[i]});
       PlotOptions po;
@@ -338,7 +349,19 @@ void register_sweep(CLI::App& app, int& exit_code) {
         sec.tables.push_back(std::move(t));
         page.sections.push_back(std::move(sec));
       }
+      page.run_id = set->run_id();
       if (auto e = write_file(*a->out, "index.html", render_html(page))) {
+        print_error(*e);
+        exit_code = kRunFailure;
+        return;
+      }
+      for (const std::string& f : plots.files) set->add(f);
+      for (const PlotFile& f : plots.plots) {
+        set->add(f.png);
+        if (!f.svg.empty()) set->add(f.svg);
+      }
+      set->add("index.html");
+      if (auto e = set->finish()) {
         print_error(*e);
         exit_code = kRunFailure;
         return;

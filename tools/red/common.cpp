@@ -10,6 +10,7 @@
 #include <fstream>
 #include <optional>
 
+#include "red/core/output_file.hpp"
 #include "red/report/html.hpp"
 #include "red/report/plots.hpp"
 #include "red/report/report.hpp"
@@ -150,14 +151,44 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
   h.backend = backend;
   h.seed = seed;
   h.profile_source = p.source;
+  if (options.set != nullptr) h.run_id = options.set->run_id();
+  // A file that cannot be written is recorded and the others are still tried: on a full
+  // disk a small summary.json may still fit where a large units.csv did not.
+  auto failed = [&](const Error& e) {
+    r.errors.push_back(e);
+    if (options.set != nullptr) options.set->fail(e);
+  };
+  auto wrote = [&](const std::string& name) {
+    r.files.push_back(name);
+    if (options.set != nullptr) options.set->add(name);
+  };
+  auto put = [&](const std::string& name, const std::string& text) {
+    if (auto e = write_file(dir, name, text)) {
+      failed(*e);
+      return false;
+    }
+    wrote(name);
+    return true;
+  };
   std::vector<std::vector<PhaseMetrics>> phases;
-  for (const PolicyRun& run : runs) phases.push_back(phase_metrics(s, run.jobs, run.result.end));
-  if (auto e = write_file(dir, "summary.json", summary_json(h, metrics, phases))) return e;
+  for (const PolicyRun& run : runs)
+    // A run whose rows were lost (a streamed file that could not be written) has no figures
+    // per phase: an empty list, not phases of no jobs.
+    phases.push_back(run.jobs.empty() && run.metrics.jobs > 0
+                         ? std::vector<PhaseMetrics>{}
+                         : phase_metrics(s, run.jobs, run.result.end));
+  const std::string summary = summary_json(h, metrics, phases);
+  if (!put("summary.json", summary))
+    // The run's figures are not lost with the file: the summary goes to stderr instead.
+    std::cerr << "red: " << r.errors.back().to_string()
+              << "; summary.json follows on stderr instead:\n"
+              << summary;
   if (!options.rows_written) {
-    if (auto e = write_file(dir, "jobs.csv", jobs_csv(s, jobs))) return e;
-    if (auto e = write_file(dir, "units.csv", units_csv(s, units))) return e;
+    put("jobs.csv", jobs_csv(s, jobs));
+    put("units.csv", units_csv(s, units));
+  } else {
+    for (const std::string& f : options.rows_files) wrote(f);
   }
-  r.files = {"summary.json", "jobs.csv", "units.csv"};
 
   // trace.json: one process per policy, so Perfetto shows the policies on one time axis.
   std::vector<TraceProcess> processes;
@@ -165,17 +196,18 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     if (options.traces[i] != nullptr)
       processes.push_back({"policy " + runs[i].metrics.name, options.traces[i]});
   if (!processes.empty()) {
-    const std::string path = (std::filesystem::path(dir) / "trace.json").string();
-    std::ofstream f(path, std::ios::binary);
-    if (!f) return Error{path, 0, "cannot open for writing"};
-    write_chrome_trace(f, s, processes,
-                       {{"backend", backend},
-                        {"seed", std::to_string(seed)},
-                        {"profile", p.source},
-                        {"time", backend == "sim" ? "simulated" : "real (from the run's start)"}});
-    f.close();
-    if (!f) return Error{path, 0, "write failed"};
-    r.files.push_back("trace.json");
+    AtomicFile f((std::filesystem::path(dir) / "trace.json").string());
+    std::vector<std::pair<std::string, std::string>> meta = {
+        {"backend", backend},
+        {"seed", std::to_string(seed)},
+        {"profile", p.source},
+        {"time", backend == "sim" ? "simulated" : "real (from the run's start)"}};
+    if (!h.run_id.empty()) meta.emplace_back("run_id", h.run_id);
+    write_chrome_trace(f.stream(), s, processes, meta);
+    if (auto e = f.commit())
+      failed(*e);
+    else
+      wrote("trace.json");
   }
 
   PlotOptions po;
@@ -185,11 +217,13 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     plot_runs.push_back({runs[i].metrics.name, &metrics[i], &runs[i].jobs});
   const PlotReport plots = write_run_plots(dir, s, plot_runs, po);
   if (!plots.note.empty()) std::cerr << "red: " << plots.note << '\n';
+  for (const std::string& f : plots.files)
+    if (options.set != nullptr) options.set->add(f);
   for (const PlotFile& f : plots.plots) {
-    r.files.push_back(f.png);
+    wrote(f.png);
     ++r.images;
     if (!f.svg.empty()) {
-      r.files.push_back(f.svg);
+      wrote(f.svg);
       ++r.images;
     }
   }
@@ -217,11 +251,13 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
   else
     windows = default_timeline_windows(s, timeline_runs);
   auto timelines = write_timelines(dir, s, timeline_runs, windows);
-  if (!timelines) return timelines.error();
-  for (const std::string& f : timelines->files) {
-    r.files.push_back(f);
-    ++r.images;
-  }
+  if (!timelines)
+    failed(timelines.error());
+  else
+    for (const std::string& f : timelines->files) {
+      wrote(f);
+      ++r.images;
+    }
 
   if (options.index_html) {
     std::vector<HtmlLink> links = {
@@ -236,10 +272,10 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     std::vector<std::string> names;
     for (const PolicyMetrics& m : metrics) names.push_back(m.name);
     page.sections.push_back(phase_section(s, names, phases));
-    page.sections.push_back(timelines->section);
-    if (auto e = write_file(dir, "index.html", render_html(page))) return e;
-    r.files.push_back("index.html");
+    if (timelines) page.sections.push_back(timelines->section);
+    put("index.html", render_html(page));
   }
+  if (!r.errors.empty()) return r.errors.front();
   return std::nullopt;
 }
 

@@ -19,6 +19,7 @@
 #include "red/observe/trace.hpp"
 #include "red/profile/profile.hpp"
 #include "red/report/html.hpp"
+#include "red/report/manifest.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sim/run.hpp"
 
@@ -77,19 +78,27 @@ struct OutputOptions {
   /// jobs.csv and units.csv are in `dir` already (streamed during the run,
   /// report/stream.hpp): not written again; the runs' rows still feed the plots.
   bool rows_written = false;
+  /// With rows_written: the files they are in (relative to the directory), for the manifest.
+  std::vector<std::string> rows_files;
+  /// The run's output set: its run id goes into summary.json, trace.json and index.html, and
+  /// every file written is added to it (failures too). Null: no run id, no manifest.
+  OutputSet* set = nullptr;
 };
 
 /// What write_outputs wrote, relative to its directory.
 struct OutputReport {
   std::vector<std::string> files;
-  std::size_t images = 0;  ///< PNG and SVG files among them
+  std::size_t images = 0;     ///< PNG and SVG files among them
+  std::vector<Error> errors;  ///< every file that could not be written (the first returned)
 };
 
 /// Writes everything a set of runs of one scenario leaves in `dir`: summary.json, jobs.csv,
 /// units.csv, trace.json (one process per run, when traces are given), the plots (PNG and
-/// SVG with their data and scripts, under plots/) and, if asked, index.html. A missing or
-/// failing gnuplot gives a note on stderr, never an error. Error: a file that cannot be
-/// written (names the path).
+/// SVG with their data and scripts, under plots/) and, if asked, index.html, each atomically
+/// (core/output_file.hpp). A missing or failing gnuplot gives a note on stderr, never an
+/// error. A file that cannot be written does not stop the others (OutputReport::errors);
+/// when it is summary.json, the summary goes to stderr instead. Error: the first file that
+/// could not be written (names the path and the system's reason).
 std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, const Profile& p,
                                    const std::string& backend, std::uint64_t seed,
                                    const std::vector<PolicyRun>& runs,

@@ -117,6 +117,9 @@ class RowSink {
   virtual void on_job_row(const JobRow& row) = 0;
   /// A unit execution that started after the warm-up.
   virtual void on_unit_row(const UnitRow& row) = 0;
+  /// Called now and then with no new row (RowQueue's writer, at each look), so that a sink
+  /// that buffers can write out rows that have waited long enough. Does nothing by default.
+  virtual void poll() {}
 };
 
 /// Collects job and unit records. Attach before the run; summarize after it. The summary

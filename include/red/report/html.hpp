@@ -50,6 +50,8 @@ struct HtmlPage {
   std::string plots_note;  ///< why plots are missing, if they are
   std::vector<HtmlLink> files;
   std::vector<std::string> how_to_read;  ///< paragraphs (plain text)
+  /// The run id of the output set, as <meta name="red-run-id">; empty: none.
+  std::string run_id;
 };
 
 /// The page as HTML text: deterministic for the same page.

@@ -52,6 +52,8 @@ struct PlotFile {
 struct PlotReport {
   std::vector<PlotFile> plots;  ///< images that exist and are non-empty
   std::string note;             ///< one line on what was skipped and why; empty when all went well
+  /// The data and scripts written (e.g. "plots/response_hist.dat", ".gp"), besides the images.
+  std::vector<std::string> files;
 };
 
 /// The PNG terminal gnuplot offers ("pngcairo" or "png"), or empty when `gnuplot` cannot

@@ -21,9 +21,12 @@ struct SummaryHeader {
   std::string baseline = "edf";
   std::uint64_t seed = 1;
   std::string profile_source;  ///< "builtin-default", "measured" or a path
+  /// The run id of the output set (report/manifest.hpp); empty: no "run_id" field.
+  std::string run_id;
 };
 
-/// summary.json text: deterministic for the same inputs (byte-identical). `phases[i]`, when
+/// summary.json text: deterministic for the same inputs (byte-identical apart from the run
+/// id). `phases[i]`, when
 /// given, becomes the "phases" array of policy i (docs/REPORTS.md).
 std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics>& policies,
                          const std::vector<std::vector<PhaseMetrics>>& phases = {});
@@ -69,7 +72,8 @@ std::string releases_table(const std::vector<PolicyMetrics>& policies);
 /// never released, or released more than a period late), or nullopt when they kept up.
 std::optional<std::string> releases_warning(const PolicyMetrics& m);
 
-/// Writes `text` to `dir/name`, creating `dir`. Error names the path.
+/// Writes `text` to `dir/name`, creating `dir`, atomically (core/output_file.hpp: through
+/// `dir/name.partial`). Error names the path and the system's reason.
 std::optional<Error> write_file(const std::string& dir, const std::string& name,
                                 const std::string& text);
 

@@ -14,7 +14,8 @@
 ///
 /// The reporting side only moves the row into a vector under a mutex that the writer holds
 /// just long enough to swap vectors; it never waits for a write and makes no system call
-/// (the writer is not woken: it looks every `period`).
+/// (the writer is not woken: it looks every `period`). At each look the writer also calls
+/// `inner.poll()`, so a buffering sink writes out rows in time when no new row comes.
 
 #include <chrono>
 #include <condition_variable>
