@@ -194,6 +194,12 @@ std::string comparison_table(const std::vector<PolicyMetrics>& policies,
   out += fmt::format("{:<10} {:>6} {:>7} {:>7} {:>9} {:>9} {:>6} {:>8}  {:>6} {:>6} {:>6}\n", "",
                      "", "", "", "", "", "", "", baseline, baseline, baseline);
   for (const PolicyMetrics& m : policies) {
+    if (m.jobs == 0) {
+      // Nothing measured (a run stopped during its warm-up): no rate is 0 %, there is none.
+      out += fmt::format("{:<10} {:>6} {:>7} {:>7} {:>9} {:>9} {:>6} {:>8}  {:>6} {:>6} {:>6}\n",
+                         m.name, 0, "-", "-", "-", "-", "-", m.encoder_runs, "-", "-", "-");
+      continue;
+    }
     out += fmt::format(
         "{:<10} {:>6} {:>7.2f} {:>7.2f} {:>9.2f} {:>9.2f} {:>6.3f} {:>8}  {:>6} {:>6} {:>6}\n",
         m.name, m.jobs, 100.0 * m.miss_rate, 100.0 * m.drop_rate, m.latency.mean, m.latency.p99,

@@ -308,6 +308,22 @@ TEST_F(Signals, CompareStopsMidSimulation) {
   EXPECT_FALSE(fs::exists(fs::path(out_dir()) / "summary.json")) << "nothing was measured";
 }
 
+// A stop during the warm-up measured nothing: the table shows no rates (not 0.00 % missed)
+// and stderr says why.
+TEST_F(Signals, AStopDuringTheWarmUpSaysNothingWasMeasured) {
+  const fs::path scenario = dir_ / "warm.yaml";
+  std::string text = read_text(data("signal.yaml"));
+  text.replace(text.find("warmup_s: 0"), 11, "warmup_s: 60");
+  std::ofstream(scenario) << text;
+  start({"run", scenario.string(), "--backend", "synthetic", "--policy", "edf", "--no-realtime"});
+  std::this_thread::sleep_for(std::chrono::milliseconds{1500});
+  EXPECT_EQ(stop_with(SIGINT), 130) << err();
+  EXPECT_NE(err().find("nothing was measured (stopped during the warm-up)"), std::string::npos)
+      << err();
+  const std::string out = read_text(dir_ / "stdout.txt");
+  EXPECT_NE(out.find("edf             0       -       -"), std::string::npos) << out;
+}
+
 TEST_F(Signals, SecondSignalEndsAtOnce) {
   // SA_RESETHAND: a user pressing Ctrl-C twice is not kept waiting for the clean stop.
   start({"run", data("signal.yaml"), "--backend", "synthetic", "--policy", "edf", "--no-realtime"});

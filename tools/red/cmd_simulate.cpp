@@ -394,9 +394,15 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     runs.push_back(std::move(r.value()));
   }
   if (stop_signal() != 0) {
+    // A run stopped during its warm-up measured nothing: say so rather than show 0 jobs.
+    const bool measured = std::any_of(runs.begin(), runs.end(),
+                                      [](const PolicyRun& r) { return r.metrics.jobs > 0; });
     std::cerr << fmt::format("red: stopped by {} after {} of {} run(s){}\n", stop_signal_name(),
                              runs.size(), names.size(),
-                             runs.empty() || !a.out ? "" : "; writing what they measured");
+                             runs.empty() ? ""
+                             : !measured  ? "; nothing was measured (stopped during the warm-up)"
+                             : a.out      ? "; writing what they measured"
+                                          : "");
     if (runs.empty()) return stop_exit_code();
   }
   std::vector<std::string> streamed;  // the streamed files renamed into place
