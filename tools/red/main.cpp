@@ -11,10 +11,13 @@
 #include <unistd.h>
 
 #include "commands.hpp"
+#include "full.hpp"
 #include "real_run.hpp"
 #include "red/version.hpp"
 
 int main(int argc, char** argv) {
+  // The commands that need LibTorch or DDS run in red-full (full.hpp).
+  if (const auto rc = red::cli::run_full_if_needed(argc, argv)) return *rc;
   red::cli::use_one_malloc_arena();
   // Off a terminal, standard output keeps up to 1 MiB before writing: a write that fails
   // then fails at the final flush (or in fmt::print, which throws), with errno still saying
