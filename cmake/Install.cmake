@@ -132,9 +132,17 @@ endif()
 
 # ---- the program, scenarios, docs, examples ----------------------------------------------
 install(TARGETS red RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
+# red-full (tools/red/full.hpp): the CLI with LibTorch and DDS, which `red` runs for the
+# commands that need them, from ${CMAKE_INSTALL_LIBEXECDIR}/red.
+if(TARGET red_full)
+  install(TARGETS red_full RUNTIME DESTINATION ${CMAKE_INSTALL_LIBEXECDIR}/red COMPONENT runtime)
+endif()
 if(BUILD_SHARED_LIBS)
   # A relocatable install (a staging prefix) finds its shared libraries next to it.
   set_target_properties(red PROPERTIES INSTALL_RPATH "$ORIGIN/../${CMAKE_INSTALL_LIBDIR}")
+  if(TARGET red_full)
+    set_target_properties(red_full PROPERTIES INSTALL_RPATH "$ORIGIN/../../${CMAKE_INSTALL_LIBDIR}")
+  endif()
 endif()
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/scenarios/ DESTINATION ${CMAKE_INSTALL_DATADIR}/red/scenarios
         COMPONENT runtime)

@@ -59,6 +59,19 @@ fi
 got=$("$PREFIX/bin/red" --version)
 [ "$got" = "red $VERSION" ] || fail "red --version printed '$got', expected 'red $VERSION'"
 "$PREFIX/bin/red" validate "$PREFIX/share/red/scenarios/minibench-tight.yaml" >/dev/null
+# With DDS (or LibTorch), red links neither and runs libexec/red/red-full for the commands
+# that need them (tools/red/full.hpp).
+LIBEXECDIR=$(cmake -L -N "$STAGE/build" 2>/dev/null | sed -n 's/^CMAKE_INSTALL_LIBEXECDIR:PATH=//p')
+LIBEXECDIR=${LIBEXECDIR:-libexec}
+FULL=""
+if [ -e "$STAGE/build/tools/red/red-full" ]; then
+  FULL=$LIBEXECDIR/red/red-full
+  [ -x "$PREFIX/$FULL" ] || fail "not installed: $FULL"
+  if ldd "$PREFIX/bin/red" | grep -E 'libddsc|libtorch|libc10'; then
+    fail "bin/red links DDS or LibTorch: every command would pay their loading"
+  fi
+  "$PREFIX/bin/red" camera --help >/dev/null || fail "red camera --help (through $FULL) failed"
+fi
 
 echo "== install: examples built against the installed package"
 for ex in custom_backend own_loop; do
@@ -133,6 +146,9 @@ for f in ./usr/bin/red ./usr/include/red/runtime/backend.hpp ./usr/share/red/sce
          /cmake/red/redConfig.cmake /pkgconfig/red.pc "/$(basename "$CORE_LIB")"; do
   echo "$CONTENTS" | grep -q -- "$f" || fail "$DEB: does not contain $f"
 done
+if [ -n "$FULL" ]; then
+  echo "$CONTENTS" | grep -q -- "./usr/$FULL" || fail "$DEB: does not contain ./usr/$FULL"
+fi
 
 echo "== install: API documentation (Doxygen, target red_docs)"
 cmake --build "$STAGE/build" --target red_docs

@@ -157,6 +157,7 @@ void Scheduler::Impl::install(int i, const std::shared_ptr<const OperationSpec>&
   } else {
     o.next_tick = kNever;
   }
+  note_tick(i);
 }
 
 int Scheduler::Impl::alloc_job() {
@@ -1053,10 +1054,12 @@ void Scheduler::on_frame(int sensor, std::uint64_t frame, TimePoint now) {
   sn.has_frame = true;
   sn.frame = frame;
   sn.time = now;
-  for (OpState& o : m.ops) {
+  for (std::size_t i = 0; i < m.ops.size(); ++i) {
+    OpState& o = m.ops[i];
     if (o.awaits_frames && o.g != nullptr && m.inputs_ready(*o.g, -1)) {
       o.awaits_frames = false;
       o.next_tick = now;  // advance(now) releases them
+      m.note_tick(static_cast<int>(i));
     }
   }
   for (std::size_t i = 0; i < m.ops.size(); ++i)
@@ -1143,14 +1146,8 @@ void Scheduler::advance(TimePoint now) {
   Impl& m = *impl_;
   // Own-rate and count releases due by now, in time order (ties: operation order).
   for (;;) {
-    int due = -1;
-    for (std::size_t i = 0; i < m.ops.size(); ++i) {
-      const OpState& o = m.ops[i];
-      if (o.g == nullptr || o.next_tick > now || o.remaining == 0) continue;
-      if (due < 0 || o.next_tick < m.ops[static_cast<std::size_t>(due)].next_tick)
-        due = static_cast<int>(i);
-    }
-    if (due < 0) break;
+    const auto [tick, due] = m.next_tick();
+    if (due < 0 || tick > now) break;
     OpState& o = m.ops[static_cast<std::size_t>(due)];
     const TimePoint t = o.next_tick;
     if (o.all_at_once) {
@@ -1162,6 +1159,7 @@ void Scheduler::advance(TimePoint now) {
       while (o.remaining != 0) m.release(due, t, -1, 0);
     } else {
       o.next_tick = t + period_of(o.rate_hz);
+      m.note_tick(due);
       m.release(due, t, -1, 0);
     }
   }
@@ -1227,8 +1225,7 @@ TimePoint Scheduler::next_wakeup() const {
   const Impl& m = *impl_;
   TimePoint t = kNever;
   if (m.next_event < scenario_.events.size()) t = std::min(t, scenario_.events[m.next_event].at);
-  for (const OpState& o : m.ops)
-    if (o.g != nullptr && o.remaining != 0) t = std::min(t, o.next_tick);
+  t = std::min(t, m.next_tick().first);
   if (!m.deadlines.empty()) t = std::min(t, m.deadlines.front().first);
   if (!m.ready.empty()) t = std::min(t, m.min_wait);
   return t;

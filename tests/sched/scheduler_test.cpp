@@ -467,6 +467,41 @@ std::vector<int> ops_in_dispatch_order(const Recorder& r) {
   return out;
 }
 
+// Own-clock releases come in tick order, ties in operation order, through an operation
+// that leaves and comes back and a rate change (the scheduler keeps them in a heap of
+// (tick, operation) whose stale entries it skips).
+TEST(OwnClock, ReleasesInTickOrderTiesInOperationOrderAcrossEvents) {
+  const std::string text = R"(name: ticks
+duration_s: 10
+operations:
+  - {name: a, rate_hz: 10, phase_ms: 5, deadline_ms: 50, nodes: {x: {cost_ms: 0.1}}}
+  - {name: b, rate_hz: 10, deadline_ms: 50, nodes: {x: {cost_ms: 0.1}}}
+  - {name: c, rate_hz: 20, deadline_ms: 50, nodes: {x: {cost_ms: 0.1}}}
+events:
+  - {at_s: 0.22, remove_operation: {operation: b}}
+  - {at_s: 0.26, set_rate: {operation: c, rate_hz: 10}}
+  - {at_s: 0.32, add_operation: {name: b, rate_hz: 10, deadline_ms: 50, nodes: {x: {cost_ms: 0.1}}}}
+)";
+  Harness h(text, "red");
+  TimePoint t{0};
+  while (t < 400ms) {
+    const TimePoint done = h.run_out(t);
+    const TimePoint next = h.s().next_wakeup();
+    ASSERT_GT(next, done);
+    t = std::min(next, TimePoint{400ms});
+  }
+  std::vector<std::pair<std::int64_t, std::string>> got;
+  for (const SeenJob& j : h.rec().released) {
+    got.emplace_back(std::chrono::duration_cast<std::chrono::milliseconds>(j.release).count(),
+                     j.graph != nullptr ? j.graph->spec->name : "?");
+  }
+  const std::vector<std::pair<std::int64_t, std::string>> want = {
+      {0, "b"},   {0, "c"},   {5, "a"},   {50, "c"},  {100, "b"},
+      {100, "c"}, {105, "a"}, {150, "c"}, {200, "b"}, {200, "c"},
+      {205, "a"}, {250, "c"}, {305, "a"}, {320, "b"}, {360, "c"}};
+  EXPECT_EQ(got, want);
+}
+
 TEST(TieBreaking, EqualDeadlinesEarlierReleaseFirst) {
   for (const char* policy : {"edf", "red-fg", "red-ida", "red"}) {
     SCOPED_TRACE(policy);

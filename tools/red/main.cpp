@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "commands.hpp"
+#include "full.hpp"
 #include "real_run.hpp"
 #include "red/version.hpp"
 
@@ -66,6 +67,8 @@ std::string suggestions(const CLI::App& sub, int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // The commands that need LibTorch or DDS run in red-full (full.hpp).
+  if (const auto rc = red::cli::run_full_if_needed(argc, argv)) return *rc;
   red::cli::use_one_malloc_arena();
   // Off a terminal, standard output keeps up to 1 MiB before writing: a write that fails
   // then fails at the final flush (or in fmt::print, which throws), with errno still saying
@@ -86,8 +89,13 @@ int main(int argc, char** argv) {
 #ifdef RED_HAVE_DDS
   red::cli::register_node(app, exit_code);
   red::cli::register_camera(app, exit_code);
+#elif defined(RED_FULL_HAS_DDS)
+  // This red hands node and camera to red-full before parsing (full.hpp): listed for --help.
+  app.add_subcommand("node",
+                     "RED as a ROS 2-compatible node on DDS: camera topics in, head outputs out");
+  app.add_subcommand("camera", "Publish synthetic camera frames (sensor_msgs/Image) on DDS");
 #endif
-#ifndef RED_HAVE_DDS
+#if !defined(RED_HAVE_DDS) && !defined(RED_FULL_HAS_DDS)
   // Known commands of this build's absent DDS bridge (as `red profile` without LibTorch).
   if (argc >= 2 && (std::string(argv[1]) == "node" || std::string(argv[1]) == "camera")) {
     std::cerr << "red: '" << argv[1]
