@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -230,6 +231,48 @@ TEST(Profile, WrongTypesAndUnknownKeys) {
   doc["unit"] = 1;
   EXPECT_TRUE(mentions(error_of(doc), "unknown key 'unit'"));
   EXPECT_TRUE(mentions(error_of(nlohmann::json::array()), "must be a JSON object"));
+}
+
+// A profile that parses but says something wrong names the line of the value (it named the
+// file alone): the value itself, the key an "unknown key" error is about, or the nearest
+// enclosing value that exists.
+TEST(Profile, ValueErrorsHaveALine) {
+  auto doc = small();
+  doc["units"]["encoder"][1]["p95_us"] = 5.5;  // above p99
+  doc["units"]["encoder"][0]["p50_us"] = "fast";
+  const std::string text = doc.dump(2);
+  auto line_of = [&](const std::string& needle) {
+    const std::size_t at = text.find(needle);
+    EXPECT_NE(at, std::string::npos) << needle;
+    return 1 + static_cast<int>(
+                   std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+  };
+  Expected<Profile> p = parse_profile(text, "lines.json");
+  ASSERT_FALSE(p.has_value());
+  EXPECT_TRUE(mentions(p.error(), "units.encoder[0].p50_us: must be a number"))
+      << p.error().message;
+  EXPECT_EQ(p.error().line, line_of("\"fast\""));
+  doc["units"]["encoder"][0]["p50_us"] = 2.0;
+  const std::string second = doc.dump(2);
+  p = parse_profile(second, "lines.json");
+  ASSERT_FALSE(p.has_value());
+  EXPECT_TRUE(mentions(p.error(), "units.encoder[1]")) << p.error().message;
+  // The entry's object starts on the line of the second '{' under "encoder".
+  const std::size_t enc = second.find("\"encoder\"");
+  const std::size_t entry = second.find('{', second.find('{', enc) + 1);
+  EXPECT_EQ(p.error().line,
+            1 + static_cast<int>(std::count(
+                    second.begin(), second.begin() + static_cast<std::ptrdiff_t>(entry), '\n')));
+  doc = small();
+  doc["unit"] = 1;
+  const std::string third = doc.dump(2);
+  p = parse_profile(third, "lines.json");
+  ASSERT_FALSE(p.has_value());
+  EXPECT_TRUE(mentions(p.error(), "unknown key 'unit'")) << p.error().message;
+  EXPECT_EQ(p.error().line,
+            1 + static_cast<int>(std::count(
+                    third.begin(),
+                    third.begin() + static_cast<std::ptrdiff_t>(third.find("\"unit\"")), '\n')));
 }
 
 TEST(Profile, JsonSyntaxErrorHasALine) {
