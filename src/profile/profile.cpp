@@ -11,6 +11,7 @@
 #include <array>
 #include <cctype>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -456,7 +457,9 @@ class JsonLocator {
       if (i_ >= t_.size()) return std::string::npos;
       if (part.front() == '[') {
         if (t_[i_] != '[') return std::string::npos;
-        const auto want = std::stoul(part.substr(1));
+        std::size_t want = 0;  // a unit's name may hold '[': not an index then
+        const auto [end, ec] = std::from_chars(part.data() + 1, part.data() + part.size(), want);
+        if (ec != std::errc{} || end != part.data() + part.size()) return std::string::npos;
         ++i_;
         space();
         for (std::size_t k = 0; k < want; ++k) {
@@ -643,7 +646,13 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
     if (doc.contains("measurement")) p.measurement = parse_measurement(doc["measurement"]);
     return p;
   } catch (const Bad& b) {
-    return Error{file, line_of_error(text, b.message), b.message};
+    int line = 0;
+    try {
+      line = line_of_error(text, b.message);
+    } catch (const std::exception&) {
+      line = 0;  // the message stands without a line
+    }
+    return Error{file, line, b.message};
   } catch (const std::exception& e) {
     return Error{file, 0, std::string("cannot read the profile: ") + e.what()};
   }

@@ -275,6 +275,20 @@ TEST(Profile, ValueErrorsHaveALine) {
                     third.begin() + static_cast<std::ptrdiff_t>(third.find("\"unit\"")), '\n')));
 }
 
+// A unit named like a path ("enc[x", "a.b") is no index or key the locator can follow: the
+// error keeps the nearest line it finds, and nothing throws.
+TEST(Profile, ValueErrorsInOddlyNamedUnitsStillParse) {
+  for (const std::string name : {"enc[x", "enc[99999999999999999999999]", "a.b", "[", "]"}) {
+    auto doc = small();
+    doc["units"][name] = doc["units"]["encoder"];
+    doc["units"][name][0]["p50_us"] = "fast";
+    const Expected<Profile> p = parse_profile(doc.dump(2), "odd.json");
+    ASSERT_FALSE(p.has_value()) << name;
+    EXPECT_TRUE(mentions(p.error(), "must be a number")) << p.error().message;
+    EXPECT_GE(p.error().line, 0);
+  }
+}
+
 TEST(Profile, JsonSyntaxErrorHasALine) {
   const std::string text =
       "{\n  \"schema\": 1,\n  \"units\": {\n    \"encoder\": [1, 2,]\n  }\n}\n";
