@@ -92,6 +92,14 @@ def main():
         check(rc == 2 and message in err, f"bad input {args} -> exit 2 naming the problem", out,
               err)
 
+    # An --out that cannot be written is found before measuring (it took a whole profile to
+    # say so): exit 1, the path and the system's reason, and no progress line.
+    unwritable = os.path.join(scratch, "no-such-dir", "p.json")
+    rc, out, err = run(red, "--out", unwritable)
+    check(rc == 1 and unwritable in err and "No such file or directory" in err and
+          "before measuring" in err and "red profile:" not in err,
+          "an unwritable --out is an error before measuring", out, err)
+
     # Calibration (docs/FIDELITY.md): real runs of a small scenario on the measured profile.
     # A deadline far above any unit's time: on a loaded machine (ctest -j2 beside LibTorch
     # tests, 2 cores) a 50 ms deadline dropped every job before its heads ran, and the

@@ -17,7 +17,10 @@
 #if defined(RED_HAVE_TORCH)
 #include <fmt/format.h>
 
+#include <cerrno>
 #include <charconv>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <thread>
 
@@ -357,7 +360,28 @@ int run_calibrate_only(const ProfileArgs& a) {
   return write_profile(*c, a.out);
 }
 
+/// Whether `path` can be written, tried before measuring (a profile takes minutes): a file
+/// created beside it under the name the final write uses, then removed. Error: the path and
+/// the system's reason.
+std::optional<Error> check_writable(const std::string& path) {
+  if (path.empty()) return std::nullopt;
+  const std::string probe = path + ".partial";
+  errno = 0;
+  std::FILE* f = std::fopen(probe.c_str(), "wb");
+  if (f == nullptr)
+    return Error{path, 0,
+                 std::string("cannot be written: ") + std::strerror(errno) +
+                     " (checked before measuring; nothing was measured)"};
+  std::fclose(f);
+  std::remove(probe.c_str());
+  return std::nullopt;
+}
+
 int run_profile(const ProfileArgs& a) {
+  if (auto e = check_writable(a.out)) {
+    print_error(*e);
+    return kRunFailure;
+  }
   if (!a.from.empty()) return run_calibrate_only(a);
   auto m = model_options(a);
   if (!m) {
