@@ -20,7 +20,6 @@
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <thread>
 
@@ -365,12 +364,12 @@ int run_calibrate_only(const ProfileArgs& a) {
 /// the system's reason.
 std::optional<Error> check_writable(const std::string& path) {
   if (path.empty()) return std::nullopt;
-  const std::string probe = path + ".partial";
+  const std::string probe = partial_path(path);
   errno = 0;
   std::FILE* f = std::fopen(probe.c_str(), "wb");
   if (f == nullptr)
     return Error{path, 0,
-                 std::string("cannot be written: ") + std::strerror(errno) +
+                 "cannot be written: " + system_reason(errno) +
                      " (checked before measuring; nothing was measured)"};
   std::fclose(f);
   std::remove(probe.c_str());

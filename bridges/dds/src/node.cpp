@@ -707,6 +707,7 @@ struct Node::Impl final : Observer {
       }
     }
     std::string silent;
+    std::vector<char> is_silent(sensors.size(), 0);
     NodeCounters c;
     {
       std::lock_guard lock(counters_mu);
@@ -718,8 +719,9 @@ struct Node::Impl final : Observer {
       for (std::size_t i = 0; i < sensors.size(); ++i) {
         const double rate = scenario.sensors[i].rate_hz;
         const Duration quiet{static_cast<std::int64_t>(options.silent_periods / rate * 1e9)};
-        if (!sensors[i].last || now - *sensors[i].last > quiet)
-          silent += (silent.empty() ? "" : ",") + scenario.sensors[i].name;
+        if (sensors[i].last && now - *sensors[i].last <= quiet) continue;
+        is_silent[i] = 1;
+        silent += (silent.empty() ? "" : ",") + scenario.sensors[i].name;
       }
     }
     // A sensor that is silent though a writer is matched on its topic: its frames are sent
@@ -731,7 +733,7 @@ struct Node::Impl final : Observer {
     for (std::size_t i = 0; i < readers.size(); ++i) {
       dds_subscription_matched_status_t st{};
       const bool now_silent =
-          silent.find(scenario.sensors[i].name) != std::string::npos &&
+          is_silent[i] != 0 &&
           dds_get_subscription_matched_status(readers[i], &st) == DDS_RETCODE_OK &&
           st.current_count > 0;
       matched_silent_ticks[i] = now_silent ? matched_silent_ticks[i] + 1 : 0;
