@@ -98,7 +98,7 @@ endfunction()
 get_target_property(RED_CORE_TYPE red_core TYPE)
 set(RED_CORE_DEPENDENCIES fmt Threads)
 if(RED_CORE_TYPE STREQUAL "STATIC_LIBRARY")
-  list(APPEND RED_CORE_DEPENDENCIES yaml-cpp "nlohmann_json 3.10")
+  list(APPEND RED_CORE_DEPENDENCIES yaml-cpp LibYAML "nlohmann_json 3.10")
 endif()
 # Users of red::core get C++20, which the headers need.
 target_compile_features(red_core PUBLIC cxx_std_20)
@@ -160,17 +160,18 @@ configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/redConfig.cmake.in
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/redConfigVersion.cmake
                                  COMPATIBILITY SameMinorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/redConfig.cmake ${PROJECT_BINARY_DIR}/redConfigVersion.cmake
+              ${PROJECT_SOURCE_DIR}/cmake/FindLibYAML.cmake
         DESTINATION ${RED_CMAKE_DIR} COMPONENT dev)
 
 # ---- pkg-config: red.pc (red_core only) --------------------------------------------------
 # With a static red_core its private dependencies go into Requires, so that a plain
 # `pkg-config --libs red` links; with a shared one they are Requires.private.
 if(RED_CORE_TYPE STREQUAL "STATIC_LIBRARY")
-  set(RED_PC_REQUIRES "fmt yaml-cpp nlohmann_json")
+  set(RED_PC_REQUIRES "fmt yaml-cpp yaml-0.1 nlohmann_json")
   set(RED_PC_REQUIRES_PRIVATE "")
 else()
   set(RED_PC_REQUIRES "fmt")
-  set(RED_PC_REQUIRES_PRIVATE "yaml-cpp nlohmann_json")
+  set(RED_PC_REQUIRES_PRIVATE "yaml-cpp yaml-0.1 nlohmann_json")
 endif()
 file(RELATIVE_PATH RED_PC_TO_PREFIX /prefix/${CMAKE_INSTALL_LIBDIR}/pkgconfig /prefix)
 string(REGEX REPLACE "/$" "" RED_PC_TO_PREFIX "${RED_PC_TO_PREFIX}")
@@ -194,7 +195,7 @@ set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 set(RED_DEB_DEPENDS "libfmt-dev")
 if(RED_CORE_TYPE STREQUAL "STATIC_LIBRARY")
-  string(APPEND RED_DEB_DEPENDS ", libyaml-cpp-dev, nlohmann-json3-dev")
+  string(APPEND RED_DEB_DEPENDS ", libyaml-cpp-dev, libyaml-dev, nlohmann-json3-dev")
 endif()
 set(CPACK_DEBIAN_PACKAGE_DEPENDS ${RED_DEB_DEPENDS})
 if(TARGET red_torch)

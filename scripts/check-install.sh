@@ -138,12 +138,12 @@ INFO=$(dpkg-deb -I "$DEB")
 echo "$INFO" | grep -q "^ Package: red$" || fail "$DEB: no Package: red"
 echo "$INFO" | grep -q "^ Version: $VERSION$" || fail "$DEB: version is not $VERSION"
 echo "$INFO" | grep "^ Depends:" || fail "$DEB: no Depends"
-for dep in libfmt-dev libyaml-cpp libstdc++6; do  # -dev and run-time (dpkg-shlibdeps)
+for dep in libfmt-dev libyaml-cpp libyaml-0-2 libstdc++6; do  # -dev and run-time (dpkg-shlibdeps)
   echo "$INFO" | grep "^ Depends:" | grep -q "$dep" || fail "$DEB: Depends lacks $dep"
 done
 CONTENTS=$(dpkg-deb -c "$DEB")
 for f in ./usr/bin/red ./usr/include/red/runtime/backend.hpp ./usr/share/red/scenarios/minibench-tight.yaml \
-         /cmake/red/redConfig.cmake /pkgconfig/red.pc "/$(basename "$CORE_LIB")"; do
+         /cmake/red/redConfig.cmake /cmake/red/FindLibYAML.cmake /pkgconfig/red.pc "/$(basename "$CORE_LIB")"; do
   echo "$CONTENTS" | grep -q -- "$f" || fail "$DEB: does not contain $f"
 done
 if [ -n "$FULL" ]; then

@@ -32,6 +32,9 @@ inline constexpr std::int64_t kMaxReleaseCount = 1'000'000;
 inline constexpr double kMaxReleases = 1e7;  // jobs over the whole run, every operation
 inline constexpr std::size_t kMaxOperations = 100'000;
 inline constexpr std::size_t kMaxNodes = 1'000'000;  // over every operation's definitions
+// Collections (mappings and lists) inside one another: a scenario needs about 8 levels; the
+// same bound as a profile's JSON.
+inline constexpr int kMaxNesting = 64;
 
 /// nullopt when the workload is within the size limits (operations, nodes, jobs per run);
 /// else an Error naming the scenario's file. The jobs a run releases are bounded by each

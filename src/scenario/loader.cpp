@@ -9,8 +9,7 @@
 #include "limits.hpp"
 #include "red/core/file.hpp"
 #include "red/sched/policy.hpp"
-
-#include <yaml-cpp/yaml.h>
+#include "yaml_tree.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -47,15 +46,14 @@ struct Failure {
   throw Failure{line, std::move(message)};
 }
 
-/// yaml-cpp marks are 0-based and -1 when unknown; messages use 1-based lines, 0 unknown.
-int mark_line(const YAML::Node& n) {
-  const YAML::Mark m = n.Mark();
-  return m.line >= 0 ? m.line + 1 : 0;
+/// The 1-based line of a node; 0 unknown.
+int mark_line(const yaml::Node& n) {
+  return n.line();
 }
 
 /// A YAML value, the line to report it by and its path in the file (for messages).
 struct Val {
-  YAML::Node node;
+  yaml::Node node;
   int line = 0;
   std::string what;  ///< e.g. "operations.drive.deadline_ms"; empty for the top level
 };
@@ -65,13 +63,13 @@ std::string at(const std::string& what) {
   return what.empty() ? std::string{} : what + ": ";
 }
 
-std::string got(const YAML::Node& n) {
-  if (n.IsNull()) return ", got nothing";
-  if (n.IsMap()) return ", got a mapping";
-  if (n.IsSequence()) return ", got a list";
-  if (n.Tag() == "!") return ", got the quoted string '" + n.Scalar() + "'";
-  if (n.Tag() == "tag:yaml.org,2002:str") return ", got the string !!str '" + n.Scalar() + "'";
-  return ", got '" + n.Scalar() + "'";
+std::string got(const yaml::Node& n) {
+  if (n.is_null()) return ", got nothing";
+  if (n.is_map()) return ", got a mapping";
+  if (n.is_sequence()) return ", got a list";
+  if (n.tag() == "!") return ", got the quoted string '" + n.scalar() + "'";
+  if (n.tag() == "tag:yaml.org,2002:str") return ", got the string !!str '" + n.scalar() + "'";
+  return ", got '" + n.scalar() + "'";
 }
 
 std::string join(const std::vector<std::string>& items) {
@@ -89,21 +87,19 @@ struct Entry {
 
 /// The entries of a mapping; `kind` names what a duplicate key is ("key", "node", ...).
 std::vector<Entry> entries_of(const Val& v, std::string_view kind = "key") {
-  if (!v.node.IsMap()) fail(v.line, at(v.what) + "must be a mapping" + got(v.node));
+  if (!v.node.is_map()) fail(v.line, at(v.what) + "must be a mapping" + got(v.node));
   std::vector<Entry> out;
   std::unordered_map<std::string, int> first_line;  // O(1) per key: mappings of 50,000 nodes
-  for (auto it = v.node.begin(); it != v.node.end(); ++it) {
-    const YAML::Node key = it->first;
+  for (const auto& [key, value] : v.node.entries()) {
     const int key_line = mark_line(key);
-    if (!key.IsScalar() || key.Scalar().empty())
+    if (!key.is_scalar() || key.scalar().empty())
       fail(key_line, at(v.what) + "keys must be non-empty names" + got(key));
-    const std::string name = key.Scalar();
+    const std::string name = key.scalar();
     if (const auto [seen, fresh] = first_line.emplace(name, key_line); !fresh)
       fail(key_line, fmt::format("{}duplicate {} '{}' (first at line {})", at(v.what), kind, name,
                                  seen->second));
-    const YAML::Node value = it->second;
     // A null value's mark points at the next token, possibly lines later: use the key's.
-    const int value_line = value.IsNull() ? key_line : mark_line(value);
+    const int value_line = value.is_null() ? key_line : mark_line(value);
     out.push_back(Entry{name, key_line,
                         Val{value, value_line ? value_line : key_line,
                             v.what.empty() ? name : v.what + "." + name}});
@@ -150,16 +146,16 @@ class Fields {
 
 /// A scalar that may be read as a number: plain (untagged, unquoted) or tagged `!!int` /
 /// `!!float`. A quoted "15" or a `!!str 15` is a string, not a number.
-bool is_plain_scalar(const YAML::Node& n) {
-  if (!n.IsScalar()) return false;
-  const std::string& tag = n.Tag();
+bool is_plain_scalar(const yaml::Node& n) {
+  if (!n.is_scalar()) return false;
+  const std::string& tag = n.tag();
   return tag.empty() || tag == "?" || tag == "tag:yaml.org,2002:int" ||
          tag == "tag:yaml.org,2002:float";
 }
 
 double number(const Val& v) {
   if (is_plain_scalar(v.node)) {
-    std::string_view s = v.node.Scalar();
+    std::string_view s = v.node.scalar();
     if (!s.empty() && s.front() == '+') s.remove_prefix(1);
     double x = 0.0;
     const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
@@ -192,7 +188,7 @@ double non_negative(const Val& v) {
 
 std::int64_t integer(const Val& v, std::int64_t lo, std::int64_t hi) {
   if (is_plain_scalar(v.node)) {
-    std::string_view s = v.node.Scalar();
+    std::string_view s = v.node.scalar();
     if (!s.empty() && s.front() == '+') s.remove_prefix(1);
     std::int64_t x = 0;
     const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
@@ -211,9 +207,9 @@ int small_int(const Val& v, int lo) {
 }
 
 std::string text(const Val& v) {
-  if (!v.node.IsScalar() || v.node.Scalar().empty())
+  if (!v.node.is_scalar() || v.node.scalar().empty())
     fail(v.line, at(v.what) + "must be a non-empty string" + got(v.node));
-  return v.node.Scalar();
+  return v.node.scalar();
 }
 
 /// An absolute ROS 2 topic name (`/a/b_1`: letters, digits, `_`, tokens not starting with a
@@ -326,7 +322,7 @@ class Loader {
  public:
   explicit Loader(std::string file) : file_(std::move(file)) {}
 
-  Scenario run(const YAML::Node& root);
+  Scenario run(const yaml::Node& root);
 
  private:
   /// An operation as parsed, before depends_on is resolved to an index.
@@ -400,10 +396,10 @@ void Loader::parse_model(const Val& v) {
     s_.model.manifest = resolve_path(text(*manifest));
   }
   const Val& heads = f.need("heads");
-  if (!heads.node.IsSequence() || heads.node.size() == 0)
+  if (!heads.node.is_sequence() || heads.node.size() == 0)
     fail(heads.line, at(heads.what) + "must be a non-empty list of head names" + got(heads.node));
   s_.model.heads.clear();
-  for (const auto& h : heads.node) {
+  for (const yaml::Node& h : heads.node.items()) {
     const Val hv{h, mark_line(h) ? mark_line(h) : heads.line, heads.what};
     const std::string name = text(hv);
     if (s_.model.head_index(name) >= 0)
@@ -411,10 +407,10 @@ void Loader::parse_model(const Val& v) {
     s_.model.heads.push_back(name);
   }
   if (const Val* input = f.get("input")) {
-    if (!input->node.IsSequence() || input->node.size() != 3)
+    if (!input->node.is_sequence() || input->node.size() != 3)
       fail(input->line, at(input->what) + "must be [C, H, W]" + got(input->node));
     s_.model.input.clear();
-    for (const auto& d : input->node)
+    for (const yaml::Node& d : input->node.items())
       s_.model.input.push_back(integer(Val{d, mark_line(d), input->what}, 1, 1 << 20));
   }
   have_model_ = true;
@@ -506,7 +502,7 @@ int Loader::sensor_index(const Val& v) const {
 
 DeadlineSpec Loader::parse_deadline(const Val& v) const {
   DeadlineSpec d;
-  if (v.node.IsMap()) {
+  if (v.node.is_map()) {
     const Fields f(v, {"critical_path_x"});
     const Val& x = f.need("critical_path_x");
     d.critical_path_x = positive(x);
@@ -589,7 +585,7 @@ void Loader::add_nodes(OperationSpec& op, const Val& v) const {
 }
 
 std::vector<ReadEdge> Loader::read_edges(const OperationSpec& op, const Val& v) const {
-  if (!v.node.IsSequence())
+  if (!v.node.is_sequence())
     fail(v.line, at(v.what) + "must be a list of [from, to] pairs" + got(v.node));
   std::vector<ReadEdge> out;
   const std::unordered_map<std::string, int> index = node_indices(op);
@@ -597,12 +593,13 @@ std::vector<ReadEdge> Loader::read_edges(const OperationSpec& op, const Val& v) 
     const auto it = index.find(name);
     return it == index.end() ? -1 : it->second;
   };
-  for (const auto& item : v.node) {
+  for (const yaml::Node& item : v.node.items()) {
     const int line = mark_line(item) ? mark_line(item) : v.line;
-    if (!item.IsSequence() || item.size() != 2 || !item[0].IsScalar() || !item[1].IsScalar())
+    if (!item.is_sequence() || item.size() != 2 || !item.items()[0].is_scalar() ||
+        !item.items()[1].is_scalar())
       fail(line, at(v.what) + "each edge must be a [from, to] pair of node names" + got(item));
-    const std::string from = item[0].Scalar();
-    const std::string to = item[1].Scalar();
+    const std::string from = item.items()[0].scalar();
+    const std::string to = item.items()[1].scalar();
     ReadEdge e{EdgeSpec{find(from), find(to)}, line};
     for (const auto& [idx, name] : {std::pair{e.edge.from, from}, std::pair{e.edge.to, to}})
       if (idx < 0)
@@ -634,8 +631,8 @@ void Loader::check_graph(const OperationSpec& op, const std::vector<ReadEdge>& e
 Loader::Parsed Loader::parse_operation(const Val& v, const std::string& named_base) {
   // Name the operation in messages as soon as its name is known.
   Val named = v;
-  if (v.node.IsMap() && v.node["name"] && v.node["name"].IsScalar())
-    named.what = named_base + "." + v.node["name"].Scalar();
+  if (const yaml::Node name = v.node.find("name"); name.is_scalar())
+    named.what = named_base + "." + name.scalar();
   const Fields f(named, {"name", "trigger", "rate_hz", "phase_ms", "release", "deadline_ms",
                          "criticality", "max_inflight", "depends_on", "nodes", "edges"});
   Parsed p;
@@ -803,11 +800,11 @@ EventSpec Loader::parse_event(const Val& v, Duration& last_at, int& last_line) {
     if (const Val* e = af.get("edges")) new_edges = read_edges(*op, *e);
   } else if (ev.kind == "remove_nodes") {
     const Val& list = af.need("nodes");
-    if (!list.node.IsSequence() || list.node.size() == 0)
+    if (!list.node.is_sequence() || list.node.size() == 0)
       fail(list.line, at(list.what) + "must be a non-empty list of node names" + got(list.node));
     std::vector<bool> removed(op->nodes.size(), false);
     const std::unordered_map<std::string, int> nodes = node_indices(*op);
-    for (const auto& item : list.node) {
+    for (const yaml::Node& item : list.node.items()) {
       const Val iv{item, mark_line(item) ? mark_line(item) : list.line, list.what};
       const std::string name = text(iv);
       const auto found = nodes.find(name);
@@ -869,18 +866,18 @@ EventSpec Loader::parse_event(const Val& v, Duration& last_at, int& last_line) {
 }
 
 void Loader::parse_events(const Val& v) {
-  if (!v.node.IsSequence()) fail(v.line, at(v.what) + "must be a list of events" + got(v.node));
+  if (!v.node.is_sequence()) fail(v.line, at(v.what) + "must be a list of events" + got(v.node));
   Duration last_at{0};
   int last_line = 0;
   std::size_t k = 0;
-  for (const auto& item : v.node) {
+  for (const yaml::Node& item : v.node.items()) {
     const Val ev{item, mark_line(item) ? mark_line(item) : v.line,
                  fmt::format("{}[{}]", v.what, k++)};
     s_.events.push_back(parse_event(ev, last_at, last_line));
   }
 }
 
-Scenario Loader::run(const YAML::Node& root) {
+Scenario Loader::run(const yaml::Node& root) {
   const Fields top(Val{root, mark_line(root), ""},
                    {"name", "duration_s", "warmup_s", "seed", "device", "model", "profile",
                     "scheduler", "interference", "sensors", "operations", "events"});
@@ -907,11 +904,11 @@ Scenario Loader::run(const YAML::Node& root) {
   if (const Val* x = top.get("sensors")) parse_sensors(*x);
 
   const Val& ops = top.need("operations");
-  if (!ops.node.IsSequence())
+  if (!ops.node.is_sequence())
     fail(ops.line, "operations: must be a list of operations" + got(ops.node));
   std::vector<Parsed> parsed;
   std::size_t k = 0;
-  for (const auto& item : ops.node) {
+  for (const yaml::Node& item : ops.node.items()) {
     const Val v{item, mark_line(item) ? mark_line(item) : ops.line,
                 fmt::format("operations[{}]", k++)};
     Parsed p = parse_operation(v, "operations");
@@ -990,29 +987,24 @@ Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::strin
   // YAML is UTF-8 text, and every name read here reaches UTF-8 outputs (summary.json).
   if (auto e = check_utf8(yaml_text, file)) return *e;
   try {
-    YAML::Node root;
-    try {
-      root = YAML::Load(yaml_text);
-      if (const int second = second_yaml_document_line(yaml_text); second > 0)
-        return Error{file, second,
-                     "a second YAML document: a scenario file holds one (remove the '---' "
-                     "and what follows, or split it into two files)"};
-    } catch (const YAML::ParserException& e) {
-      return Error{file, e.mark.line >= 0 ? e.mark.line + 1 : 0, "YAML syntax error: " + e.msg};
-    }
-    if (!root || root.IsNull())
+    auto doc = yaml::parse(yaml_text, kMaxNesting);
+    if (!doc) return Error{file, doc.error().line, doc.error().message};
+    if (const int second = second_yaml_document_line(yaml_text); second > 0)
+      return Error{file, second,
+                   "a second YAML document: a scenario file holds one (remove the '---' "
+                   "and what follows, or split it into two files)"};
+    const yaml::Node root = doc->root();
+    if (!root || root.is_null())
       return Error{file, 0,
                    "the file is empty (a scenario is a mapping with name, duration_s "
                    "and operations)"};
-    if (!root.IsMap())
+    if (!root.is_map())
       return Error{
           file, mark_line(root),
           "the top level must be a mapping (name, duration_s, operations, ...)" + got(root)};
     return Loader(file).run(root);
   } catch (const Failure& f) {
     return Error{file, f.line, f.message};
-  } catch (const YAML::Exception& e) {
-    return Error{file, e.mark.line >= 0 ? e.mark.line + 1 : 0, e.msg};
   } catch (const std::exception& e) {
     return Error{file, 0, std::string("cannot load the scenario: ") + e.what()};
   } catch (...) {
