@@ -6,9 +6,12 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <set>
+
+#include <sys/wait.h>
 
 #include "red/core/output_file.hpp"
 #include "red/report/report.hpp"
@@ -157,15 +160,14 @@ class Plotter {
       return gp;
     };
     const std::string png_name = s.name + ".png", svg_name = s.name + ".svg";
-    if (auto e = write_file(path_, s.name + ".dat", s.data)) return note(e->to_string());
+    if (auto e = write_file(path_, s.name + ".dat", s.data)) return lost(*e);
     report_.files.push_back(o_.subdir + "/" + s.name + ".dat");
-    if (auto e = write_file(path_, s.name + ".gp", script(png_name, svg_name)))
-      return note(e->to_string());
+    if (auto e = write_file(path_, s.name + ".gp", script(png_name, svg_name))) return lost(*e);
     report_.files.push_back(o_.subdir + "/" + s.name + ".gp");
     if (terminal_.empty()) return;
     const std::string run = partial_path(s.name + ".gp");
     if (auto e = write_file(path_, run, script(partial_path(png_name), partial_path(svg_name))))
-      return note(e->to_string());
+      return lost(*e);
     const std::string log = s.name + ".log";
     const std::string cmd = "cd " + shell_quote(path_) + " && " + shell_quote(o_.gnuplot) + " " +
                             shell_quote(run) + " > " + shell_quote(log) + " 2>&1";
@@ -179,10 +181,13 @@ class Plotter {
     if (ok) fs::rename(png, fs::path(path_) / png_name, ec);
     if (ok && !ec && o_.svg) fs::rename(svg, fs::path(path_) / svg_name, ec);
     if (!ok || ec) {
+      const std::string why = ok ? "cannot be renamed into place: " + ec.message()
+                                 : gnuplot_complaint(rc, fs::path(path_) / log);
       fs::remove(png, ec);
       fs::remove(svg, ec);
-      note("gnuplot failed on " + o_.subdir + "/" + s.name + ".gp (see " + o_.subdir + "/" + log +
-           ")");
+      lost(Error{(fs::path(path_) / png_name).string(), 0,
+                 "not drawn: " + why + " (the script is " + o_.subdir + "/" + s.name +
+                     ".gp, gnuplot's output " + o_.subdir + "/" + log + ")"});
       return;
     }
     fs::remove(fs::path(path_) / log, ec);
@@ -199,6 +204,24 @@ class Plotter {
  private:
   void note(const std::string& n) {
     if (report_.note.empty()) report_.note = n;  // the first problem explains the rest
+  }
+
+  void lost(Error e) { report_.errors.push_back(std::move(e)); }
+
+  // Why gnuplot made no image: its exit status and the first line it printed.
+  static std::string gnuplot_complaint(int rc, const fs::path& log) {
+    std::string why = rc == 0 ? "gnuplot exited 0 but wrote no image"
+                      : WIFEXITED(rc) != 0
+                          ? fmt::format("gnuplot failed (exit {})", WEXITSTATUS(rc))
+                          : "gnuplot did not finish";
+    std::ifstream in(log);
+    std::string line;
+    while (std::getline(in, line))
+      if (line.find_first_not_of(" \t^") != std::string::npos) {
+        if (line.size() > 200) line = line.substr(0, 200) + "...";
+        return why + ": " + line;
+      }
+    return why;
   }
 
   std::string dir_;

@@ -621,6 +621,14 @@ TEST_F(Cli, AStandardOutputThatCannotBeWrittenIsAnError) {
     EXPECT_EQ(r.code, 1) << r.err;
     EXPECT_TRUE(contains(r.err, "standard output: No space left on device")) << r.err;
   }
+  // --help and --version too (they exited 0 with nothing written).
+  for (const std::string args : {"--help", "validate --help", "--version"}) {
+    SCOPED_TRACE(args);
+    const RunResult r = red(args, to_full);
+    ASSERT_TRUE(r.exited) << r.err;
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_TRUE(contains(r.err, "red: standard output: ")) << r.err;
+  }
 }
 
 TEST_F(Cli, NegativeSeedIsRejected) {

@@ -11,6 +11,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -47,8 +48,8 @@ class OutputsCli : public ::testing::Test {
 
   // Runs `red ARGS` (no gnuplot: the plots' data and scripts only); the exit code, with
   // stdout and stderr in out_ and err_.
-  int red(const std::string& args) {
-    const std::string cmd = "RED_GNUPLOT=none timeout 300 " + quote(RED_CLI) + " " + args + " >" +
+  int red(const std::string& args, const std::string& env = "RED_GNUPLOT=none") {
+    const std::string cmd = env + " timeout 300 " + quote(RED_CLI) + " " + args + " >" +
                             quote((dir_ / "stdout.txt").string()) + " 2>" +
                             quote((dir_ / "stderr.txt").string()) + " </dev/null";
     const int status = std::system(cmd.c_str());
@@ -188,6 +189,45 @@ TEST_F(OutputsCli, SweepAndAnalyzeEndWithAManifest) {
   EXPECT_TRUE(a["complete"].get<bool>()) << a.dump();
   EXPECT_EQ(listed(a), std::vector<std::string>{"analysis.json"});
   EXPECT_EQ(json::parse(read_text(an / "analysis.json"))["run_id"], a["run_id"]);
+}
+
+// A gnuplot that answers RED's probe for its PNG terminal but cannot draw: every image is a
+// lost output, named with gnuplot's complaint, and the run exits 1 (issue 40 item 3; it
+// printed a note and exited 0). The rest of the directory is still written.
+TEST_F(OutputsCli, APlotGnuplotCannotDrawIsAnError) {
+  const fs::path fake = dir_ / "gnuplot";
+  {
+    std::ofstream f(fake);
+    f << "#!/bin/sh\ncase \"$*\" in *-e*) exit 0;; esac\necho 'no room for the image' >&2\n"
+         "exit 3\n";
+  }
+  fs::permissions(fake, fs::perms::owner_all);
+  const std::string env = "RED_GNUPLOT=" + quote(fake.string());
+
+  const fs::path out = dir_ / "out";
+  EXPECT_EQ(red("compare " + scenario("minibench-tight.yaml") + " --policies edf,red --out " +
+                    quote(out.string()),
+                env),
+            1)
+      << err_;
+  EXPECT_TRUE(contains(err_, (out / "plots" / "response_hist.png").string() +
+                                 ": not drawn: gnuplot failed (exit 3): no room for the image"))
+      << err_;
+  EXPECT_TRUE(contains(out_, "red")) << "the table still goes to stdout";
+  EXPECT_TRUE(fs::exists(out / "summary.json"));
+  EXPECT_FALSE(fs::exists(out / "plots" / "response_hist.png"));
+  const json m = manifest(out);
+  EXPECT_FALSE(m["complete"].get<bool>());
+  EXPECT_TRUE(partial_files(out).empty());
+
+  const fs::path sweep = dir_ / "sweep";
+  EXPECT_EQ(red("sweep " + scenario("minibench-tight.yaml") +
+                    " --set deadline_scale=1:2:1 --policies edf --out " + quote(sweep.string()),
+                env),
+            1)
+      << err_;
+  EXPECT_TRUE(contains(err_, "not drawn: gnuplot failed (exit 3)")) << err_;
+  EXPECT_TRUE(fs::exists(sweep / "sweep.json"));
 }
 
 }  // namespace

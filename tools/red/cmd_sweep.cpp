@@ -328,6 +328,10 @@ void register_sweep(CLI::App& app, int& exit_code) {
       po.gnuplot = gnuplot_command();
       const PlotReport plots = write_sweep_plots(*a->out, base->name, key, values, series, po);
       if (!plots.note.empty()) std::cerr << "red: " << plots.note << '\n';
+      for (const Error& e : plots.errors) {
+        print_error(e);
+        set->fail(e);
+      }
       const std::vector<HtmlLink> links = {{"sweep.csv", "one row per (policy, value)"},
                                            {"sweep.json", "the same numbers as JSON"}};
       HtmlPage page = sweep_page(base->name, seed, key, values, series, plots, links);
@@ -370,6 +374,11 @@ void register_sweep(CLI::App& app, int& exit_code) {
       for (const PlotFile& f : plots.plots) images += f.svg.empty() ? 1 : 2;
       fmt::print("wrote {}/sweep.json, sweep.csv, index.html{}\n", *a->out,
                  images > 0 ? fmt::format(", plots/ ({} images)", images) : std::string());
+      if (!plots.errors.empty()) {
+        // A plot that could not be drawn is a lost output (the errors are above).
+        exit_code = stop_signal() != 0 ? stop_exit_code() : kRunFailure;
+        return;
+      }
     }
     exit_code = stop_signal() != 0 ? stop_exit_code() : kOk;
   });

@@ -217,6 +217,7 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     plot_runs.push_back({runs[i].metrics.name, &metrics[i], &runs[i].jobs});
   const PlotReport plots = write_run_plots(dir, s, plot_runs, po);
   if (!plots.note.empty()) std::cerr << "red: " << plots.note << '\n';
+  for (const Error& e : plots.errors) failed(e);
   for (const std::string& f : plots.files)
     if (options.set != nullptr) options.set->add(f);
   for (const PlotFile& f : plots.plots) {

@@ -64,6 +64,21 @@ std::string suggestions(const CLI::App& sub, int argc, char** argv) {
   return out;
 }
 
+// What stdout still buffers goes now, so that a table (or --help, --version) that could not
+// be written is an error (exit 1) naming the reason, not an exit 0 with the output gone.
+int flush_stdout(int exit_code) {
+  errno = 0;
+  const bool flushed = std::fflush(stdout) == 0;  // std::cout writes through stdout
+  const int reason = errno;
+  if (!flushed || std::ferror(stdout) || !std::cout.flush()) {
+    errno = reason;
+    std::cerr << "red: standard output: " << (errno != 0 ? std::strerror(errno) : "write failed")
+              << " (the output is lost)\n";
+    return exit_code == red::cli::kOk ? red::cli::kRunFailure : exit_code;
+  }
+  return exit_code;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -123,11 +138,11 @@ int main(int argc, char** argv) {
     std::cerr << "red: standard output: " << e.code().message() << " (the output is lost)\n";
     return red::cli::kRunFailure;
   } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
+    return flush_stdout(app.exit(e));
   } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
+    return flush_stdout(app.exit(e));
   } catch (const CLI::Success& e) {
-    return app.exit(e);
+    return flush_stdout(app.exit(e));  // --version
   } catch (const CLI::ParseError& e) {
     // Bad usage: CLI11 explains, and a misspelt option gets the closest one the command has;
     // RED's exit code for bad input is 2 (docs/CLI.md).
@@ -135,16 +150,5 @@ int main(int argc, char** argv) {
     for (const CLI::App* sub : app.get_subcommands()) std::cerr << suggestions(*sub, argc, argv);
     return red::cli::kBadInput;
   }
-  // What stdout still buffers goes now, so that a table that could not be written is an
-  // error (exit 1) naming the reason, not an exit 0 with the table gone.
-  errno = 0;
-  const bool flushed = std::fflush(stdout) == 0;  // std::cout writes through stdout
-  const int reason = errno;
-  if (!flushed || std::ferror(stdout) || !std::cout.flush()) {
-    errno = reason;
-    std::cerr << "red: standard output: " << (errno != 0 ? std::strerror(errno) : "write failed")
-              << " (the output is lost)\n";
-    return exit_code == red::cli::kOk ? red::cli::kRunFailure : exit_code;
-  }
-  return exit_code;
+  return flush_stdout(exit_code);
 }

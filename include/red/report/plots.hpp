@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "red/core/expected.hpp"
 #include "red/metrics/metrics.hpp"
 #include "red/scenario/scenario.hpp"
 
@@ -51,9 +52,15 @@ struct PlotFile {
 /// What was made.
 struct PlotReport {
   std::vector<PlotFile> plots;  ///< images that exist and are non-empty
-  std::string note;             ///< one line on what was skipped and why; empty when all went well
+  /// One line on what was skipped by choice or for want of gnuplot (data and scripts are
+  /// written all the same); empty when gnuplot drew.
+  std::string note;
   /// The data and scripts written (e.g. "plots/response_hist.dat", ".gp"), besides the images.
   std::vector<std::string> files;
+  /// Outputs lost: a file that could not be written, an image gnuplot failed to draw (path,
+  /// and the system's reason or gnuplot's first line of complaint). A caller treats each as
+  /// a failed output (`red` exits 1).
+  std::vector<Error> errors;
 };
 
 /// The PNG terminal gnuplot offers ("pngcairo" or "png"), or empty when `gnuplot` cannot
