@@ -216,7 +216,15 @@ std::string scale_text(const ScaleSearch& r, bool rate) {
   if (r.pass == 0) return fmt::format("fails even at {:g}", r.fail);
   if (r.fail == 0)
     return fmt::format("{}{:.3g} (limit of the search)", rate ? ">= " : "<= ", r.pass);
-  return fmt::format("{:.3g} (fails at {:.3g})", r.pass, r.fail);
+  // Three significant digits, or as many more as tell the two apart: a search that ends
+  // between 1.2001 and 1.2004 printed "1.2 (fails at 1.2)".
+  std::string pass, fail;
+  for (int digits = 3; digits <= 12; ++digits) {
+    pass = fmt::format("{:.{}g}", r.pass, digits);
+    fail = fmt::format("{:.{}g}", r.fail, digits);
+    if (pass != fail) break;
+  }
+  return pass + " (fails at " + fail + ")";
 }
 
 }  // namespace
@@ -228,15 +236,20 @@ std::string analysis_text(const Analysis& a) {
       a.slowdown != 1.0 ? fmt::format(", interference ×{:g}", a.slowdown) : std::string());
   t += "(times in ms; cp: critical path; work per job on mean costs; miss: simulated miss rate "
        "on profiled / worst-case costs)\n";
+  // The operation column as wide as the longest name (a long name pushed its row's columns
+  // right of the header's).
+  std::size_t op_width = 12;
+  for (const PhaseAnalysis& ph : a.phases)
+    for (const OperationAnalysis& o : ph.operations) op_width = std::max(op_width, o.name.size());
   for (const PhaseAnalysis& ph : a.phases) {
     t += fmt::format("\nphase {} [{:.3f} s, {:.3f} s): device utilization {:.1f} %\n", ph.label,
                      to_s(ph.span.from), to_s(ph.span.to), 100 * ph.utilization);
-    t += fmt::format("  {:<12} {:>7} {:>9} {:>17} {:>17} {:>25} {:>7} {:>15}  {}\n", "operation",
-                     "rate Hz", "deadline", "cp coarse mean/est", "cp fine mean/est",
+    t += fmt::format("  {:<{}} {:>7} {:>9} {:>17} {:>17} {:>25} {:>7} {:>15}  {}\n", "operation",
+                     op_width, "rate Hz", "deadline", "cp coarse mean/est", "cp fine mean/est",
                      "work coarse/fine/merged", "util %", "miss % prof/wc", "verdict");
     for (const OperationAnalysis& o : ph.operations) {
       t += fmt::format(
-          "  {:<12} {:>7.2f} {:>9.3f} {:>17} {:>17} {:>25} {:>7.1f} {:>15}  {}\n", o.name,
+          "  {:<{}} {:>7.2f} {:>9.3f} {:>17} {:>17} {:>25} {:>7.1f} {:>15}  {}\n", o.name, op_width,
           o.rate_hz, to_ms(o.deadline),
           fmt::format("{:.2f}/{:.2f}", to_ms(o.cp_coarse_mean), to_ms(o.cp_coarse_estimate)),
           fmt::format("{:.2f}/{:.2f}", to_ms(o.cp_fine_mean), to_ms(o.cp_fine_estimate)),
@@ -245,7 +258,7 @@ std::string analysis_text(const Analysis& a) {
           100 * o.utilization,
           fmt::format("{:.1f}/{:.1f}", 100 * o.miss_profiled, 100 * o.miss_worst),
           to_string(o.verdict));
-      t += fmt::format("  {:<12} └ {}\n", "", o.reason);
+      t += fmt::format("  {:<{}} └ {}\n", "", op_width, o.reason);
     }
   }
   t += fmt::format(

@@ -395,5 +395,45 @@ TEST(AnalyzeWorstCase, CalibratedProfilesPinResidualsAndFactors) {
     EXPECT_DOUBLE_EQ(w.calibration->factor_at(TimePoint{milliseconds{i * 113}}, 9), 1.6);
 }
 
+// The text of an analysis: a headroom search that ends between two scales closer than three
+// digits tell apart prints as many digits as tell them apart ("1.2 (fails at 1.2)" before),
+// and the operation column is as wide as the longest name, so rows stay under their header.
+TEST(AnalysisText, DigitsTellTheScalesApartAndColumnsAlign) {
+  Analysis a;
+  a.scenario = "s";
+  a.policy = "red";
+  Headroom h;
+  h.policy = "red";
+  h.costs = "profiled";
+  h.rate.pass = 1.2001;
+  h.rate.fail = 1.2004;
+  h.deadline.pass = 0.75;
+  h.deadline.fail = 0.7;
+  a.headroom.push_back(h);
+  PhaseAnalysis ph;
+  ph.label = "at start";
+  for (const char* name : {"lane", "cruise_control_with_a_long_name"}) {
+    OperationAnalysis o;
+    o.name = name;
+    o.rate_hz = 20;
+    o.reason = "fits";
+    ph.operations.push_back(o);
+  }
+  a.phases.push_back(ph);
+  const std::string t = analysis_text(a);
+  EXPECT_NE(t.find("1.2001 (fails at 1.2004)"), std::string::npos) << t;
+  EXPECT_NE(t.find("0.75 (fails at 0.7)"), std::string::npos) << t;
+  // Every row's rate column ends where the header's does.
+  const std::size_t header = t.find("  operation ");
+  ASSERT_NE(header, std::string::npos) << t;
+  const std::size_t header_end = t.find("rate Hz", header) + std::string("rate Hz").size() - header;
+  for (const char* name : {"  lane ", "  cruise_control_with_a_long_name "}) {
+    const std::size_t row = t.find(name);
+    ASSERT_NE(row, std::string::npos) << name << "\n" << t;
+    EXPECT_EQ(t.find("20.00", row) + std::string("20.00").size() - row, header_end) << name << "\n"
+                                                                                    << t;
+  }
+}
+
 }  // namespace
 }  // namespace red

@@ -438,6 +438,12 @@ TEST_F(Cli, SweepWritesOneColumnPerValue) {
     EXPECT_EQ(p.at("miss_rate").size(), 3u);
     EXPECT_EQ(p.at("qoe").size(), 3u);
   }
+  // The printed miss rates are percentages, as `red compare` prints them (sweep.json keeps
+  // fractions): edf's at deadline_scale 1, to two decimals.
+  EXPECT_TRUE(contains(r.out, "miss rate (%) by deadline_scale")) << r.out;
+  const double edf_miss = j.at("policies")[0].at("miss_rate")[1].get<double>();
+  EXPECT_GT(edf_miss, 0.0);
+  EXPECT_TRUE(contains(r.out, fmt::format(" {:>9.2f}", 100 * edf_miss))) << r.out;
   // Looser deadlines never make edf miss more on the identical workload... at least the
   // loosest is no worse than the tightest.
   const json& edf = j.at("policies")[0].at("miss_rate");

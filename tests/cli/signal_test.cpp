@@ -254,7 +254,8 @@ TEST_F(Signals, RunStopsOnSigterm) {
 TEST_F(Signals, CompareWritesThePoliciesRunSoFar) {
   start({"compare", data("signal.yaml"), "--backend", "synthetic", "--policies", "edf,red,fifo",
          "--no-realtime", "--out", out_dir()});
-  ASSERT_TRUE(wait_for_stderr("red: policy edf: warm-up over")) << err();
+  ASSERT_TRUE(wait_for_stderr("red: policy edf (1 of 3): warm-up over")) << err();
+  EXPECT_NE(err().find("red: policy edf (1 of 3): running for"), std::string::npos) << err();
   EXPECT_EQ(stop_with(SIGINT), 130) << err();
   EXPECT_NE(err().find("stopped by SIGINT after 1 of 3 run(s)"), std::string::npos) << err();
   const json p = check_outputs();

@@ -351,6 +351,13 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     progress.begin_run(names.size() == 1 ? n : fmt::format("{} [{}/{}]", n, i + 1, names.size()),
                        s->duration);
     RuntimeReport report;
+    if (!sim && names.size() > 1) {
+      // A real compare takes the scenario's duration per policy: say which one runs, also
+      // off a terminal (where the progress line is not drawn).
+      real.label = fmt::format("{} ({} of {})", n, i + 1, names.size());
+      std::cerr << fmt::format("red: policy {}: running for {:g} s (warm-up {:g} s)\n", real.label,
+                               to_s(s->duration), to_s(s->warmup));
+    }
     if (stream) stream->begin_policy(n);
     auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value(), real.sync,
                                    costs ? &*costs : nullptr)

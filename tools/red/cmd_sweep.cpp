@@ -208,20 +208,26 @@ void register_sweep(CLI::App& app, int& exit_code) {
         return;
       }
     }
-    auto table = [&](const char* title, auto get) {
-      std::string out = fmt::format("{} by {}\n{:<10}", title, key, "policy");
+    // One table per figure: a row per policy, a column per value, the first column as wide
+    // as the longest policy name. Miss rates in percent, as `red compare` prints them.
+    std::size_t name_width = 10;
+    for (const std::string& n : names) name_width = std::max(name_width, n.size() + 1);
+    auto table = [&](const char* title, int decimals, auto get) {
+      std::string out = fmt::format("{} by {}\n{:<{}}", title, key, "policy", name_width);
       for (double v : values) out += fmt::format(" {:>9g}", v);
       out += '\n';
       for (std::size_t i = 0; i < names.size(); ++i) {
-        out += fmt::format("{:<10}", names[i]);
-        for (const PolicyMetrics& m : results[i]) out += fmt::format(" {:>9.3f}", get(m));
+        out += fmt::format("{:<{}}", names[i], name_width);
+        for (const PolicyMetrics& m : results[i])
+          out += fmt::format(" {:>9.{}f}", get(m), decimals);
         out += '\n';
       }
       return out;
     };
-    std::string text = table("miss rate", [](const PolicyMetrics& m) { return m.miss_rate; });
-    text += table("mean latency (ms)", [](const PolicyMetrics& m) { return m.latency.mean; });
-    text += table("QoE", [](const PolicyMetrics& m) { return m.qoe; });
+    std::string text =
+        table("miss rate (%)", 2, [](const PolicyMetrics& m) { return 100.0 * m.miss_rate; });
+    text += table("mean latency (ms)", 3, [](const PolicyMetrics& m) { return m.latency.mean; });
+    text += table("QoE", 3, [](const PolicyMetrics& m) { return m.qoe; });
     // docs/DESIGN.md, "Performance targets": over rate_scale, each policy's breakdown rate beside
     // the physical limit.
     std::vector<Breakdown> breakdowns;
@@ -252,10 +258,10 @@ void register_sweep(CLI::App& app, int& exit_code) {
       text += fmt::format(
           "breakdown rate (miss rate <= {:g} % at every swept rate_scale up to it; see "
           "docs/DESIGN.md#targets)\n"
-          "physical limit: {}\n{:<10} {:>9} {:>12}\n",
-          100 * kBreakdownMiss, limit_text, "policy", "breakdown", "of the limit");
+          "physical limit: {}\n{:<{}} {:>9} {:>12}\n",
+          100 * kBreakdownMiss, limit_text, "policy", name_width, "breakdown", "of the limit");
       for (const auto& r : bd_rows)
-        text += fmt::format("{:<10} {:>9} {:>12}   ({})\n", r[0], r[1], r[2], r[3]);
+        text += fmt::format("{:<{}} {:>9} {:>12}   ({})\n", r[0], name_width, r[1], r[2], r[3]);
     }
     fmt::print("scenario {} (backend sim, seed {})\n{}", base->name, seed, text);
     if (a->out) {

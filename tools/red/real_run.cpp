@@ -167,7 +167,7 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   metrics.set_sink(o.rows);
   rt.add_observer(&metrics);
   for (Observer* e : extra) rt.add_observer(e);
-  MeasuringNotice notice(policy);
+  MeasuringNotice notice(o.label.empty() ? policy : o.label);
   rt.add_observer(&notice);
   const auto t0 = std::chrono::steady_clock::now();
   // SIGINT/SIGTERM (when installed) end the run at once: jobs in flight are unfinished.

@@ -43,6 +43,8 @@ struct RealRunOptions {
   /// summary's bounded state (and whatever `rows` keeps).
   bool keep_rows = true;
   RowSink* rows = nullptr;  ///< gets every row as it is made (a streamed jobs.csv, units.csv)
+  /// How stderr names the run ("red (3 of 5)" in a compare); empty: the policy's name.
+  std::string label;
 };
 
 /// Registers --device and --threads on a command that makes a backend (run, compare, node),
