@@ -102,7 +102,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
     for (const auto& [i, op] : e.changes) see(op);
   mixed_criticality = lo < hi;
   uniform_criticality = lo <= hi ? lo : 0;
-  edf_rank = dynamic_cast<const EdfPolicy*>(s.policy_.get()) != nullptr;
+  edf_rank = s.policy_->ranks_by_deadline_only();
 }
 
 void Scheduler::Impl::notify_job(const Job& j, JobOutcome o, TimePoint finish, bool release_event) {
@@ -874,7 +874,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
         // evaluation at `now` before it changes the job.
         const TaskRank& r = task_rank(t);
         Key k = r.tie;
-        k.rank = r.job_deadline.count();  // EdfPolicy::rank of the view by job deadline
+        k.rank = r.job_deadline.count();  // rank() of the view by job deadline (the trait)
         // key()'s criticality with equal ones: the view's 0 or more.
         const int crit = std::max(0, uniform_criticality);
         scanned.push_back({k, TimePoint{0}, t, crit, tk.kind, false, tk.head});

@@ -268,8 +268,8 @@ struct Scheduler::Impl {
   bool demand_overrun = false;  // this round's demand test found more work than the lanes do
   // red-robust ranks by job deadline until then (docs/DESIGN.md, "Overload").
   TimePoint overload_hold{0};
-  // The policy is EdfPolicy (final): its rank is the deadline it is shown, and it reads no
-  // other field of the task's view.
+  // The policy's rank is the deadline it is shown, and it reads no other field of the
+  // task's view (Policy::ranks_by_deadline_only).
   bool edf_rank = false;
   bool mixed_criticality = false;
   int uniform_criticality = 0;       // every operation's, when not mixed

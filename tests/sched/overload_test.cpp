@@ -674,6 +674,22 @@ class LongWayEdf final : public Policy {
   PolicyOptions options_;
 };
 
+// Ranks as EdfPolicy does and says so (Policy::ranks_by_deadline_only): another type that
+// gets the fast path, as any policy that keeps the promise may.
+class PromisedEdf final : public Policy {
+ public:
+  explicit PromisedEdf(PolicyOptions o) : options_(o) {}
+  [[nodiscard]] std::string_view name() const noexcept override { return "promised-edf"; }
+  [[nodiscard]] const PolicyOptions& options() const noexcept override { return options_; }
+  [[nodiscard]] std::int64_t rank(const TaskView& t, TimePoint) const noexcept override {
+    return t.deadline.count();
+  }
+  [[nodiscard]] bool ranks_by_deadline_only() const noexcept override { return true; }
+
+ private:
+  PolicyOptions options_;
+};
+
 // Every unit start: when it was decided and started, lane, deadline, batch and members.
 struct StartLog : Observer {
   std::string text;
@@ -702,8 +718,8 @@ Starts starts(const Scenario& s, const Profile& p, std::unique_ptr<Policy> polic
 }
 
 // red-robust's decisions do not depend on how its tasks are ranked: on overloaded grid sets
-// (plain and MIMONet, 1 to 4 lanes) and the minibenchmark past its limit, EdfPolicy and
-// LongWayEdf with red-robust's options start the same units at the same times.
+// (plain and MIMONet, 1 to 4 lanes) and the minibenchmark past its limit, EdfPolicy,
+// LongWayEdf and PromisedEdf with red-robust's options start the same units at the same times.
 TEST(Overload, RankingByJobDeadlineFromTheTasksChangesNoDecision) {
   const Profile p = default_profile();
   std::vector<Scenario> cases;
@@ -721,8 +737,10 @@ TEST(Overload, RankingByJobDeadlineFromTheTasksChangesNoDecision) {
     ASSERT_TRUE(o.has_value());
     const Starts fast = starts(s, p, std::make_unique<EdfPolicy>("red-robust", *o));
     const Starts long_way = starts(s, p, std::make_unique<LongWayEdf>(*o));
+    const Starts promised = starts(s, p, std::make_unique<PromisedEdf>(*o));
     ASSERT_FALSE(fast.log.empty()) << s.name;
     EXPECT_EQ(fast.log, long_way.log) << s.name;
+    EXPECT_EQ(promised.log, fast.log) << s.name;
     EXPECT_EQ(fast.stats.dispatches, long_way.stats.dispatches) << s.name;
     shed += fast.stats.hopeless + fast.stats.rejected;
     batched += fast.batched;
