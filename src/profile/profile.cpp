@@ -27,6 +27,7 @@
 
 #include "red/core/assert.hpp"
 #include "red/core/rng.hpp"
+#include "red/scenario/manifest.hpp"
 
 namespace red {
 
@@ -759,6 +760,110 @@ std::optional<Error> check_profile_covers(const Profile& p, const Scenario& s) {
     }
   }
   return std::nullopt;
+}
+
+namespace {
+
+std::string label_text(const ProfileLabel& l) {
+  return l.model + " " + shape_label(l.input) + (l.separate ? " separate" : "");
+}
+
+}  // namespace
+
+std::optional<ProfileLabel> parse_profile_label(const std::string& label) {
+  // "<model> [C,H,W]" with an optional " separate"; the model's name may hold spaces (a
+  // manifest's file name), so the shape is found from the end.
+  std::string rest = label;
+  ProfileLabel out;
+  const std::string sep = " separate";
+  if (rest.size() > sep.size() && rest.compare(rest.size() - sep.size(), sep.size(), sep) == 0) {
+    out.separate = true;
+    rest.resize(rest.size() - sep.size());
+  }
+  if (rest.empty() || rest.back() != ']') return std::nullopt;
+  const std::size_t open = rest.rfind(" [");
+  if (open == std::string::npos || open == 0) return std::nullopt;
+  out.model = rest.substr(0, open);
+  const std::string dims = rest.substr(open + 2, rest.size() - open - 3);
+  std::size_t at = 0;
+  while (at <= dims.size()) {
+    const std::size_t comma = std::min(dims.find(',', at), dims.size());
+    std::int64_t v = 0;
+    const char* first = dims.data() + at;
+    const char* last = dims.data() + comma;
+    const auto [ptr, ec] = std::from_chars(first, last, v);
+    if (first == last || ec != std::errc{} || ptr != last || v <= 0) return std::nullopt;
+    out.input.push_back(v);
+    at = comma + 1;
+  }
+  if (out.input.size() != 3) return std::nullopt;
+  return out;
+}
+
+std::string scenario_model_label(const Scenario& s) {
+  const std::string name = s.model.manifest.empty()
+                               ? s.model.builtin
+                               : std::filesystem::path(s.model.manifest).filename().string();
+  return name + " " + shape_label(s.model.input);
+}
+
+ProfileIdentity check_profile_identity(const Profile& p, const Scenario& s,
+                                       const std::optional<std::string>& cli_path) {
+  ProfileIdentity r;
+  const bool builtin_default = !cli_path && s.profile.empty();
+  const std::string path = cli_path ? *cli_path : s.profile;
+  const std::string named = builtin_default ? "the built-in default profile" : "profile " + path;
+  if (s.model.heads.empty()) {
+    // No model: plain nodes only, whose costs the scenario gives.
+    r.checked = "profile identity: not checked (the scenario runs no model)";
+    return r;
+  }
+  const std::string ours = scenario_model_label(s);
+  const auto label = parse_profile_label(p.model);
+  if (!label) {
+    r.warning = fmt::format(
+        "{} does not say which model it was measured on (its model is '{}', not "
+        "'NAME [C,H,W]' as red profile writes it): not checked against the scenario's "
+        "model, {}",
+        named, p.model, ours);
+    r.checked = fmt::format(
+        "profile identity: not checked ('{}' is not a label red profile "
+        "writes)",
+        p.model);
+    return r;
+  }
+  const std::string model = s.model.manifest.empty()
+                                ? s.model.builtin
+                                : std::filesystem::path(s.model.manifest).filename().string();
+  const bool same_model = label->model == model;
+  const bool same_input = label->input == s.model.input;
+  const std::string theirs = label_text(*label);
+  r.checked =
+      fmt::format("profile identity: {} is of {}, the scenario's model is {}", named, theirs, ours);
+  if (same_model && same_input) return r;
+  const std::string what = same_model ? "another input size" : "another model";
+  const std::string measure =
+      s.model.manifest.empty()
+          ? fmt::format("red profile --input {},{},{} --out P.json", s.model.input.at(0),
+                        s.model.input.at(1), s.model.input.at(2))
+          : "red profile --model " + s.model.manifest + " --out P.json";
+  if (builtin_default && same_model) {
+    // The built-in model at another input: the default profile stands in, as documented.
+    r.warning = fmt::format(
+        "{} is of {}; the scenario's model is {}: its costs are of another input size "
+        "(measure one: {}, then profile: P.json)",
+        named, theirs, ours, measure);
+    return r;
+  }
+  const std::string message = fmt::format(
+      "{} is of {}; the scenario's model is {} ({}: its costs are not this "
+      "model's; measure one: {})",
+      named, theirs, ours, what, measure);
+  if (cli_path)
+    r.error = Error{"", 0, "--profile: " + message};
+  else
+    r.error = Error{s.file, s.profile_line > 0 ? s.profile_line : s.model.line, message};
+  return r;
 }
 
 }  // namespace red

@@ -394,22 +394,27 @@ void Loader::parse_model(const Val& v) {
   } else {
     s_.model.builtin.clear();
     s_.model.manifest = resolve_path(text(*manifest));
+    s_.model.manifest_line = manifest->line;
   }
+  s_.model.line = f.line();
   const Val& heads = f.need("heads");
   if (!heads.node.is_sequence() || heads.node.size() == 0)
     fail(heads.line, at(heads.what) + "must be a non-empty list of head names" + got(heads.node));
   s_.model.heads.clear();
+  s_.model.head_lines.clear();
   for (const yaml::Node& h : heads.node.items()) {
     const Val hv{h, mark_line(h) ? mark_line(h) : heads.line, heads.what};
     const std::string name = text(hv);
     if (s_.model.head_index(name) >= 0)
       fail(hv.line, at(heads.what) + "duplicate head '" + name + "'");
     s_.model.heads.push_back(name);
+    s_.model.head_lines.push_back(hv.line);
   }
   if (const Val* input = f.get("input")) {
     if (!input->node.is_sequence() || input->node.size() != 3)
       fail(input->line, at(input->what) + "must be [C, H, W]" + got(input->node));
     s_.model.input.clear();
+    s_.model.input_line = input->line;
     for (const yaml::Node& d : input->node.items())
       s_.model.input.push_back(integer(Val{d, mark_line(d), input->what}, 1, 1 << 20));
   }
@@ -898,7 +903,10 @@ Scenario Loader::run(const yaml::Node& root) {
     s_.seed = static_cast<std::uint64_t>(integer(*x, 0, std::numeric_limits<std::int64_t>::max()));
   if (const Val* x = top.get("device")) parse_device(*x);
   if (const Val* x = top.get("model")) parse_model(*x);
-  if (const Val* x = top.get("profile")) s_.profile = resolve_path(text(*x));
+  if (const Val* x = top.get("profile")) {
+    s_.profile = resolve_path(text(*x));
+    s_.profile_line = x->line;
+  }
   if (const Val* x = top.get("scheduler")) parse_scheduler(*x);
   if (const Val* x = top.get("interference")) parse_interference(*x);
   if (const Val* x = top.get("sensors")) parse_sensors(*x);

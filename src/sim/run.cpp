@@ -41,7 +41,8 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
   return run;
 }
 
-Expected<Profile> resolve_profile(const Scenario& s, const std::optional<std::string>& cli_path) {
+Expected<Profile> resolve_profile(const Scenario& s, const std::optional<std::string>& cli_path,
+                                  std::vector<std::string>* warnings) {
   Profile p;
   if (cli_path) {
     auto loaded = load_profile(*cli_path);
@@ -51,9 +52,21 @@ Expected<Profile> resolve_profile(const Scenario& s, const std::optional<std::st
     auto loaded = load_profile(s.profile);
     if (!loaded) return loaded.error();
     p = std::move(loaded.value());
+  } else if (!s.model.manifest.empty()) {
+    // The built-in profile holds MIMONet's costs: a user's model simulated on them, or
+    // scheduled by them in a real run (deadlines, estimates), would be another model's.
+    return Error{s.file, s.model.manifest_line > 0 ? s.model.manifest_line : s.model.line,
+                 "model.manifest: the model '" + s.model.manifest +
+                     "' has no profile, and the built-in one holds MIMONet's costs, not "
+                     "its own: measure one (red profile --model " +
+                     s.model.manifest + " --out P.json) and give it (profile: P.json in the " +
+                     "scenario, or --profile P.json)"};
   } else {
     p = default_profile();
   }
+  const ProfileIdentity id = check_profile_identity(p, s, cli_path);
+  if (id.error) return *id.error;
+  if (!id.warning.empty() && warnings != nullptr) warnings->push_back(id.warning);
   if (auto err = check_profile_covers(p, s)) return *err;
   return p;
 }

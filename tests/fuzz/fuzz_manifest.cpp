@@ -1,5 +1,5 @@
-// libFuzzer target: model manifest YAML text -> parse_manifest (backends/torch's manifest
-// reader, which needs no LibTorch). The manifest "lives" in a scratch directory holding
+// libFuzzer target: model manifest YAML text -> parse_manifest (the core's manifest
+// reader, red/scenario/manifest.hpp). The manifest "lives" in a scratch directory holding
 // the TorchScript file names the seeds use, so inputs get past the file checks.
 
 #include <cstddef>
@@ -9,7 +9,7 @@
 #include <string>
 
 #include "fuzz_support.hpp"
-#include "red/torch/manifest.hpp"
+#include "red/scenario/manifest.hpp"
 
 namespace {
 
@@ -27,7 +27,7 @@ std::string scratch_manifest() {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static const std::string path = scratch_manifest();
   const std::string text(reinterpret_cast<const char*>(data), size);
-  auto m = red::torchb::parse_manifest(text, path);
+  auto m = red::parse_manifest(text, path);
   if (!m) {
     if (m.error().file != path || m.error().message.empty())
       red::fuzz::fail("error without file or message");

@@ -35,7 +35,7 @@ int run_analyze(const AnalyzeArgs& a) {
     print_error(s.error());
     return kBadInput;
   }
-  auto p = resolve_profile(*s, a.scenario.profile);
+  auto p = cli_profile(*s, a.scenario.profile);
   if (!p) {
     print_error(p.error());
     return kBadInput;

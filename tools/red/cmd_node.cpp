@@ -102,7 +102,7 @@ int run_node(const NodeArgs& a) {
     print_error(s.error());
     return kBadInput;
   }
-  auto p = resolve_profile(*s, a.scenario.profile);
+  auto p = cli_profile(*s, a.scenario.profile);
   if (!p) {
     print_error(p.error());
     return kBadInput;

@@ -213,7 +213,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     print_error(s.error());
     return kBadInput;
   }
-  auto p = resolve_profile(*s, a.scenario.profile);
+  auto p = cli_profile(*s, a.scenario.profile);
   if (!p) {
     print_error(p.error());
     return kBadInput;

@@ -143,7 +143,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
       exit_code = kBadInput;
       return;
     }
-    auto p = resolve_profile(*base, a->scenario.profile);
+    auto p = cli_profile(*base, a->scenario.profile);
     if (!p) {
       print_error(p.error());
       exit_code = kBadInput;

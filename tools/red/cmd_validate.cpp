@@ -8,6 +8,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "red/graph/refine.hpp"
+#include "red/scenario/manifest.hpp"
 
 namespace red::cli {
 
@@ -71,6 +72,31 @@ void print_operation(const Scenario& s, const OperationSpec& op, int index,
                op.nodes[static_cast<std::size_t>(e.to)].name);
 }
 
+/// What validate checked besides the workload (docs/MODELS.md, "What red validate checks").
+void print_checks(const Scenario& s, const std::optional<ModelManifest>& m, const Profile& p,
+                  const ProfileIdentity& id) {
+  fmt::print("checked:\n");
+  std::string heads;
+  for (const std::string& h : s.model.heads) heads += (heads.empty() ? "" : ", ") + h;
+  if (m) {
+    fmt::print("  manifest {}: read, {} head(s)\n", m->file, m->heads.size());
+    std::string files = "encoder " + m->encoder.path;
+    for (const ManifestFile& f : m->heads) files += ", " + f.name + " " + f.path;
+    fmt::print("  files: {} exist\n", files);
+    fmt::print("  heads: {} in the manifest\n", heads);
+    fmt::print("  input: {} {}\n", shape_label(s.model.input),
+               s.model.input_line > 0 ? "equals the manifest's" : "taken from the manifest");
+  } else if (!s.model.heads.empty()) {
+    fmt::print("  model: built-in {}, heads {}, input {}\n", s.model.builtin, heads,
+               shape_label(s.model.input));
+  } else {
+    fmt::print("  model: none (plain nodes only)\n");
+  }
+  fmt::print("  {}\n", id.checked);
+  if (!s.model.heads.empty())
+    fmt::print("  profile ({}): has the encoder and every head the scenario uses\n", p.source);
+}
+
 }  // namespace
 
 void register_validate(CLI::App& app, int& exit_code) {
@@ -88,12 +114,21 @@ void register_validate(CLI::App& app, int& exit_code) {
       exit_code = kBadInput;
       return;
     }
-    auto p = resolve_profile(*s, args->profile);
+    // load() checked the model; once more for the manifest it read, to list the checks.
+    std::optional<ModelManifest> manifest;
+    if (auto e = check_model(*s, &manifest)) {
+      print_error(*e);
+      exit_code = kBadInput;
+      return;
+    }
+    std::vector<std::string> warnings;
+    auto p = resolve_profile(*s, args->profile, &warnings);
     if (!p) {
       print_error(p.error());
       exit_code = kBadInput;
       return;
     }
+    for (const std::string& w : warnings) std::cerr << "red: warning: " << w << '\n';
     const CostModel costs{&p.value(), &s->model, s->scheduler.estimate};
     fmt::print("scenario {} ({}): {:g} s, warm-up {:g} s, seed {}, {} lane(s)\n", s->name, s->file,
                to_s(s->duration), to_s(s->warmup), s->seed, s->device.lanes);
@@ -131,7 +166,11 @@ void register_validate(CLI::App& app, int& exit_code) {
         fmt::print("  sensor {} now at {:g} Hz\n",
                    s->sensors[static_cast<std::size_t>(sensor)].name, rate);
     }
-    fmt::print("ok\n");
+    print_checks(*s, manifest, *p, check_profile_identity(*p, *s, args->profile));
+    if (warnings.empty())
+      fmt::print("ok\n");
+    else
+      fmt::print("ok, with {} warning(s) on stderr\n", warnings.size());
     exit_code = kOk;
   });
 }

@@ -16,6 +16,7 @@
 #include "red/report/report.hpp"
 #include "red/report/schedule_html.hpp"
 #include "red/scenario/loader.hpp"
+#include "red/scenario/manifest.hpp"
 
 namespace red::cli {
 
@@ -81,6 +82,7 @@ std::vector<std::string> split_list(const std::string& s) {
 Expected<Scenario> load(const ScenarioArgs& a) {
   auto s = load_scenario(a.path);
   if (!s) return s.error();
+  if (auto e = check_model(*s)) return *e;
   for (const std::string& kv : a.sets) {
     const auto eq = kv.find('=');
     if (eq == std::string::npos) return Error{"", 0, "--set '" + kv + "': expected key=value"};
@@ -103,6 +105,14 @@ Expected<Scenario> load(const ScenarioArgs& a) {
     all += (all.empty() || w.empty() ? "" : ",") + w;
   }
   return s;
+}
+
+Expected<Profile> cli_profile(const Scenario& s, const std::optional<std::string>& cli_path) {
+  std::vector<std::string> warnings;
+  auto p = resolve_profile(s, cli_path, &warnings);
+  if (p)
+    for (const std::string& w : warnings) std::cerr << "red: warning: " << w << '\n';
+  return p;
 }
 
 void add_with_option(CLI::App* cmd, ScenarioArgs& a) {

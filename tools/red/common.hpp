@@ -41,8 +41,12 @@ inline void print_error(const Error& e) {
   std::cerr << "red: " << e.to_string() << '\n';
 }
 
-/// Loads the scenario, applies overrides; Error on bad input.
+/// Loads the scenario, checks its model (check_model(): manifest, files, heads, input),
+/// applies overrides; Error on bad input.
 Expected<Scenario> load(const ScenarioArgs& a);
+
+/// resolve_profile(), printing its warnings on stderr ("red: warning: ...").
+Expected<Profile> cli_profile(const Scenario& s, const std::optional<std::string>& cli_path);
 
 /// Splits "a,b,c".
 std::vector<std::string> split_list(const std::string& s);

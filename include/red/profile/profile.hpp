@@ -136,4 +136,38 @@ std::string profile_to_json(const Profile& p);
 /// Checks that a profile covers what a scenario needs (encoder and every head it uses).
 std::optional<Error> check_profile_covers(const Profile& p, const Scenario& s);
 
+/// What Profile::model says a profile was measured on, as `red profile` writes it: the
+/// model (`mimonet`, or a manifest's file name such as `model.yaml`), its input and whether
+/// its heads ran as separate networks: "model.yaml [3,128,256]", "mimonet [3,192,384] separate".
+struct ProfileLabel {
+  std::string model;
+  std::vector<std::int64_t> input;  ///< C, H, W
+  bool separate = false;
+};
+
+/// Parses Profile::model; nullopt when it is not of that form (empty, or written by hand).
+std::optional<ProfileLabel> parse_profile_label(const std::string& label);
+
+/// The model a scenario runs, labelled as a profile of it would be: "mimonet [3,192,384]",
+/// or the manifest's file name and the input ("model.yaml [3,128,256]").
+std::string scenario_model_label(const Scenario& s);
+
+/// Whether a profile is of the scenario's model (docs/MODELS.md, "What red validate checks").
+struct ProfileIdentity {
+  /// Of another model or input size: located at the scenario's `profile:` line, or at
+  /// "--profile" when the profile came from the command line.
+  std::optional<Error> error;
+  std::string warning;  ///< could not be checked (a label that does not parse), or empty
+  std::string checked;  ///< what was found, for `red validate`'s listing
+};
+
+/// Compares Profile::model with the scenario's model: the model's name and the input size
+/// must be the scenario's. `cli_path`: the profile was given as --profile (else it is the
+/// scenario's `profile:`, or the built-in default when the scenario names none). The
+/// built-in default profile for a built-in model of another input size gives a warning, not
+/// an error: it is the documented stand-in when nothing was measured. A scenario with no
+/// model (plain nodes only) is not checked.
+ProfileIdentity check_profile_identity(const Profile& p, const Scenario& s,
+                                       const std::optional<std::string>& cli_path);
+
 }  // namespace red

@@ -100,6 +100,12 @@ struct ModelSpec {
   std::string manifest;             ///< path of a user model manifest (docs/MODELS.md), or empty
   std::vector<std::string> heads;   ///< head names; NodeSpec::head indexes this
   std::vector<std::int64_t> input{3, 192, 384};  ///< C, H, W
+  // Where the scenario file says it (0: not given, or a scenario built in code), for
+  // check_model()'s and resolve_profile()'s messages.
+  int line = 0;                 ///< the `model:` block
+  int manifest_line = 0;        ///< `manifest:`
+  std::vector<int> head_lines;  ///< each of `heads`, by index
+  int input_line = 0;           ///< `input:`; 0 when the scenario gives none
 
   [[nodiscard]] int head_index(const std::string& name) const noexcept {
     for (std::size_t i = 0; i < heads.size(); ++i)
@@ -164,7 +170,8 @@ struct Scenario {
   std::uint64_t seed = 1;
   DeviceSpec device;
   ModelSpec model;
-  std::string profile;  ///< profile path, resolved relative to the scenario file, or empty
+  std::string profile;   ///< profile path, resolved relative to the scenario file, or empty
+  int profile_line = 0;  ///< line of `profile:` (0: none, or a scenario built in code)
   SchedulerSpec scheduler;
   std::optional<InterferenceSpec> interference;
   std::vector<SensorSpec> sensors;

@@ -41,7 +41,11 @@ std::optional<PolicyOptions> policy_options(const Scenario& s, const std::string
                                             std::optional<SyncMode> sync = std::nullopt);
 
 /// The profile a run uses: `cli_path` if given, else the scenario's `profile:`, else the
-/// built-in default. Checks that it covers every head the scenario uses.
-Expected<Profile> resolve_profile(const Scenario& s, const std::optional<std::string>& cli_path);
+/// built-in default. Errors: a manifest model with neither (the built-in profile holds
+/// MIMONet's costs; at the scenario's `manifest:` line), a profile of another model or
+/// input size (check_profile_identity()), one that does not cover every head the scenario
+/// uses. What could not be checked is appended to `warnings` when given.
+Expected<Profile> resolve_profile(const Scenario& s, const std::optional<std::string>& cli_path,
+                                  std::vector<std::string>* warnings = nullptr);
 
 }  // namespace red

@@ -1,56 +1,17 @@
 #pragma once
 /// \file
-/// The model manifest (YAML) of a user's TorchScript multi-task model (docs/MODELS.md):
-///
-///     encoder: encoder.pt          # TorchScript file, relative to the manifest's directory
-///     heads: {lane: lane.pt, seg: seg.pt}
-///     input: [3, 128, 256]         # C, H, W of one frame
-///     outputs: tuple               # optional: tensor | tuple | list
-///
-/// The encoder takes one tensor [B, C, H, W] and returns a tensor or a tuple/list of
-/// tensors; each head takes what the encoder returned, in the same form, and returns a
-/// tensor.
+/// The model manifest of a user's TorchScript multi-task model lives in the core library
+/// (red/scenario/manifest.hpp), so that `red validate` can check it without LibTorch. The
+/// backend's names for it, kept for its code and tests.
 
-#include <cstdint>
-#include <optional>
-#include <string>
-#include <vector>
-
-#include "red/core/expected.hpp"
+#include "red/scenario/manifest.hpp"
 
 namespace red::torchb {
 
-/// How a TorchScript encoder returns its features.
-enum class FeatureForm : std::uint8_t { Tensor, Tuple, List };
-
-/// "tensor", "tuple" or "list".
-const char* to_string(FeatureForm form) noexcept;
-
-/// One TorchScript file named by a manifest.
-struct ManifestFile {
-  std::string name;  ///< head name (empty for the encoder)
-  std::string path;  ///< resolved against the manifest's directory
-  int line = 0;      ///< line of its key in the manifest
-};
-
-/// A parsed, checked manifest. Every file it names exists (not yet loaded).
-struct Manifest {
-  std::string file;  ///< the manifest's own path, as given
-  ManifestFile encoder;
-  std::vector<ManifestFile> heads;  ///< in file order
-  std::vector<std::int64_t> input;  ///< C, H, W, all > 0
-  int input_line = 0;
-  std::optional<FeatureForm> outputs;  ///< as declared; empty: whatever the encoder returns
-  int outputs_line = 0;
-};
-
-/// Reads and checks a manifest: a mapping with exactly the keys encoder, heads, input and
-/// optionally outputs; head names of letters, digits, '_' or '-'; files that exist.
-/// Errors carry the manifest's path and the line of the offending key or value.
-Expected<Manifest> load_manifest(const std::string& path);
-
-/// Same from text: `path` stands for the manifest's own path (messages name it; relative
-/// file names resolve against its directory). Needs no LibTorch (fuzzed, tests/fuzz).
-Expected<Manifest> parse_manifest(const std::string& yaml_text, const std::string& path);
+using Manifest = ::red::ModelManifest;
+using ::red::FeatureForm;
+using ::red::load_manifest;
+using ::red::ManifestFile;
+using ::red::parse_manifest;
 
 }  // namespace red::torchb

@@ -1,15 +1,17 @@
-#include "red/torch/manifest.hpp"
+#include "red/scenario/manifest.hpp"
 
 #include "red/core/file.hpp"
 
+#include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <array>
 #include <filesystem>
 #include <set>
 #include <string>
 
-namespace red::torchb {
+namespace red {
 
 const char* to_string(FeatureForm form) noexcept {
   switch (form) {
@@ -49,7 +51,7 @@ class Parser {
   }
 
   // `text` null: read the file itself.
-  Expected<Manifest> parse(const std::string* text) {
+  Expected<ModelManifest> parse(const std::string* text) {
     YAML::Node root;
     std::string read;
     if (text == nullptr) {
@@ -71,7 +73,7 @@ class Parser {
       return Error{file_, line_of(root),
                    "a model manifest must be a mapping with the keys encoder, heads and input"};
     }
-    Manifest m;
+    ModelManifest m;
     m.file = file_;
     std::set<std::string> seen;
     for (const auto& entry : root) {
@@ -121,7 +123,7 @@ class Parser {
     return std::nullopt;
   }
 
-  std::optional<Error> heads(const YAML::Node& value, int key_line, Manifest& m) const {
+  std::optional<Error> heads(const YAML::Node& value, int key_line, ModelManifest& m) const {
     if (!value.IsMap() || value.size() == 0) {
       return Error{file_, value.IsNull() ? key_line : line_of(value),
                    "heads must be a non-empty mapping of head name to TorchScript file"};
@@ -144,7 +146,7 @@ class Parser {
     return std::nullopt;
   }
 
-  std::optional<Error> input(const YAML::Node& value, Manifest& m) const {
+  std::optional<Error> input(const YAML::Node& value, ModelManifest& m) const {
     const int line = line_of(value);
     const Error bad{file_, line, "input must be [C, H, W], three positive integers"};
     if (!value.IsSequence() || value.size() != 3) return bad;
@@ -162,7 +164,7 @@ class Parser {
     return std::nullopt;
   }
 
-  std::optional<Error> outputs(const YAML::Node& value, Manifest& m) const {
+  std::optional<Error> outputs(const YAML::Node& value, ModelManifest& m) const {
     const int line = line_of(value);
     const std::string text = value.IsScalar() ? value.Scalar() : std::string();
     static constexpr std::array kForms{FeatureForm::Tensor, FeatureForm::Tuple, FeatureForm::List};
@@ -182,12 +184,60 @@ class Parser {
 
 }  // namespace
 
-Expected<Manifest> load_manifest(const std::string& path) {
+Expected<ModelManifest> load_manifest(const std::string& path) {
   return Parser(path).parse(nullptr);
 }
 
-Expected<Manifest> parse_manifest(const std::string& yaml_text, const std::string& path) {
+Expected<ModelManifest> parse_manifest(const std::string& yaml_text, const std::string& path) {
   return Parser(path).parse(&yaml_text);
 }
 
-}  // namespace red::torchb
+std::string shape_label(const std::vector<std::int64_t>& input) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < input.size(); ++i) s += (i > 0 ? "," : "") + std::to_string(input[i]);
+  return s + "]";
+}
+
+std::optional<Error> check_model(Scenario& s, std::optional<ModelManifest>* manifest) {
+  if (manifest != nullptr) manifest->reset();
+  if (s.model.manifest.empty()) return std::nullopt;
+  const std::string& path = s.model.manifest;
+  const int manifest_line = s.model.manifest_line > 0 ? s.model.manifest_line : s.model.line;
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    return Error{s.file, manifest_line,
+                 fmt::format("model.manifest: the model manifest '{}' {}", path,
+                             fs::exists(path, ec) ? "is not a file" : "does not exist")};
+  }
+  auto m = load_manifest(path);
+  if (!m) return m.error();
+  std::string known;
+  for (const ManifestFile& h : m->heads) known += (known.empty() ? "" : ", ") + h.name;
+  for (std::size_t i = 0; i < s.model.heads.size(); ++i) {
+    const std::string& head = s.model.heads[i];
+    const bool found = std::any_of(m->heads.begin(), m->heads.end(),
+                                   [&](const ManifestFile& f) { return f.name == head; });
+    if (!found) {
+      const int line = i < s.model.head_lines.size() ? s.model.head_lines[i] : s.model.line;
+      return Error{s.file, line,
+                   fmt::format("model.heads: head '{}' is not in the model manifest '{}' (its "
+                               "heads: {})",
+                               head, path, known)};
+    }
+  }
+  if (s.model.input_line > 0) {
+    if (s.model.input != m->input) {
+      return Error{
+          s.file, s.model.input_line,
+          fmt::format("model.input: {} is not the input of the model manifest '{}' "
+                      "({}, line {}); give the manifest's or leave input out",
+                      shape_label(s.model.input), path, shape_label(m->input), m->input_line)};
+    }
+  } else {
+    s.model.input = m->input;
+  }
+  if (manifest != nullptr) *manifest = std::move(*m);
+  return std::nullopt;
+}
+
+}  // namespace red
