@@ -278,6 +278,78 @@ Measurement parse_measurement(const json& m) {
   return out;
 }
 
+/// A number that may be negative (a figure of a finding; other_busy_cpus -1: unknown).
+double signed_num(const json& v, const std::string& where) {
+  if (!v.is_number()) bad(where + ": must be a number, got " + shown(v));
+  const double x = v.get<double>();
+  if (!std::isfinite(x)) bad(where + ": must be a finite number, got " + shown(v));
+  return x;
+}
+
+Quality parse_quality(const json& q) {
+  if (!q.is_object()) bad("quality: must be an object");
+  only_keys(q, {"verdict", "machine", "findings"}, "quality");
+  Quality out;
+  out.verdict = str(need(q, "verdict", "quality"), "quality.verdict");
+  if (out.verdict != "good" && out.verdict != "suspect")
+    bad("quality.verdict: must be \"good\" or \"suspect\", got " + shown(q["verdict"]));
+  if (q.contains("machine")) {
+    const json& m = q["machine"];
+    if (!m.is_object()) bad("quality.machine: must be an object");
+    only_keys(m,
+              {"online_cpus", "threads", "load1_before", "load1_after", "other_busy_cpus",
+               "process_cpu_s", "wall_s"},
+              "quality.machine");
+    out.has_machine = true;
+    const auto count = [&m](const char* key) {
+      const std::int64_t n =
+          whole(need(m, key, "quality.machine"), std::string("quality.machine.") + key);
+      if (n < 0 || n > 1'000'000) bad(fmt::format("quality.machine.{}: must be in [0, 1e6]", key));
+      return static_cast<int>(n);
+    };
+    out.machine.online_cpus = count("online_cpus");
+    out.machine.threads = count("threads");
+    const auto figure = [&m](const char* key, double& into) {
+      if (m.contains(key)) into = num(m[key], std::string("quality.machine.") + key);
+    };
+    figure("load1_before", out.machine.load1_before);
+    figure("load1_after", out.machine.load1_after);
+    figure("process_cpu_s", out.machine.process_cpu_s);
+    figure("wall_s", out.machine.wall_s);
+    if (m.contains("other_busy_cpus"))
+      out.machine.other_busy_cpus =
+          signed_num(m["other_busy_cpus"], "quality.machine.other_busy_cpus");
+  }
+  if (q.contains("findings")) {
+    const json& fs = q["findings"];
+    if (!fs.is_array()) bad("quality.findings: must be an array");
+    for (std::size_t i = 0; i < fs.size(); ++i) {
+      const std::string where = fmt::format("quality.findings[{}]", i);
+      const json& f = fs[i];
+      if (!f.is_object()) bad(where + ": must be an object");
+      only_keys(f, {"unit", "batch", "kind", "figures", "message", "advice"}, where);
+      QualityFinding out_f;
+      if (f.contains("unit")) out_f.unit = str(f["unit"], where + ".unit");
+      if (f.contains("batch")) {
+        const std::int64_t b = whole(f["batch"], where + ".batch");
+        if (b < 0 || b > 1'000'000) bad(where + ".batch: must be in [0, 1e6]");
+        out_f.batch = static_cast<int>(b);
+      }
+      out_f.kind = str(need(f, "kind", where), where + ".kind");
+      if (f.contains("figures")) {
+        const json& g = f["figures"];
+        if (!g.is_object()) bad(where + ".figures: must be an object");
+        for (const auto& [key, v] : g.items())
+          out_f.figures.emplace_back(key, signed_num(v, where + ".figures." + key));
+      }
+      if (f.contains("message")) out_f.message = str(f["message"], where + ".message");
+      if (f.contains("advice")) out_f.advice = str(f["advice"], where + ".advice");
+      out.findings.push_back(std::move(out_f));
+    }
+  }
+  return out;
+}
+
 UnitProfile parse_unit(const json& arr, const std::string& where) {
   if (!arr.is_array() || arr.empty()) bad(where + ": must be a non-empty list of batch sizes");
   UnitProfile u;
@@ -428,6 +500,33 @@ ordered measurement_json(const Measurement& m) {
                  {"warmup_max", m.warmup_max}, {"tolerance", m.tolerance},
                  {"window", m.window},         {"device_warmup_s", m.device_warmup_s},
                  {"unstable", m.unstable}};
+}
+
+ordered quality_json(const Quality& q) {
+  ordered o{{"verdict", q.verdict}};
+  if (q.has_machine) {
+    const MachineState& m = q.machine;
+    o["machine"] = ordered{{"online_cpus", m.online_cpus},
+                           {"threads", m.threads},
+                           {"load1_before", m.load1_before},
+                           {"load1_after", m.load1_after},
+                           {"other_busy_cpus", m.other_busy_cpus},
+                           {"process_cpu_s", m.process_cpu_s},
+                           {"wall_s", m.wall_s}};
+  }
+  ordered fs = ordered::array();
+  for (const QualityFinding& f : q.findings) {
+    ordered g = ordered::object();
+    for (const auto& [key, v] : f.figures) g[key] = std::round(v * 1000) / 1000;
+    fs.push_back(ordered{{"unit", f.unit},
+                         {"batch", f.batch},
+                         {"kind", f.kind},
+                         {"figures", std::move(g)},
+                         {"message", f.message},
+                         {"advice", f.advice}});
+  }
+  o["findings"] = std::move(fs);
+  return o;
 }
 
 ordered memory_json(const MemoryStats& m) {
@@ -618,7 +717,7 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
     if (!doc.is_object()) bad("a profile must be a JSON object");
     only_keys(doc,
               {"schema", "source", "device", "model", "sync_round_trip_us", "profile_wall_s",
-               "measurement", "units", "memory", "calibration"},
+               "measurement", "quality", "units", "memory", "calibration"},
               "profile");
     const json& schema = need(doc, "schema", "profile");
     if (!schema.is_number_integer() || schema.get<std::int64_t>() != Profile::kSchema)
@@ -645,6 +744,7 @@ Expected<Profile> parse_profile(const std::string& text, const std::string& file
     }
     if (doc.contains("calibration")) p.calibration = parse_calibration(doc["calibration"]);
     if (doc.contains("measurement")) p.measurement = parse_measurement(doc["measurement"]);
+    if (doc.contains("quality")) p.quality = parse_quality(doc["quality"]);
     return p;
   } catch (const Bad& b) {
     int line = 0;
@@ -687,6 +787,7 @@ std::string profile_to_json(const Profile& p) {
   doc["sync_round_trip_us"] = to_us(p.sync_round_trip);
   doc["profile_wall_s"] = p.profile_wall_s;
   if (p.measurement) doc["measurement"] = measurement_json(*p.measurement);
+  if (p.quality) doc["quality"] = quality_json(*p.quality);
   std::vector<std::pair<int, std::string>> names;
   for (const auto& [name, unit] : p.units) names.emplace_back(unit_rank(name), name);
   std::sort(names.begin(), names.end());

@@ -55,6 +55,55 @@ def main():
     mem = doc["memory"]
     check(mem["separate"]["parameter_bytes"] > mem["shared"]["parameter_bytes"] > 0,
           "memory figures for shared and separate")
+    # Profile quality (docs/CLI.md, "Profile quality"): the machine while measuring, the
+    # findings and a verdict; each finding a `red: warning:` line at the end of stderr.
+    q = doc["quality"]
+    check(q["verdict"] in ("good", "suspect") and
+          (q["verdict"] == "suspect") == (len(q["findings"]) > 0),
+          "quality: a verdict that agrees with the findings", json.dumps(q)[:400])
+    qm = q["machine"]
+    check(qm["threads"] == 2 and qm["online_cpus"] >= 1 and qm["wall_s"] > 0 and
+          "other_busy_cpus" in qm and "load1_before" in qm and "load1_after" in qm,
+          "quality: the machine state is recorded", json.dumps(qm))
+    check(all(f["kind"] in ("spread", "non_monotone", "oversubscribed") and f["message"] and
+              f["advice"] for f in q["findings"]), "quality: each finding says what and what to do",
+          json.dumps(q["findings"])[:400])
+    check(err.count("red: warning: ") == (len(q["findings"]) + 1 if q["findings"] else 0),
+          "one warning per finding on stderr (and a heading)", out, err)
+    # red validate and red analyze warn about a suspect profile, changing nothing else.
+    suspect = dict(doc)
+    suspect["quality"] = {"verdict": "suspect", "findings": [
+        {"unit": "encoder", "batch": 2, "kind": "non_monotone", "figures": {},
+         "message": "encoder: batch 2 costs less in all", "advice": "measure again"}]}
+    suspect_json = os.path.join(scratch, "suspect.json")
+    with open(suspect_json, "w") as f:
+        json.dump(suspect, f)
+    good = dict(doc)
+    good["quality"] = {"verdict": "good", "findings": []}
+    good_json = os.path.join(scratch, "good.json")
+    with open(good_json, "w") as f:
+        json.dump(good, f)
+    small = os.path.join(scratch, "small.yaml")
+    with open(small, "w") as f:
+        f.write("name: small\nduration_s: 1\nwarmup_s: 0.1\nseed: 3\ndevice: {lanes: 1}\n"
+                "model: {builtin: mimonet, heads: [lane, steer], input: [3, 32, 64]}\n"
+                "sensors:\n  camera: {rate_hz: 20}\noperations:\n  - name: drive\n"
+                "    trigger: camera\n    deadline_ms: 1000\n    nodes:\n"
+                "      L: {head: lane, sensor: camera}\n      C: {head: steer, sensor: camera}\n"
+                "    edges: [[L, C]]\n")
+    for command in ("validate", "analyze"):
+        runs = {}
+        for label, path in (("suspect", suspect_json), ("good", good_json)):
+            r = subprocess.run([red, command, small, "--profile", path], capture_output=True,
+                               text=True, timeout=120)
+            runs[label] = r
+        s, g = runs["suspect"], runs["good"]
+        check(s.returncode == g.returncode and s.stdout == g.stdout and
+              "red: warning: profile " + suspect_json in s.stderr and
+              "batch 2 costs less in all (measure again)" in s.stderr and
+              "red: warning" not in g.stderr,
+              f"red {command} warns about a suspect profile, output and exit code unchanged",
+              s.stdout, s.stderr + "\n--- good\n" + g.stderr)
 
     # Warm-up until stable: at least --warmup untimed runs per unit and batch size, recorded.
     warm_json = os.path.join(scratch, "warm.json")
@@ -69,10 +118,17 @@ def main():
     wm = warm["measurement"]
     check(wm["warmup_min"] == 2 and wm["window"] == 2 and wm["warmup_max"] >= 2 and
           0 <= wm["unstable"] <= 5, "the warm-up rule is recorded", json.dumps(wm))
+    # No --threads: the CPUs not busy with other processes, at least 1 and at most every one.
+    threads = warm["quality"]["machine"]["threads"]
+    check(1 <= threads <= (os.cpu_count() or 1) and
+          warm["device"] == f"cpu ({threads} thread{'s' if threads > 1 else ''})",
+          "the default thread count does not exceed the CPUs", json.dumps(warm["quality"]))
 
     rc, out, err = run(red, "--input", "3,32,64", "--no-separate", "--runs", "1", "--warmup",
                        "0", "--max-batch", "1", "--quiet")
-    check(rc == 0 and "separate/" not in out and err == "", "--no-separate and --quiet", out, err)
+    # --quiet: no progress line (a suspect profile's `red: warning:` lines still come).
+    check(rc == 0 and "separate/" not in out and "red profile:" not in err,
+          "--no-separate and --quiet", out, err)
 
     bad_manifest = os.path.join(scratch, "bad.yaml")
     with open(bad_manifest, "w") as f:

@@ -40,6 +40,7 @@ int run_analyze(const AnalyzeArgs& a) {
     print_error(p.error());
     return kBadInput;
   }
+  warn_suspect_profile(*p, a.scenario.profile.value_or(s->profile));
   const auto opts = policy_options(*s, a.policy);
   if (!opts) {
     std::string known;

@@ -21,12 +21,12 @@
 #include <charconv>
 #include <cstdio>
 #include <fstream>
-#include <thread>
 
 #include "common.hpp"
 #include "real_run.hpp"
 #include "red/profile/calibrate.hpp"
 #include "red/profile/profile.hpp"
+#include "red/profile/quality.hpp"
 #include "red/report/stream.hpp"
 #include "red/torch/profiler.hpp"
 #endif
@@ -55,7 +55,7 @@ struct ProfileArgs {
   std::string input = "3,192,384";
   /// cpu, cuda or cuda:N; unset: cpu, or with --from the device that profile was measured on
   std::optional<std::string> device;
-  int threads = -1;  // -1: every hardware thread
+  int threads = -1;  // -1: the CPUs not busy with other processes (default_profile_threads)
   int runs = torchb::ProfileOptions{}.runs;
   int warmup = torchb::ProfileOptions{}.warmup;
   int warmup_max = torchb::ProfileOptions{}.warmup_max;
@@ -117,7 +117,19 @@ Expected<torchb::ModelOptions> model_options(const ProfileArgs& a) {
   m.input = *shape;
   m.device = a.device.value_or("cpu");
   if (a.threads < -1) return Error{"", 0, "--threads must be >= 0"};
-  m.threads = a.threads >= 0 ? a.threads : static_cast<int>(std::thread::hardware_concurrency());
+  if (a.threads >= 0) {
+    m.threads = a.threads;
+  } else {
+    // Not every hardware thread: on a machine already busy that oversubscribes the CPUs and
+    // every unit waits for one (docs/BENCHMARKS.md, "Default profile threads").
+    const int online = online_cpus();
+    const double busy = other_busy_cpus_now(0.5);
+    m.threads = default_profile_threads(online, busy);
+    if (!a.quiet)
+      std::cerr << fmt::format(
+          "red profile: --threads {} (of {} online CPU(s); {:.1f} busy with other processes)\n",
+          m.threads, online, busy);
+  }
   m.seed = a.seed;
   return m;
 }
@@ -323,9 +335,26 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
 }
 
 int run_profile(const ProfileArgs& a);
+int write_profile_file(const Profile& p, const std::string& path);
 
-/// Writes the profile JSON to `path` (nothing when empty); the exit code.
+/// The profile's quality findings on stderr, one `red: warning:` line each.
+void warn_quality(const Profile& p) {
+  if (!p.quality || p.quality->findings.empty()) return;
+  std::cerr << fmt::format("red: warning: the profile's figures are suspect ({} finding(s)):\n",
+                           p.quality->findings.size());
+  for (const std::string& line : quality_lines(*p.quality, p.quality->findings.size()))
+    std::cerr << "red: warning: " << line << '\n';
+}
+
+/// Writes the profile JSON to `path` (nothing when empty); the exit code. The quality
+/// warnings come last on stderr, after the profile is written.
 int write_profile(const Profile& p, const std::string& path) {
+  const int code = write_profile_file(p, path);
+  warn_quality(p);
+  return code;
+}
+
+int write_profile_file(const Profile& p, const std::string& path) {
   if (path.empty()) return kOk;
   // Atomically: a profile being replaced is never left half written (output_file.hpp).
   if (auto e = write_file_atomically(path, profile_to_json(p))) {
@@ -452,7 +481,10 @@ void register_profile(CLI::App& app, int& exit_code) {
                   "cpu, cuda or cuda:N (default: cpu; with --from, the device that profile was "
                   "measured on). A device that is not there is an error, never a CPU run");
   cmd->add_option("--threads", args->threads,
-                  "LibTorch intra-op threads (default: every hardware thread; 0: LibTorch's own)");
+                  "LibTorch intra-op threads. Default: the online CPUs less those busy with other "
+                  "processes over 0.5 s at start, at least 1, so the measuring does not "
+                  "oversubscribe the machine (docs/BENCHMARKS.md). 0: LibTorch's own choice "
+                  "(usually one per core, busy or not)");
   cmd->add_option("--runs", args->runs, "Timed runs per unit and batch size")
       ->capture_default_str();
   cmd->add_option("--warmup", args->warmup,

@@ -129,6 +129,7 @@ void register_validate(CLI::App& app, int& exit_code) {
       return;
     }
     for (const std::string& w : warnings) std::cerr << "red: warning: " << w << '\n';
+    warn_suspect_profile(*p, args->profile.value_or(s->profile));
     const CostModel costs{&p.value(), &s->model, s->scheduler.estimate};
     fmt::print("scenario {} ({}): {:g} s, warm-up {:g} s, seed {}, {} lane(s)\n", s->name, s->file,
                to_s(s->duration), to_s(s->warmup), s->seed, s->device.lanes);

@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "red/core/output_file.hpp"
+#include "red/profile/quality.hpp"
 #include "red/report/html.hpp"
 #include "red/report/plots.hpp"
 #include "red/report/report.hpp"
@@ -300,6 +301,16 @@ std::string wrote_message(const std::string& dir, const OutputReport& r) {
   }
   if (r.images > 0) out += fmt::format(", plots/ ({} images)", r.images);
   return out;
+}
+
+void warn_suspect_profile(const Profile& p, const std::string& path, std::size_t cap) {
+  if (!p.quality || p.quality->verdict != "suspect") return;
+  std::cerr << fmt::format(
+      "red: warning: profile {} was measured with suspect figures ({} finding(s); its "
+      "'quality' field has them all); costs from it may be too high:\n",
+      path, p.quality->findings.size());
+  for (const std::string& line : quality_lines(*p.quality, cap))
+    std::cerr << "red: warning: " << line << '\n';
 }
 
 }  // namespace red::cli

@@ -41,6 +41,11 @@ inline void print_error(const Error& e) {
   std::cerr << "red: " << e.to_string() << '\n';
 }
 
+/// When the profile a command loaded says its figures are suspect (its `quality` field,
+/// docs/CLI.md "Profile quality"), one `red: warning:` line per finding on stderr, at most
+/// `cap`. Changes no other output and no exit code. `path`: the profile's file.
+void warn_suspect_profile(const Profile& p, const std::string& path, std::size_t cap = 5);
+
 /// Loads the scenario, checks its model (check_model(): manifest, files, heads, input),
 /// applies overrides; Error on bad input.
 Expected<Scenario> load(const ScenarioArgs& a);

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "internal.hpp"
+#include "red/profile/quality.hpp"
 #include "unit_timer.hpp"
 
 namespace red::torchb {
@@ -240,6 +241,8 @@ Expected<Profile> profile_model(const ModelOptions& model, const ProfileOptions&
     p.source = "measured";
     p.device = device_label(m->device());
     p.model = m->label();
+    // The machine around the measuring (quality.hpp): other processes' CPU time over it.
+    const CpuSnapshot machine_before = cpu_snapshot();
     const int n_heads = static_cast<int>(m->heads().size());
     prof.say("profiling " + p.model + " on " + p.device + ": " + std::to_string(options.runs) +
              " runs per unit and batch size, timed by " + prof.measurement(0).timing +
@@ -327,6 +330,9 @@ Expected<Profile> profile_model(const ModelOptions& model, const ProfileOptions&
       }
     }
     p.measurement = prof.measurement(device_warmup_s);
+    const MachineState machine =
+        machine_between(machine_before, cpu_snapshot(), at::get_num_threads());
+    p.quality = assess_quality(p, &machine);
     p.profile_wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
     prof.say("profile done in " + std::to_string(p.profile_wall_s) + " s");
     return p;

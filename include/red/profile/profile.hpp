@@ -12,6 +12,7 @@
 
 #include "red/core/expected.hpp"
 #include "red/core/time.hpp"
+#include "red/profile/quality.hpp"
 #include "red/scenario/scenario.hpp"
 
 namespace red {
@@ -115,6 +116,9 @@ struct Profile {
   double profile_wall_s = 0.0;                              ///< how long `red profile` took
   std::optional<Calibration> calibration;  ///< in-run measurements (`red profile --calibrate`)
   std::optional<Measurement> measurement;  ///< how the units were timed and warmed
+  /// The machine while measuring and findings on the figures (`red profile` writes it; an
+  /// optional field: profiles without it still load).
+  std::optional<Quality> quality;
 
   /// The unit named `name`, or nullptr.
   [[nodiscard]] const UnitProfile* find(const std::string& name) const noexcept;
