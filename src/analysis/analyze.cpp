@@ -402,7 +402,7 @@ HtmlTable verdict_html_table(const std::vector<Analysis>& per_policy) {
   t.caption = "Verdicts (red analyze, docs/ANALYSIS.md): will each operation keep its deadlines?";
   t.header = {"phase", "operation", "rate Hz", "deadline ms"};
   for (const Analysis& a : per_policy) t.header.push_back(a.policy);
-  t.header.push_back("why (" + per_policy.front().policy + ")");
+  t.header.emplace_back("why");
   const Analysis& first = per_policy.front();
   for (std::size_t k = 0; k < first.phases.size(); ++k)
     for (std::size_t i = 0; i < first.phases[k].operations.size(); ++i) {
@@ -410,11 +410,25 @@ HtmlTable verdict_html_table(const std::vector<Analysis>& per_policy) {
       std::vector<std::string> row{first.phases[k].label, op.name,
                                    fmt::format("{:.2f}", op.rate_hz),
                                    fmt::format("{:.3f}", to_ms(op.deadline))};
+      // Every policy's reason; policies that give the same one share it.
+      std::vector<std::pair<std::string, std::string>> why;  // (policies, reason)
       for (const Analysis& a : per_policy) {
         const bool same = k < a.phases.size() && i < a.phases[k].operations.size();
         row.emplace_back(same ? to_string(a.phases[k].operations[i].verdict) : "-");
+        if (!same) continue;
+        const std::string& reason = a.phases[k].operations[i].reason;
+        auto it =
+            std::find_if(why.begin(), why.end(), [&](const auto& w) { return w.second == reason; });
+        if (it == why.end())
+          why.emplace_back(a.policy, reason);
+        else
+          it->first += ", " + a.policy;
       }
-      row.push_back(op.reason);
+      std::string text;
+      for (const auto& [who, reason] : why)
+        text += (text.empty() ? "" : "; ") +
+                (why.size() == 1 && per_policy.size() > 1 ? "all: " : who + ": ") + reason;
+      row.push_back(text);
       t.rows.push_back(std::move(row));
     }
   return t;

@@ -49,7 +49,7 @@ std::vector<std::string> common_notes() {
       "Miss rate counts jobs that finished after their deadline or were dropped (skipped and "
       "failed jobs count as dropped), over the jobs released after the warm-up window. QoE is "
       "the mean per job of 1 / (1 + e^lambda * max(0, R - D)); a dropped job scores 0.",
-      "The Timeline section above draws the schedule offline (plots/timeline*.svg hold the "
+      "The Timeline section at the top draws the schedule offline (plots/timeline*.svg hold the "
       "same drawings). The full trace (trace.json) opens in the Perfetto UI: go to "
       "https://ui.perfetto.dev and "
       "drag the file in (the file stays on this computer), or open chrome://tracing in "
@@ -105,28 +105,36 @@ std::string render_html(const HtmlPage& page) {
       out += "<dt>" + html_escape(k) + "</dt><dd>" + html_escape(v) + "</dd>\n";
     out += "</dl>\n";
   }
-  if (!page.tables.empty()) {
-    out += "<h2>Results</h2>\n";
-    for (const HtmlTable& t : page.tables) out += render_table(t);
-  }
-  for (const HtmlSection& s : page.sections) {
-    out += "<section id=\"" + html_escape(s.id) + "\">\n<h2>" + html_escape(s.heading) + "</h2>\n";
-    for (const std::string& p : s.paragraphs) out += "<p>" + html_escape(p) + "</p>\n";
-    for (const HtmlTable& t : s.tables) out += render_table(t);
-    for (const std::string& h : s.raw_html) out += h;
-    out += "</section>\n";
-  }
-  out += "<h2>Plots</h2>\n";
-  if (!page.plots_note.empty())
-    out += "<p class=\"note\">" + html_escape(page.plots_note) + "</p>\n";
-  if (page.plots.empty() && page.plots_note.empty()) out += "<p>No plots.</p>\n";
-  for (const PlotFile& p : page.plots) {
+  auto figure = [&](const PlotFile& p) {
     out += "<figure>\n";
     out += "<img src=\"" + html_escape(p.png) + "\" alt=\"" + html_escape(p.title) + "\">\n";
     out += "<figcaption>" + html_escape(p.title);
     if (!p.svg.empty()) out += " (<a href=\"" + html_escape(p.svg) + "\">SVG</a>)";
     out += "</figcaption>\n</figure>\n";
+  };
+  auto section = [&](const HtmlSection& s) {
+    out += "<section id=\"" + html_escape(s.id) + "\">\n<h2>" + html_escape(s.heading) + "</h2>\n";
+    for (const std::string& p : s.paragraphs) out += "<p>" + html_escape(p) + "</p>\n";
+    for (const HtmlTable& t : s.tables) out += render_table(t);
+    for (const std::string& h : s.raw_html) out += h;
+    out += "</section>\n";
+  };
+  if (!page.lead_plots.empty() || !page.lead_sections.empty()) {
+    out += "<h2 id=\"why\">Which policy, and why jobs missed</h2>\n";
+    for (const PlotFile& p : page.lead_plots) figure(p);
+    for (const HtmlSection& s : page.lead_sections) section(s);
   }
+  if (!page.tables.empty()) {
+    out += "<h2>Results</h2>\n";
+    for (const HtmlTable& t : page.tables) out += render_table(t);
+  }
+  for (const HtmlSection& s : page.sections) section(s);
+  out += "<h2>Plots</h2>\n";
+  if (!page.plots_note.empty())
+    out += "<p class=\"note\">" + html_escape(page.plots_note) + "</p>\n";
+  if (page.plots.empty() && page.lead_plots.empty() && page.plots_note.empty())
+    out += "<p>No plots.</p>\n";
+  for (const PlotFile& p : page.plots) figure(p);
   if (!page.files.empty()) {
     out += "<h2>Files</h2>\n<ul>\n";
     for (const HtmlLink& f : page.files) {

@@ -45,10 +45,15 @@ OutputSet::OutputSet(std::string dir, std::string command, std::string run_id)
       started_(utc_now()) {}
 
 Expected<OutputSet> OutputSet::begin(const std::string& dir, std::string command) {
+  return reopen(dir, std::move(command), new_run_id());
+}
+
+Expected<OutputSet> OutputSet::reopen(const std::string& dir, std::string command,
+                                      std::string run_id) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) return Error{dir, 0, "cannot create directory: " + ec.message()};
-  OutputSet set(dir, std::move(command), new_run_id());
+  OutputSet set(dir, std::move(command), std::move(run_id));
   // Before any other file of this run: the old manifest no longer describes the directory.
   const std::string path = (fs::path(dir) / kManifestName).string();
   if (write_file_atomically(path, set.manifest_json())) {

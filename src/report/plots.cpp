@@ -108,12 +108,19 @@ std::string deadline_marks(const std::vector<double>& d, const char* axis_end, d
     ++n;
   }
   const std::string text = (d.size() == 1 ? "deadline " : "deadlines ") + values + " ms";
-  if (d.front() > 0.6 * xmax)
-    out += fmt::format("set label 1 {} at {:g}, graph {} right offset -0.6,0 font ',9'\n", gq(text),
-                       d.front(), axis_end);
-  else
+  // Inside the panel: after the last line when there is room to its right, else before the
+  // first when there is room to its left, else centred (a label that starts at a line near
+  // the right edge ran out of the panel).
+  const auto [lo, hi] = std::minmax_element(d.begin(), d.end());
+  if (*hi <= 0.6 * xmax)
     out += fmt::format("set label 1 {} at {:g}, graph {} left offset 0.6,0 font ',9'\n", gq(text),
-                       d.back(), axis_end);
+                       *hi, axis_end);
+  else if (*lo >= 0.4 * xmax)
+    out += fmt::format("set label 1 {} at {:g}, graph {} right offset -0.6,0 font ',9'\n", gq(text),
+                       *lo, axis_end);
+  else
+    out +=
+        fmt::format("set label 1 {} at graph 0.5, graph {} center font ',9'\n", gq(text), axis_end);
   return out;
 }
 

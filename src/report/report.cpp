@@ -135,24 +135,25 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
     if (i < phases.size()) p["phases"] = phases_json(phases[i]);
     j["policies"].push_back(std::move(p));
   }
+  if (!h.page.empty()) j["page"] = nlohmann::ordered_json::parse(h.page);
   return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
 std::string jobs_csv_header() {
   return "policy,operation,job,release_ms,finish_ms,deadline_ms,outcome,response_ms,qoe,"
-         "frame_age_ms,reason\n";
+         "frame_age_ms,reason,ended_ms\n";
 }
 
 void append_job_row(std::string& out, const Scenario& s, const std::string& policy,
                     const JobRow& j) {
   const bool done = j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed;
-  out += fmt::format("{},{},{},{:.6f},{},{:.6f},{},{},{},{},{}\n", csv(policy),
-                     csv(s.operation_name(j.operation)), j.seq, to_ms(j.release),
-                     done ? fmt::format("{:.6f}", to_ms(j.finish)) : "", to_ms(j.deadline),
-                     to_string(j.outcome),
-                     done ? fmt::format("{:.6f}", to_ms(j.finish - j.release)) : "",
-                     done ? fmt::format("{:.6f}", j.qoe) : "0",
-                     done ? fmt::format("{:.6f}", to_ms(j.frame_age)) : "", csv(j.reason));
+  out += fmt::format(
+      "{},{},{},{:.6f},{},{:.6f},{},{},{},{},{},{:.6f}\n", csv(policy),
+      csv(s.operation_name(j.operation)), j.seq, to_ms(j.release),
+      done ? fmt::format("{:.6f}", to_ms(j.finish)) : "", to_ms(j.deadline), to_string(j.outcome),
+      done ? fmt::format("{:.6f}", to_ms(j.finish - j.release)) : "",
+      done ? fmt::format("{:.6f}", j.qoe) : "0",
+      done ? fmt::format("{:.6f}", to_ms(j.frame_age)) : "", csv(j.reason), to_ms(j.finish));
 }
 
 std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& runs) {

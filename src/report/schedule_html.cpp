@@ -40,7 +40,10 @@ Expected<TimelineReport> write_timelines(const std::string& dir, const Scenario&
       "drawing scrolls sideways."};
   const std::string plots = (std::filesystem::path(dir) / subdir).string();
   for (const TimelineWindow& w : windows) {
-    const std::string svg = timeline_svg(s, runs, w);
+    std::vector<TimelineRun> shown;
+    for (const TimelineRun& run : runs)
+      if (w.policy.empty() || run.policy == w.policy) shown.push_back(run);
+    const std::string svg = timeline_svg(s, shown, w);
     if (auto e = write_file(plots, w.name + ".svg", svg)) return *e;
     const std::string rel = subdir + "/" + w.name + ".svg";
     r.files.push_back(rel);

@@ -275,7 +275,7 @@ TimePoint at_ms(const std::string& v) {
 Expected<std::vector<std::pair<std::string, std::vector<JobRow>>>> read_job_rows(
     const std::string& path, const Scenario& s) {
   return read_rows<JobRow>(
-      path, "jobs.csv", jobs_csv_header(), 11,
+      path, "jobs.csv", jobs_csv_header(), 12,
       [&](const std::vector<std::string>& f, int n, JobRow& r) -> std::optional<Error> {
         r.operation = -1;
         for (int i = 0; i < s.operation_count(); ++i)
@@ -296,6 +296,8 @@ Expected<std::vector<std::pair<std::string, std::vector<JobRow>>>> read_job_rows
         r.qoe = std::stod(f[8]);
         if (!f[9].empty()) r.frame_age = from_ms(std::stod(f[9]));
         r.reason = f[10];
+        // When the job ended: its finish, or when it was dropped, skipped or failed.
+        if (!f[11].empty()) r.finish = at_ms(f[11]);
         return std::nullopt;
       });
 }

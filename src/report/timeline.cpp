@@ -573,7 +573,7 @@ std::vector<TimelineWindow> default_timeline_windows(const Scenario& s,
   if (end <= s.warmup) end = s.warmup + span;
   std::vector<TimelineWindow> out;
   out.push_back({s.warmup, std::min(end, s.warmup + span), "timeline_start",
-                 "Timeline: the first 2 s after the warm-up"});
+                 "Timeline: the first 2 s after the warm-up", ""});
   // The worst miss: lowest QoE, earliest release on ties, over every run.
   const JobRow* worst = nullptr;
   std::string worst_policy;
@@ -606,7 +606,7 @@ std::vector<TimelineWindow> default_timeline_windows(const Scenario& s,
     return out;
   }
   out.push_back({from, to, "timeline_worst_miss",
-                 fmt::format("Timeline: 2 s around the worst miss, {}", what)});
+                 fmt::format("Timeline: 2 s around the worst miss, {}", what), ""});
   return out;
 }
 

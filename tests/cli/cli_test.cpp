@@ -200,12 +200,12 @@ TEST_F(Cli, SimulateWritesSummaryJobsAndUnits) {
   ASSERT_FALSE(job_lines.empty());
   EXPECT_EQ(job_lines[0],
             "policy,operation,job,release_ms,finish_ms,deadline_ms,outcome,response_ms,qoe,"
-            "frame_age_ms,reason");
+            "frame_age_ms,reason,ended_ms");
   EXPECT_EQ(static_cast<std::int64_t>(job_lines.size()) - 1, jobs);
   std::map<std::string, std::int64_t> outcomes;
   for (std::size_t i = 1; i < job_lines.size(); ++i) {
     const auto f = split_csv(job_lines[i]);
-    ASSERT_EQ(f.size(), 11u) << job_lines[i];
+    ASSERT_EQ(f.size(), 12u) << job_lines[i];
     EXPECT_EQ(f[0], "red");
     EXPECT_EQ(f[1], "cruise");
     EXPECT_GE(std::stod(f[3]), 1000.0) << "a warm-up job was counted: " << job_lines[i];

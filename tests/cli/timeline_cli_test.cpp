@@ -103,10 +103,15 @@ TEST_F(TimelineCli, CompareEmbedsTheTimelineAndThePhasesInIndexHtml) {
   EXPECT_NE(html.find("after add_nodes (event 0)"), std::string::npos);
   EXPECT_NE(html.find("data-policy=\"edf\""), std::string::npos);
   EXPECT_NE(html.find("data-policy=\"red\""), std::string::npos);
-  // Default windows: the start and, edf missing after 3 s, the worst miss.
-  EXPECT_TRUE(fs::exists(out / "plots" / "timeline_start.svg"));
-  EXPECT_TRUE(fs::exists(out / "plots" / "timeline_worst_miss.svg"));
-  EXPECT_EQ(count(html, "class=\"red-timeline\""), 2u);
+  // Default windows: each phase's start (three phases) and, edf missing after 3 s, edf's
+  // worst miss (red's too if it missed).
+  const auto j = nlohmann::json::parse(read_text(out / "summary.json"));
+  std::size_t missed = 0;
+  for (const auto& p : j.at("policies")) missed += p.at("missed").get<int>() > 0 ? 1 : 0;
+  for (int k = 0; k < 3; ++k)
+    EXPECT_TRUE(fs::exists(out / "plots" / ("timeline_phase" + std::to_string(k) + ".svg"))) << k;
+  EXPECT_TRUE(fs::exists(out / "plots" / "timeline_worst_edf.svg"));
+  EXPECT_EQ(count(html, "class=\"red-timeline\""), 3u + missed);
   EXPECT_NE(out_.find("plots/ ("), std::string::npos);
 }
 

@@ -5,10 +5,19 @@ that the timeline's SVG is in the rendered DOM with every unit box, and that the
 screenshot is not blank and shows the timeline's boxes (pixels of the first operation's
 colour). Standard library only: the PNG is decoded here (zlib + the PNG row filters).
 
+The layout at 1400 px wide: a copy of the page with a small script that measures every
+element's box (getBoundingClientRect) against the panel it sits in (its figure, section,
+table, list item or the page), run by Chromium's --dump-dom: nothing may stick out of its
+panel (the timeline drawings scroll inside their own frame, which must fit), and the page
+must not scroll sideways. Then `red report` redraws the page from the saved files and the
+same checks hold; every policy that missed has its worst miss drawn on the default page.
+
 usage: screenshot_test.py RED SCENARIO OUT_PNG
 Chromium: $RED_CHROMIUM, else `chromium` on PATH (scripts/deps.sh installs it).
 """
 
+import html
+import json
 import os
 import re
 import shutil
@@ -84,13 +93,95 @@ def decode_png(path):
     return width, height, bpp, rows
 
 
+LAYOUT_SCRIPT = """<script>
+(function () {
+  var bad = [];
+  var panels = "figure,section,table,li,dd,dt,p,h1,h2,caption,.timeline";
+  var els = document.body.querySelectorAll("*");
+  for (var i = 0; i < els.length; i++) {
+    var el = els[i];
+    if (el.tagName === "SCRIPT" || el.closest("svg")) continue;
+    var inner = el.parentElement && el.parentElement.closest(".timeline");
+    if (inner) continue;  // scrolls inside the timeline's frame
+    var r = el.getBoundingClientRect();
+    if (r.width === 0 && r.height === 0) continue;
+    var panel = (el.parentElement && el.parentElement.closest(panels)) || document.body;
+    var p = panel.getBoundingClientRect();
+    if (r.left < p.left - 1 || r.right > p.right + 1)
+      bad.push(el.tagName.toLowerCase() + (el.id ? "#" + el.id : "") + " [" +
+               Math.round(r.left) + "," + Math.round(r.right) + "] out of " +
+               panel.tagName.toLowerCase() + " [" + Math.round(p.left) + "," +
+               Math.round(p.right) + "]: " + (el.textContent || "").slice(0, 60));
+  }
+  var out = document.createElement("pre");
+  out.id = "layout-result";
+  out.textContent = "LAY" + "OUT: " + JSON.stringify({
+    width: window.innerWidth,
+    scroll: document.documentElement.scrollWidth,
+    checked: els.length,
+    bad: bad}) + " :END";
+  document.body.appendChild(out);
+})();
+</script>
+"""
+
+
+def check_layout(index):
+    """Elements' boxes at 1400 px: nothing out of its panel, no sideways scrolling."""
+    with open(index, encoding="utf-8") as f:
+        page = f.read()
+    probe = os.path.join(os.path.dirname(index), "layout_probe.html")
+    with open(probe, "w", encoding="utf-8") as f:
+        f.write(page.replace("</body>", LAYOUT_SCRIPT + "</body>"))
+    cmd, profile = chromium_command()
+    r = subprocess.run(cmd + ["--window-size=1400,2400", "--dump-dom", "file://" + probe],
+                       capture_output=True, text=True, timeout=300)
+    shutil.rmtree(profile, ignore_errors=True)
+    os.remove(probe)
+    m = re.search(r"LAYOUT: (\{.*?\}) :END", r.stdout, re.S)
+    if r.returncode != 0 or not m:
+        fail("the layout probe gave nothing (chromium exited %d): %s"
+             % (r.returncode, r.stderr[-2000:]))
+    result = json.loads(html.unescape(m.group(1)))
+    if result["width"] != 1400:
+        fail("the probe ran %d px wide, not 1400" % result["width"])
+    if result["checked"] < 50:
+        fail("the probe checked only %d elements" % result["checked"])
+    if result["bad"]:
+        fail("%d element(s) out of their panel at 1400 px:\n  %s"
+             % (len(result["bad"]), "\n  ".join(result["bad"][:20])))
+    if result["scroll"] > result["width"]:
+        fail("the page scrolls sideways at 1400 px: %d px wide" % result["scroll"])
+    return result["checked"]
+
+
+def check_misses_drawn(out, source):
+    """Every policy that missed has its worst miss drawn, with a missed job in view."""
+    with open(os.path.join(out, "summary.json"), encoding="utf-8") as f:
+        summary = json.load(f)
+    drawn = 0
+    for p in summary["policies"]:
+        if p["missed"] == 0:
+            continue
+        title = "Timeline of %s: 2 s around its worst miss" % p["name"]
+        if title not in source:
+            fail("no drawing of %s's worst miss on the default page" % p["name"])
+        svg = os.path.join(out, "plots", "timeline_worst_%s.svg" % p["name"])
+        with open(svg, encoding="utf-8") as f:
+            text = f.read()
+        if not re.search(r'data-outcome="(missed|dropped|skipped|failed)"', text):
+            fail("%s shows no missed job" % svg)
+        drawn += 1
+    return drawn
+
+
 def main():
     if len(sys.argv) != 4:
         fail("usage: screenshot_test.py RED SCENARIO OUT_PNG")
     red, scenario, shot = sys.argv[1:]
     work = tempfile.mkdtemp(prefix="red_screenshot_")
     out = os.path.join(work, "report")
-    r = subprocess.run([red, "compare", scenario, "--policies", "edf,red", "--out", out],
+    r = subprocess.run([red, "compare", scenario, "--policies", "edf,fifo,red", "--out", out],
                        capture_output=True, text=True, timeout=300)
     if r.returncode != 0:
         fail("red compare exited %d: %s" % (r.returncode, r.stderr))
@@ -160,9 +251,21 @@ def main():
     if box_pixels < 2000:
         fail("the timeline's boxes are not visible: %d pixels of the first operation's colour"
              % box_pixels)
+    checked = check_layout(index)
+    missed = check_misses_drawn(out, source)
+    if missed == 0:
+        fail("no policy missed: the scenario does not exercise the worst-miss drawings")
+
+    # The page redrawn from the saved files, with one phase's timeline: the same checks.
+    r = subprocess.run([red, "report", out, "--phase", "1"], capture_output=True, text=True,
+                       timeout=300)
+    if r.returncode != 0:
+        fail("red report exited %d: %s" % (r.returncode, r.stderr))
+    check_layout(index)
     shutil.rmtree(work, ignore_errors=True)
-    print("ok: %d unit boxes in the DOM, screenshot %s with %d colours, %d box pixels"
-          % (units, shot, len(colours), box_pixels))
+    print("ok: %d unit boxes in the DOM, screenshot %s with %d colours, %d box pixels; "
+          "%d elements on the page at 1400 px, none out of its panel; %d policies' worst misses drawn"
+          % (units, shot, len(colours), box_pixels, checked, missed))
 
 
 if __name__ == "__main__":

@@ -194,12 +194,12 @@ TEST(Timeline, EveryUnitInTheWindowIsDrawnOnItsLaneAtItsTimes) {
   ASSERT_FALSE(windows.empty());
   check_against_units_csv(r, windows.front());
   // A window that cuts units at both ends.
-  check_against_units_csv(r, {from_ms(1234.5), from_ms(1567.25), "timeline", "cut"});
+  check_against_units_csv(r, {from_ms(1234.5), from_ms(1567.25), "timeline", "cut", ""});
 }
 
 TEST(Timeline, MergedRunsShowTheirMembers) {
   const Runs r = simulate("case-async.yaml", {"red"});
-  const TimelineWindow w{r.scenario.warmup, r.scenario.warmup + from_s(2.0), "t", "t"};
+  const TimelineWindow w{r.scenario.warmup, r.scenario.warmup + from_s(2.0), "t", "t", ""};
   const std::string svg = timeline_svg(r.scenario, r.timeline, w);
   int merged = 0;
   for (const DrawnUnit& d : drawn_units(svg)) {
@@ -215,7 +215,7 @@ TEST(Timeline, MergedRunsShowTheirMembers) {
 
 TEST(Timeline, JobsReleasesDeadlinesAndMissesAreMarked) {
   const Runs r = simulate("minibench-tight.yaml", {"edf"});
-  const TimelineWindow w{from_s(3.0), from_s(5.0), "t", "t"};
+  const TimelineWindow w{from_s(3.0), from_s(5.0), "t", "t", ""};
   const std::string svg = timeline_svg(r.scenario, r.timeline, w);
   std::size_t jobs = 0, misses = 0;
   for (const JobRow& j : r.runs.front().jobs) {
@@ -235,7 +235,7 @@ TEST(Timeline, JobsReleasesDeadlinesAndMissesAreMarked) {
 
 TEST(Timeline, MergeWaitsAreDrawnWhenRecorded) {
   Runs r = simulate("case-async.yaml", {"red"});
-  const TimelineWindow w{from_ms(1000), from_ms(1100), "t", "t"};
+  const TimelineWindow w{from_ms(1000), from_ms(1100), "t", "t", ""};
   EXPECT_NE(timeline_svg(r.scenario, r.timeline, w).find("merge waits not recorded"),
             std::string::npos);
   const std::vector<TimelineWait> waits = {{from_ms(990), from_ms(1005), 0},
@@ -290,7 +290,7 @@ TEST(Timeline, DefaultWindowsAreTheStartAndTheWorstMiss) {
 TEST(Timeline, IsDeterministic) {
   const Runs a = simulate("case-dynamic.yaml", {"edf", "red"});
   const Runs b = simulate("case-dynamic.yaml", {"edf", "red"});
-  const TimelineWindow w{from_s(2.5), from_s(3.5), "t", "t"};
+  const TimelineWindow w{from_s(2.5), from_s(3.5), "t", "t", ""};
   EXPECT_EQ(timeline_svg(a.scenario, a.timeline, w), timeline_svg(b.scenario, b.timeline, w));
 }
 

@@ -54,7 +54,7 @@ const char* kUnitColumns[] = {"policy",     "dispatch", "lane", "decided_ms", "s
                               "round_trip", "status",   "jobs"};
 const char* kJobColumns[] = {"policy",    "operation",    "job",     "release_ms",
                              "finish_ms", "deadline_ms",  "outcome", "response_ms",
-                             "qoe",       "frame_age_ms", "reason"};
+                             "qoe",       "frame_age_ms", "reason",  "ended_ms"};
 
 TEST(UnitsCsv, OneRowPerUnitExecutionWithTheDocumentedColumns) {
   auto s = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/case-dynamic.yaml");

@@ -195,7 +195,7 @@ TEST_P(Conformance, NoLaneIdlesWhileWorkIsReadyAndOneUnitPerLane) {
 TEST_P(Conformance, DeterministicUnderASeed) {
   const PolicyRun a = run(scenario_.seed);
   const PolicyRun b = run(scenario_.seed);
-  const SummaryHeader h{scenario_.name, "sim", "edf", scenario_.seed, profile_.source, {}};
+  const SummaryHeader h{scenario_.name, "sim", "edf", scenario_.seed, profile_.source, {}, {}};
   const std::string policy = std::get<0>(GetParam());
   EXPECT_EQ(summary_json(h, {a.metrics}), summary_json(h, {b.metrics}));
   EXPECT_EQ(jobs_csv(scenario_, {{policy, &a.jobs}}), jobs_csv(scenario_, {{policy, &b.jobs}}));

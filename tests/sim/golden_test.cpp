@@ -43,7 +43,7 @@ TEST_P(Golden, SummaryJsonMatchesCheckedInFile) {
   ASSERT_TRUE(p.has_value()) << p.error().to_string();
   const auto run = simulate_policy(*s, *p, policy, kSeed, {}, false);
   ASSERT_TRUE(run.has_value()) << run.error().to_string();
-  const SummaryHeader h{s->name, "sim", "edf", kSeed, p->source, {}};  // no run id
+  const SummaryHeader h{s->name, "sim", "edf", kSeed, p->source, {}, {}};  // no run id
   const std::string actual = summary_json(h, {run->metrics});
 
   const std::string file = scenario + "-" + policy + ".json";

@@ -487,6 +487,10 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       o.prediction = std::move(prediction_html);
     }
     o.timeline = timeline;
+    if (!sim) {
+      o.more_files.emplace_back("rss.csv");
+      if (!prediction.empty()) o.more_files.emplace_back("prediction.json");
+    }
     o.rows_written = stream != nullptr;
     o.rows_files = streamed;
     o.set = &*set;

@@ -26,5 +26,7 @@ void register_node(CLI::App& app, int& exit_code);
 void register_camera(CLI::App& app, int& exit_code);
 /// `red analyze` (cmd_analyze.cpp): verdicts, headroom, response-time bound, nptest export.
 void register_analyze(CLI::App& app, int& exit_code);
+/// `red report` (cmd_report.cpp): a run's page redrawn from its saved files.
+void register_report(CLI::App& app, int& exit_code);
 
 }  // namespace red::cli

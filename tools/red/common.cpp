@@ -14,6 +14,7 @@
 #include "red/profile/quality.hpp"
 #include "red/report/html.hpp"
 #include "red/report/plots.hpp"
+#include "red/report/redraw.hpp"
 #include "red/report/report.hpp"
 #include "red/report/schedule_html.hpp"
 #include "red/scenario/loader.hpp"
@@ -188,6 +189,27 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     phases.push_back(run.jobs.empty() && run.metrics.jobs > 0
                          ? std::vector<PhaseMetrics>{}
                          : phase_metrics(s, run.jobs, run.result.end));
+  // The merge waits the traces recorded, to the microsecond trace.json keeps, so that `red
+  // report` redraws the same timeline from trace.json.
+  std::vector<std::vector<TimelineWait>> waits(runs.size());
+  PageInput in;
+  in.scenario = &s;
+  in.verdicts = options.verdicts;
+  in.prediction = options.prediction;
+  in.index_html = options.index_html;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    PageRun pr{&metrics[i], &runs[i].jobs, &runs[i].units,    &phases[i],
+               nullptr,     std::nullopt,  runs[i].result.end};
+    if (i < options.traces.size() && options.traces[i] != nullptr) {
+      for (const auto& w : options.traces[i]->waits())
+        waits[i].push_back(
+            {w.at, from_ms(std::stod(fmt::format("{:.3f}", to_ms(w.until)))), w.sensor});
+      pr.waits = &waits[i];
+      if (options.traces[i]->truncated()) pr.waits_cut = options.traces[i]->truncated_at();
+    }
+    in.runs.push_back(pr);
+  }
+  h.page = page_json(in);
   const std::string summary = summary_json(h, metrics, phases);
   if (!put("summary.json", summary))
     // The run's figures are not lost with the file: the summary goes to stderr instead.
@@ -221,72 +243,26 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
       wrote("trace.json");
   }
 
-  PlotOptions po;
+  // The plots, the timeline (plots/timeline*.svg) and index.html: the same function `red
+  // report` redraws them with from the saved files (report/redraw.hpp).
+  in.header = h;
+  in.data_files = r.files;
+  for (const std::string& f : options.more_files) in.data_files.push_back(f);
+  PageOptions po;
   po.gnuplot = gnuplot_command(options.gnuplot);
-  std::vector<PlotRun> plot_runs;
-  for (std::size_t i = 0; i < runs.size(); ++i)
-    plot_runs.push_back({runs[i].metrics.name, &metrics[i], &runs[i].jobs});
-  const PlotReport plots = write_run_plots(dir, s, plot_runs, po);
-  if (!plots.note.empty()) std::cerr << "red: " << plots.note << '\n';
-  for (const Error& e : plots.errors) failed(e);
-  for (const std::string& f : plots.files)
-    if (options.set != nullptr) options.set->add(f);
-  for (const PlotFile& f : plots.plots) {
-    wrote(f.png);
-    ++r.images;
-    if (!f.svg.empty()) {
-      wrote(f.svg);
-      ++r.images;
-    }
-  }
-
-  // The schedule itself (plots/timeline*.svg), drawn from units.csv and jobs.csv, with the
-  // merge waits the traces recorded.
-  std::vector<std::vector<TimelineWait>> waits(runs.size());
-  std::vector<TimelineRun> timeline_runs;
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    TimelineRun t{runs[i].metrics.name, &runs[i].units,    &runs[i].jobs, nullptr,
-                  std::nullopt,         runs[i].result.end};
-    if (i < options.traces.size() && options.traces[i] != nullptr) {
-      for (const auto& w : options.traces[i]->waits())
-        waits[i].push_back({w.at, w.until, w.sensor});
-      t.waits = &waits[i];
-      if (options.traces[i]->truncated()) t.waits_cut = options.traces[i]->truncated_at();
-    }
-    timeline_runs.push_back(std::move(t));
-  }
-  std::vector<TimelineWindow> windows;
-  if (options.timeline)
-    windows.push_back({options.timeline->first, options.timeline->second, "timeline",
-                       fmt::format("Timeline: {:g} to {:g} s", to_s(options.timeline->first),
-                                   to_s(options.timeline->second))});
-  else
-    windows = default_timeline_windows(s, timeline_runs);
-  auto timelines = write_timelines(dir, s, timeline_runs, windows);
-  if (!timelines)
-    failed(timelines.error());
-  else
-    for (const std::string& f : timelines->files) {
+  po.timeline = options.timeline;
+  const PageReport page = write_report_page(dir, in, po);
+  if (!page.plots_note.empty()) std::cerr << "red: " << page.plots_note << '\n';
+  for (const std::string& f : page.files) {
+    const bool data = f.size() > 3 && (f.ends_with(".dat") || f.ends_with(".gp"));
+    if (data) {
+      if (options.set != nullptr) options.set->add(f);
+    } else {
       wrote(f);
-      ++r.images;
     }
-
-  if (options.index_html) {
-    std::vector<HtmlLink> links = {
-        {"summary.json", "the summary of every policy (schema in docs/REPORTS.md)"},
-        {"jobs.csv", "one row per job"},
-        {"units.csv", "one row per unit execution"}};
-    if (!processes.empty())
-      links.push_back({"trace.json", "the timeline: drag into https://ui.perfetto.dev"});
-    HtmlPage page = compare_page(h, metrics, plots, links);
-    if (options.verdicts) page.tables.insert(page.tables.begin(), *options.verdicts);
-    for (const HtmlTable& t : options.prediction) page.tables.push_back(t);
-    std::vector<std::string> names;
-    for (const PolicyMetrics& m : metrics) names.push_back(m.name);
-    page.sections.push_back(phase_section(s, names, phases));
-    if (timelines) page.sections.push_back(timelines->section);
-    put("index.html", render_html(page));
   }
+  r.images += page.images;
+  for (const Error& e : page.errors) failed(e);
   if (!r.errors.empty()) return r.errors.front();
   return std::nullopt;
 }

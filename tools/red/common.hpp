@@ -89,6 +89,9 @@ struct OutputOptions {
   bool rows_written = false;
   /// With rows_written: the files they are in (relative to the directory), for the manifest.
   std::vector<std::string> rows_files;
+  /// Files the caller writes after write_outputs (rss.csv, prediction.json): index.html
+  /// links them.
+  std::vector<std::string> more_files;
   /// The run's output set: its run id goes into summary.json, trace.json and index.html, and
   /// every file written is added to it (failures too). Null: no run id, no manifest.
   OutputSet* set = nullptr;

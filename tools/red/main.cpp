@@ -101,6 +101,7 @@ int main(int argc, char** argv) {
   red::cli::register_run(app, exit_code);
   red::cli::register_profile(app, exit_code);
   red::cli::register_analyze(app, exit_code);
+  red::cli::register_report(app, exit_code);
 #ifdef RED_HAVE_DDS
   red::cli::register_node(app, exit_code);
   red::cli::register_camera(app, exit_code);

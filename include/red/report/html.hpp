@@ -44,6 +44,10 @@ struct HtmlSection {
 struct HtmlPage {
   std::string title;
   std::vector<std::pair<std::string, std::string>> facts;  ///< scenario, backend, seed, ...
+  /// The pictures that open the page, under "Which policy, and why jobs missed": plots,
+  /// then sections (the timeline); the tables follow them.
+  std::vector<PlotFile> lead_plots;
+  std::vector<HtmlSection> lead_sections;
   std::vector<HtmlTable> tables;
   std::vector<HtmlSection> sections;  ///< after the results, before the plots
   std::vector<PlotFile> plots;

@@ -35,6 +35,11 @@ class OutputSet {
   /// removed (names the path and the system's reason).
   static Expected<OutputSet> begin(const std::string& dir, std::string command);
 
+  /// As begin(), for a run whose id is known: `red report` rewriting part of a run's files
+  /// marks the directory unfinished under the same run id until its finish().
+  static Expected<OutputSet> reopen(const std::string& dir, std::string command,
+                                    std::string run_id);
+
   /// A set whose run id is given (tests); nothing is written until finish().
   OutputSet(std::string dir, std::string command, std::string run_id);
 

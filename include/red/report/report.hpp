@@ -23,6 +23,8 @@ struct SummaryHeader {
   std::string profile_source;  ///< "builtin-default", "measured" or a path
   /// The run id of the output set (report/manifest.hpp); empty: no "run_id" field.
   std::string run_id;
+  /// summary.json's "page" object as JSON text (report/redraw.hpp, page_json); empty: none.
+  std::string page;
 };
 
 /// summary.json text: deterministic for the same inputs (byte-identical apart from the run
@@ -39,7 +41,7 @@ struct PolicyRows {
 };
 
 /// jobs.csv text: policy, operation, job, release_ms, finish_ms, deadline_ms, outcome,
-/// response_ms, qoe, frame_age_ms, reason (docs/REPORTS.md).
+/// response_ms, qoe, frame_age_ms, reason, ended_ms (docs/REPORTS.md).
 std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& runs);
 
 /// jobs.csv's header line, with its line break.

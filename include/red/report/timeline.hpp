@@ -45,8 +45,9 @@ struct TimelineRun {
 struct TimelineWindow {
   TimePoint from{0};
   TimePoint to{0};
-  std::string name;   ///< file stem under plots/: timeline, timeline_start, timeline_worst_miss
-  std::string title;  ///< what it shows, for captions
+  std::string name;    ///< file stem under plots/: timeline, timeline_start, timeline_worst_miss
+  std::string title;   ///< what it shows, for captions
+  std::string policy;  ///< draw only this policy's run; empty: every run
 };
 
 /// Parses `--timeline FROM:TO` (seconds, FROM ≥ 0, FROM < TO ≤ FROM + 60, e.g. "2.5:4"). Error:

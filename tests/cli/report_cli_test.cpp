@@ -1,0 +1,251 @@
+// `red report DIR` run as a real process (docs/REPORTS.md, "red report"): the page redrawn
+// from a run's saved files is the one compare wrote (round trip), --timeline, --phase and
+// --policy change the timeline, the default timeline shows every policy's worst miss and
+// every phase's start, every file is linked, and bad directories are refused (exit 2)
+// with the file and the line.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "../support/cli.hpp"
+
+namespace red {
+namespace {
+
+namespace fs = std::filesystem;
+using test::quote;
+using test::read_text;
+
+struct Result {
+  int code = -1;
+  std::string out, err;
+};
+
+// The delivery robot: two cameras, an operation added at 4 s and removed at 7 s.
+std::string delivery() {
+  return quote(std::string(RED_TEST_DATA) + "/scenarios/delivery-robot.yaml");
+}
+
+class ReportCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ =
+        fs::temp_directory_path() / fmt::format("red_report_cli_{}_{}", ::getpid(), info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  Result red(const std::string& args) {
+    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
+    const std::string cmd = "RED_GNUPLOT=none " + quote(RED_CLI) + " " + args + " >" +
+                            quote(out.string()) + " 2>" + quote(err.string()) + " </dev/null";
+    const int status = std::system(cmd.c_str());
+    Result r;
+    if (status != -1 && WIFEXITED(status)) r.code = WEXITSTATUS(status);
+    r.out = read_text(out);
+    r.err = read_text(err);
+    return r;
+  }
+  // A comparison of the delivery robot into dir_/name; its directory.
+  fs::path compare(const std::string& name, const std::string& more = "") {
+    const fs::path out = dir_ / name;
+    const Result r = red("compare " + delivery() + " --policies edf,fifo,red --out " +
+                         quote(out.string()) + " " + more);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return out;
+  }
+  fs::path dir_;
+};
+
+// The captions of the timeline figures, in page order.
+std::vector<std::string> timeline_titles(const std::string& html) {
+  std::vector<std::string> out;
+  const std::regex re("<figcaption>(Timeline[^<]*)");
+  for (auto it = std::sregex_iterator(html.begin(), html.end(), re); it != std::sregex_iterator();
+       ++it)
+    out.push_back((*it)[1].str());
+  return out;
+}
+
+TEST_F(ReportCli, RedrawsTheSamePageFromTheSavedFiles) {
+  const fs::path out = compare("run");
+  const std::string page = read_text(out / "index.html");
+  const std::string svg = read_text(out / "plots" / "timeline_phase0.svg");
+  ASSERT_FALSE(page.empty());
+  const Result r = red("report " + quote(out.string()));
+  ASSERT_EQ(r.code, 0) << r.err;
+  // Byte for byte: the run id is kept, and nothing on the page is a time of day.
+  EXPECT_EQ(read_text(out / "index.html"), page);
+  EXPECT_EQ(read_text(out / "plots" / "timeline_phase0.svg"), svg);
+  const auto manifest = nlohmann::json::parse(read_text(out / "manifest.json"));
+  EXPECT_TRUE(manifest.at("complete").get<bool>());
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  EXPECT_EQ(manifest.at("run_id"), summary.at("run_id"));
+}
+
+TEST_F(ReportCli, TheSameWindowGivesTheSamePageAsCompare) {
+  const fs::path a = compare("a", "--timeline 4.5:5.5");
+  const fs::path b = compare("b");
+  const Result r = red("report " + quote(b.string()) + " --timeline 4.5:5.5");
+  ASSERT_EQ(r.code, 0) << r.err;
+  // The run ids differ (two runs); the rest is the same page.
+  const std::regex id("<meta name=\"red-run-id\" content=\"[0-9a-f]+\">");
+  const std::string pa = std::regex_replace(read_text(a / "index.html"), id, "");
+  const std::string pb = std::regex_replace(read_text(b / "index.html"), id, "");
+  ASSERT_NE(pa.find("Timeline: 4.5 to 5.5 s"), std::string::npos);
+  EXPECT_EQ(pa, pb);
+  // The default drawings are gone, and so is their place in the manifest.
+  EXPECT_FALSE(fs::exists(b / "plots" / "timeline_phase0.svg"));
+  EXPECT_EQ(read_text(b / "manifest.json").find("timeline_phase0"), std::string::npos);
+}
+
+TEST_F(ReportCli, DefaultTimelineShowsEveryPhaseStartAndEveryPolicysWorstMiss) {
+  const fs::path out = compare("run");
+  const std::string html = read_text(out / "index.html");
+  const auto titles = timeline_titles(html);
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  // One drawing per phase (the events at 4 s and 7 s make three).
+  const std::size_t phases = summary.at("policies")[0].at("phases").size();
+  ASSERT_EQ(phases, 3u);
+  for (std::size_t k = 0; k < phases; ++k) {
+    EXPECT_TRUE(fs::exists(out / "plots" / fmt::format("timeline_phase{}.svg", k))) << k;
+    EXPECT_NE(html.find(fmt::format("Timeline: phase {} (", k)), std::string::npos) << k;
+  }
+  // Every policy that missed has its own drawing around its worst miss.
+  int missed = 0;
+  for (const auto& p : summary.at("policies")) {
+    const std::string name = p.at("name").get<std::string>();
+    const bool drawn =
+        html.find("Timeline of " + name + ": 2 s around its worst miss") != std::string::npos;
+    EXPECT_EQ(drawn, p.at("missed").get<int>() > 0) << name;
+    missed += p.at("missed").get<int>() > 0 ? 1 : 0;
+  }
+  EXPECT_GT(missed, 0) << "the delivery robot should make some policy miss";
+  EXPECT_EQ(titles.size(), phases + static_cast<std::size_t>(missed));
+}
+
+TEST_F(ReportCli, PhaseAndPolicyChooseWhatTheTimelineShows) {
+  const fs::path out = compare("run");
+  Result r = red("report " + quote(out.string()) + " --phase 1");
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::string html = read_text(out / "index.html");
+  auto titles = timeline_titles(html);
+  ASSERT_FALSE(titles.empty());
+  EXPECT_NE(titles.front().find("Timeline: phase 1 (after add_operation"), std::string::npos)
+      << titles.front();
+  for (std::size_t i = 1; i < titles.size(); ++i)
+    EXPECT_NE(titles[i].find("worst miss in phase 1"), std::string::npos) << titles[i];
+  // Only one policy's runs in the drawings.
+  r = red("report " + quote(out.string()) + " --policy fifo");
+  ASSERT_EQ(r.code, 0) << r.err;
+  html = read_text(out / "index.html");
+  EXPECT_EQ(html.find("data-policy=\"edf\""), std::string::npos);
+  EXPECT_NE(html.find("data-policy=\"fifo\""), std::string::npos);
+}
+
+TEST_F(ReportCli, EveryFileIsLinkedAndThePicturesComeFirst) {
+  const fs::path out = compare("run");
+  const std::string html = read_text(out / "index.html");
+  const auto manifest = nlohmann::json::parse(read_text(out / "manifest.json"));
+  for (const auto& f : manifest.at("files")) {
+    const std::string path = f.at("path").get<std::string>();
+    if (path == "index.html") continue;
+    EXPECT_NE(html.find("href=\"" + path + "\""), std::string::npos) << path;
+  }
+  EXPECT_NE(html.find("href=\"manifest.json\""), std::string::npos);
+  const auto why = html.find("Which policy, and why jobs missed");
+  const auto timeline = html.find("<section id=\"timeline\"");
+  const auto tables = html.find("<h2>Results</h2>");
+  ASSERT_NE(why, std::string::npos);
+  ASSERT_NE(timeline, std::string::npos);
+  ASSERT_NE(tables, std::string::npos);
+  EXPECT_LT(why, timeline);
+  EXPECT_LT(timeline, tables);
+}
+
+TEST_F(ReportCli, TheVerdictExplainsEveryPolicy) {
+  const fs::path out = compare("run");
+  const std::string html = read_text(out / "index.html");
+  const auto at = html.find("Verdicts (red analyze");
+  ASSERT_NE(at, std::string::npos);
+  const std::string table = html.substr(at, html.find("</table>", at) - at);
+  EXPECT_NE(table.find("<th>why</th>"), std::string::npos);
+  // Each row's why names every policy ("edf, fifo: ...; red: ..."), or "all: " when they
+  // agree: a group of names that starts the cell or follows "; ".
+  const std::regex row("<td>([^<]*)</td></tr>");
+  int rows = 0;
+  for (auto it = std::sregex_iterator(table.begin(), table.end(), row);
+       it != std::sregex_iterator(); ++it, ++rows) {
+    const std::string why = (*it)[1].str();
+    if (why.rfind("all: ", 0) == 0) continue;
+    for (const std::string p : {"edf", "fifo", "red"}) {
+      const std::regex group("(^|; )([a-z-]+, )*" + p + "(, [a-z-]+)*: ");
+      EXPECT_TRUE(std::regex_search(why, group)) << p << " in " << why;
+    }
+  }
+  EXPECT_GT(rows, 0);
+}
+
+TEST_F(ReportCli, BadDirectoriesAreRefusedWithTheFileAndLine) {
+  Result r = red("report " + quote((dir_ / "none").string()));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("no such directory"), std::string::npos) << r.err;
+
+  const fs::path out = compare("run");
+  // A malformed row: the file and its line.
+  {
+    std::string jobs = read_text(out / "jobs.csv");
+    const auto second = jobs.find('\n', jobs.find('\n') + 1);
+    jobs.insert(second + 1, "edf,drive,x,not-a-number\n");
+    std::ofstream(out / "jobs.csv", std::ios::binary) << jobs;
+  }
+  r = red("report " + quote(out.string()));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("jobs.csv:3:"), std::string::npos) << r.err;
+
+  // An incomplete run (stopped, or a file lost).
+  const fs::path inc = compare("inc");
+  {
+    std::string m = read_text(inc / "manifest.json");
+    m.replace(m.find("\"complete\": true"), 16, "\"complete\": false");
+    std::ofstream(inc / "manifest.json", std::ios::binary) << m;
+  }
+  r = red("report " + quote(inc.string()));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("manifest.json:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("not complete"), std::string::npos) << r.err;
+
+  // A summary of an older red (no "page"): refused with what to do.
+  const fs::path old = compare("old");
+  {
+    auto s = nlohmann::ordered_json::parse(read_text(old / "summary.json"));
+    s.erase("page");
+    std::ofstream(old / "summary.json", std::ios::binary) << s.dump(2);
+  }
+  r = red("report " + quote(old.string()));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("summary.json:1: has no \"page\""), std::string::npos) << r.err;
+
+  // Options that do not fit the run.
+  const fs::path ok = compare("ok");
+  EXPECT_EQ(red("report " + quote(ok.string()) + " --phase 9").code, 2);
+  EXPECT_EQ(red("report " + quote(ok.string()) + " --policy lst").code, 2);
+  EXPECT_EQ(red("report " + quote(ok.string()) + " --timeline 99:100").code, 2);
+}
+
+}  // namespace
+}  // namespace red

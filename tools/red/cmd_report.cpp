@@ -1,0 +1,131 @@
+/// \file
+/// `red report DIR`: index.html, the plots and the timeline of a run redrawn from the files
+/// it saved (summary.json, jobs.csv, units.csv, trace.json), with another timeline window
+/// or phase; no scenario is read and nothing is simulated (docs/REPORTS.md, "red report").
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "red/report/manifest.hpp"
+#include "red/report/redraw.hpp"
+#include "red/report/timeline.hpp"
+
+namespace red::cli {
+
+namespace {
+
+struct ReportArgs {
+  std::string dir;
+  std::optional<std::string> timeline;
+  std::optional<std::size_t> phase;
+  std::optional<std::string> policy;
+};
+
+int run_report(const ReportArgs& a) {
+  auto saved = read_saved_run(a.dir);
+  if (!saved) {
+    print_error(saved.error());
+    return kBadInput;
+  }
+  PageOptions o;
+  o.gnuplot = gnuplot_command();
+  if (a.timeline) {
+    auto w = parse_timeline_window(*a.timeline);
+    if (!w) {
+      print_error(w.error());
+      return kBadInput;
+    }
+    if (w->first >= saved->scenario.duration) {
+      print_error(Error{"", 0,
+                        fmt::format("--timeline: FROM ({:g} s) is not before the end of the run "
+                                    "({:g} s)",
+                                    to_s(w->first), to_s(saved->scenario.duration))});
+      return kBadInput;
+    }
+    o.timeline = *w;
+  }
+  if (a.phase) {
+    TimePoint end = saved->scenario.warmup;
+    for (TimePoint e : saved->ends) end = std::max(end, e);
+    const std::size_t n = workload_phases(saved->scenario, end).size();
+    if (*a.phase >= n) {
+      print_error(Error{
+          "", 0, fmt::format("--phase {}: the run has {} phase(s), 0 to {}", *a.phase, n, n - 1)});
+      return kBadInput;
+    }
+    o.phase = a.phase;
+  }
+  if (a.policy) {
+    std::string known;
+    bool found = false;
+    for (const PolicyMetrics& m : saved->metrics) {
+      known += (known.empty() ? "" : ", ") + m.name;
+      found = found || m.name == *a.policy;
+    }
+    if (!found) {
+      print_error(Error{
+          "", 0, "--policy " + *a.policy + ": not in this run (its policies: " + known + ")"});
+      return kBadInput;
+    }
+    o.policy = a.policy;
+  }
+  // The directory is marked unfinished (same run id) until the new page and its manifest
+  // are written, as a run's own files are.
+  auto set = OutputSet::reopen(a.dir, saved->command.empty() ? "report" : saved->command,
+                               saved->header.run_id);
+  if (!set) {
+    print_error(set.error());
+    return kRunFailure;
+  }
+  for (const std::string& f : saved->data_files) set->add(f);
+  const PageReport page = write_report_page(a.dir, saved->input(), o);
+  if (!page.plots_note.empty()) std::cerr << "red: " << page.plots_note << '\n';
+  for (const std::string& f : page.files) set->add(f);
+  for (const Error& e : page.errors) {
+    print_error(e);
+    set->fail(e);
+  }
+  // The previous page's drawings that this one does not use are not the run's any more.
+  for (const std::string& f : saved->files) {
+    const bool kept = std::find(page.files.begin(), page.files.end(), f) != page.files.end();
+    if (!kept && f.rfind("plots/", 0) == 0) {
+      std::error_code ec;
+      std::filesystem::remove(std::filesystem::path(a.dir) / f, ec);
+    }
+  }
+  const std::optional<Error> manifest = set->finish();
+  if (manifest) print_error(*manifest);
+  fmt::print("redrew {}/{} ({} images){}\n", a.dir,
+             saved->index_html ? "index.html and plots/" : "plots/", page.images,
+             manifest ? "" : ", manifest.json");
+  return page.errors.empty() && !manifest ? kOk : kRunFailure;
+}
+
+}  // namespace
+
+void register_report(CLI::App& app, int& exit_code) {
+  auto a = std::make_shared<ReportArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "report",
+      "Redraw a run's index.html, plots and timeline from its saved files (no simulation)");
+  cmd->add_option("dir", a->dir, "Output directory of red compare or red run")->required();
+  auto* t = cmd->add_option("--timeline", a->timeline,
+                            "Timeline window FROM:TO in seconds (default: each workload "
+                            "phase's start and each policy's worst miss)");
+  cmd->add_option("--phase", a->phase,
+                  "Timeline of one workload phase (0-based, as in the page's phase table): "
+                  "its start and each policy's worst miss in it")
+      ->check(whole_number(1000))
+      ->excludes(t);
+  cmd->add_option("--policy", a->policy, "Draw only this policy in the timeline");
+  cmd->callback([a, &exit_code] { exit_code = run_report(*a); });
+}
+
+}  // namespace red::cli
