@@ -2,8 +2,6 @@
 // --check's exit codes (0 all ok, 1 otherwise), bad input (2), and --export-nptest's files.
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -23,42 +21,18 @@ using test::quote;
 using test::read_text;
 using test::scenario;
 
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
+using Result = test::RunResult;
 
-class AnalyzeCli : public ::testing::Test {
+class AnalyzeCli : public test::ScratchTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ =
-        fs::temp_directory_path() / fmt::format("red_analyze_cli_{}_{}", ::getpid(), info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
   Result red(const std::string& args, const std::string& command = "analyze") {
-    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-    const std::string cmd = "RED_GNUPLOT=none " + quote(RED_CLI) + " " + command + " " + args +
-                            " >" + quote(out.string()) + " 2>" + quote(err.string()) +
-                            " </dev/null";
-    const int status = std::system(cmd.c_str());
-    Result r;
-    if (status != -1 && WIFEXITED(status)) r.code = WEXITSTATUS(status);
-    r.out = read_text(out);
-    r.err = read_text(err);
-    return r;
+    return test::run_red(command + " " + args, dir_);
   }
   std::string write(const std::string& name, const std::string& text) {
     const fs::path p = dir_ / name;
     std::ofstream(p) << text;
     return quote(p.string());
   }
-  fs::path dir_;
 };
 
 // A plain chain of 2 × 10 ms under a 15 ms deadline: infeasible.

@@ -6,8 +6,6 @@
 // directory or to stderr, the error names the path and the system's reason, exit code 1.
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -32,30 +30,15 @@ bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
 }
 
-class OutputsCli : public ::testing::Test {
+class OutputsCli : public test::ScratchTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           fmt::format("red_outputs_cli_test_{}_{}", ::getpid(), info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-
-  // Runs `red ARGS` (no gnuplot: the plots' data and scripts only); the exit code, with
-  // stdout and stderr in out_ and err_.
+  // Runs `red ARGS` (by default no gnuplot: the plots' data and scripts only); the exit
+  // code, with stdout and stderr in out_ and err_.
   int red(const std::string& args, const std::string& env = "RED_GNUPLOT=none") {
-    const std::string cmd = env + " timeout 300 " + quote(RED_CLI) + " " + args + " >" +
-                            quote((dir_ / "stdout.txt").string()) + " 2>" +
-                            quote((dir_ / "stderr.txt").string()) + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    out_ = read_text(dir_ / "stdout.txt");
-    err_ = read_text(dir_ / "stderr.txt");
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    const test::RunResult r = test::run_red(args, dir_, env + " timeout 300");
+    out_ = r.out;
+    err_ = r.err;
+    return r.code;
   }
 
   // The manifest of `out`, checked against the directory: each file listed exists with
@@ -86,7 +69,6 @@ class OutputsCli : public ::testing::Test {
     return names;
   }
 
-  fs::path dir_;
   std::string out_, err_;
 };
 

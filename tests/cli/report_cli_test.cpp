@@ -5,8 +5,6 @@
 // with the file and the line.
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -26,40 +24,16 @@ namespace fs = std::filesystem;
 using test::quote;
 using test::read_text;
 
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
+using Result = test::RunResult;
 
 // The delivery robot: two cameras, an operation added at 4 s and removed at 7 s.
 std::string delivery() {
   return quote(std::string(RED_TEST_DATA) + "/scenarios/delivery-robot.yaml");
 }
 
-class ReportCli : public ::testing::Test {
+class ReportCli : public test::ScratchTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ =
-        fs::temp_directory_path() / fmt::format("red_report_cli_{}_{}", ::getpid(), info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  Result red(const std::string& args) {
-    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-    const std::string cmd = "RED_GNUPLOT=none " + quote(RED_CLI) + " " + args + " >" +
-                            quote(out.string()) + " 2>" + quote(err.string()) + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    Result r;
-    if (status != -1 && WIFEXITED(status)) r.code = WEXITSTATUS(status);
-    r.out = read_text(out);
-    r.err = read_text(err);
-    return r;
-  }
+  Result red(const std::string& args) { return test::run_red(args, dir_); }
   // A comparison of the delivery robot into dir_/name; its directory.
   fs::path compare(const std::string& name, const std::string& more = "") {
     const fs::path out = dir_ / name;
@@ -68,7 +42,6 @@ class ReportCli : public ::testing::Test {
     EXPECT_EQ(r.code, 0) << r.err;
     return out;
   }
-  fs::path dir_;
 };
 
 // The captions of the timeline figures, in page order.

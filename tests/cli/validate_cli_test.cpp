@@ -6,8 +6,6 @@
 // directory per test.
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -27,11 +25,7 @@ namespace fs = std::filesystem;
 using test::quote;
 using test::read_text;
 
-struct Result {
-  bool exited = false;
-  int code = -1;
-  std::string out, err;
-};
+using Result = test::RunResult;
 
 bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
@@ -56,22 +50,13 @@ struct ModelText {
   std::string profile = "p.json";  ///< empty: no profile key
 };
 
-class ValidateCli : public ::testing::Test {
+class ValidateCli : public test::ScratchTest {
  protected:
   void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ =
-        fs::temp_directory_path() / fmt::format("red_validate_cli_{}_{}", ::getpid(), info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    ScratchTest::SetUp();
     for (const char* f : {"enc.pt", "a.pt", "b.pt"}) write(f, "not loaded by validate\n");
     write("m.yaml", "encoder: enc.pt\nheads: {a: a.pt, b: b.pt}\ninput: [3, 64, 128]\n");
   }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-
   fs::path write(const std::string& name, const std::string& text) {
     const fs::path p = dir_ / name;
     std::ofstream(p) << text;
@@ -111,18 +96,7 @@ class ValidateCli : public ::testing::Test {
     return write("s.yaml", text);
   }
 
-  Result red(const std::string& args) {
-    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-    const std::string cmd = "RED_GNUPLOT=none " + quote(RED_CLI) + " " + args + " >" +
-                            quote(out.string()) + " 2>" + quote(err.string()) + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    Result r;
-    r.exited = status != -1 && WIFEXITED(status);
-    r.code = r.exited ? WEXITSTATUS(status) : -1;
-    r.out = read_text(out);
-    r.err = read_text(err);
-    return r;
-  }
+  Result red(const std::string& args) { return test::run_red(args, dir_); }
 
   /// `red ARGS` exits 2 with `fragment` on stderr and no "ok" on stdout.
   void expect_bad(const std::string& args, const std::string& fragment) {
@@ -143,7 +117,6 @@ class ValidateCli : public ::testing::Test {
 
   std::string scenario_path() const { return quote((dir_ / "s.yaml").string()); }
 
-  fs::path dir_;
   std::string scenario_text_;
 };
 
