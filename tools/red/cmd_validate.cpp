@@ -108,16 +108,11 @@ void register_validate(CLI::App& app, int& exit_code) {
                   "Profile JSON (default: the scenario's, else built-in)");
   cmd->add_option("--set", args->sets, "Override key=value (deadline_scale, rate_scale, ...)");
   cmd->callback([args, &exit_code] {
-    auto s = load(*args);
+    // The manifest load() read (check_model()), to list the checks.
+    std::optional<ModelManifest> manifest;
+    auto s = load(*args, &manifest);
     if (!s) {
       print_error(s.error());
-      exit_code = kBadInput;
-      return;
-    }
-    // load() checked the model; once more for the manifest it read, to list the checks.
-    std::optional<ModelManifest> manifest;
-    if (auto e = check_model(*s, &manifest)) {
-      print_error(*e);
       exit_code = kBadInput;
       return;
     }

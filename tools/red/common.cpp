@@ -81,10 +81,10 @@ std::vector<std::string> split_list(const std::string& s) {
   return out;
 }
 
-Expected<Scenario> load(const ScenarioArgs& a) {
+Expected<Scenario> load(const ScenarioArgs& a, std::optional<ModelManifest>* manifest) {
   auto s = load_scenario(a.path);
   if (!s) return s.error();
-  if (auto e = check_model(*s)) return *e;
+  if (auto e = check_model(*s, manifest)) return *e;
   for (const std::string& kv : a.sets) {
     const auto eq = kv.find('=');
     if (eq == std::string::npos) return Error{"", 0, "--set '" + kv + "': expected key=value"};

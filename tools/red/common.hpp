@@ -20,6 +20,7 @@
 #include "red/profile/profile.hpp"
 #include "red/report/html.hpp"
 #include "red/report/manifest.hpp"
+#include "red/scenario/manifest.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sim/run.hpp"
 
@@ -48,7 +49,8 @@ void warn_suspect_profile(const Profile& p, const std::string& path, std::size_t
 
 /// Loads the scenario, checks its model (check_model(): manifest, files, heads, input),
 /// applies overrides; Error on bad input.
-Expected<Scenario> load(const ScenarioArgs& a);
+/// `manifest`, when given, gets the manifest check_model() read (empty for a built-in model).
+Expected<Scenario> load(const ScenarioArgs& a, std::optional<ModelManifest>* manifest = nullptr);
 
 /// resolve_profile(), printing its warnings on stderr ("red: warning: ...").
 Expected<Profile> cli_profile(const Scenario& s, const std::optional<std::string>& cli_path);
