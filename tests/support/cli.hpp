@@ -40,6 +40,7 @@ struct RunResult {
   std::string out, err;
 };
 
+#ifdef RED_CLI  // the test target's path of the red binary
 /// Runs `PREFIX red ARGS` through /bin/sh with stdin from /dev/null, stdout and stderr
 /// through files in `scratch` (which must exist). PREFIX: environment settings; by default
 /// no gnuplot (the plots' data and scripts only).
@@ -56,6 +57,7 @@ inline RunResult run_red(const std::string& args, const std::filesystem::path& s
   r.err = read_text(err);
   return r;
 }
+#endif
 
 /// A test with its own empty directory, dir_, removed after it.
 class ScratchTest : public ::testing::Test {
