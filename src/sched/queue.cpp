@@ -23,7 +23,7 @@ void Scheduler::Impl::ready_in_lane_order(int lane_index) {
         su.early = true;
         make_ready(mb.slot, sx);
         task(su.task).lane_only = lane_index;
-        j.dirty = true;
+        touch(j);
       }
     }
 }
@@ -43,7 +43,7 @@ std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
   // a lane that always holds a unit is never idle at dispatch().
   m.admit_released(now);
   m.ready_in_lane_order(lane);
-  if (m.ready.empty()) return m.out;
+  if (m.ready_count() == 0) return m.out;
   ++stats_.decisions;
   m.assess_overload(now);
   m.ahead_lane = lane;

@@ -234,6 +234,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   j.dependent_ids.clear();
   j.stamp = 0;
   j.dirty = true;
+  j.grouped = 0;
   j.started = false;
   j.frame.assign(sensors.size(), 0);
   j.frame_time.assign(sensors.size(), now);
@@ -305,7 +306,7 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
       UnitRt& u = j.u[i];
       if (u.state == UState::Queued) remove_member(u.task, slot, static_cast<int>(i));
       if (u.state == UState::Queued || u.state == UState::Blocked) u.state = UState::Cancelled;
-      j.dirty = true;
+      touch(j);
     }
   }
   notify_job(j, outcome, now, false);
@@ -462,6 +463,7 @@ int Scheduler::Impl::alloc_task() {
   k.member_at.clear();
   k.wait_until = TimePoint{0};
   k.ready_pos = -1;
+  k.group = -1;
   k.lane_only = -1;
   return t;
 }
@@ -474,6 +476,10 @@ void Scheduler::Impl::push_ready(int t) {
 
 void Scheduler::Impl::pop_ready(int t) {
   Task& k = task(t);
+  if (k.group >= 0) {
+    leave_group(t, false);
+    return;
+  }
   if (k.ready_pos < 0) return;
   ready_encoders -= k.kind == UnitKind::Encoder ? 1 : 0;
   const int last = ready.back();
@@ -499,6 +505,7 @@ void Scheduler::Impl::free_task(int t) {
 
 void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   Task& k = task(t);
+  if (k.group >= 0) leave_group(t, true);  // its members change
   auto& m = k.members;
   std::size_t kept = 0;
   for (std::size_t i = 0; i < m.size(); ++i) {
@@ -511,7 +518,7 @@ void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   k.member_at.resize(kept);
   // The others' share of a queued encoder run grew: their bounds on the work left go stale.
   if (k.kind == UnitKind::Encoder)
-    for (auto [js, ju] : m) job(js).dirty = true;
+    for (auto [js, ju] : m) touch(job(js));
   if (m.empty()) {
     free_task(t);
     return;
@@ -796,7 +803,7 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
       }
       UnitRt& u = j.u[static_cast<std::size_t>(unit)];
       u.state = UState::Running;
-      j.dirty = true;
+      touch(j);
       u.task = -1;
       u.start = now;
       u.share = static_cast<int>(k.members.size());
@@ -857,10 +864,10 @@ bool Scheduler::Impl::pick(TimePoint now) {
     int top = std::numeric_limits<int>::min();
     // With equal criticalities the order is the keys' alone: the least is kept as they come.
     std::size_t least = 0;
-    for (int t : ready) {
+    auto rank_task = [&](int t) __attribute__((always_inline)) {
       Task& tk = task(t);
-      if (tk.wait_until > now) continue;
-      if (tk.lane_only >= 0 && tk.lane_only != ahead_lane) continue;  // behind a busy lane
+      if (tk.wait_until > now) return;
+      if (tk.lane_only >= 0 && tk.lane_only != ahead_lane) return;  // behind a busy lane
       if (ranks_from_tasks() && by_job_deadline(tk)) {
         // EDF by job deadline reads only the earliest job deadline and the least member
         // key, both kept beside the task (TaskRank): no look into the jobs. The task's own
@@ -887,6 +894,24 @@ bool Scheduler::Impl::pick(TimePoint now) {
         top = std::max(top, v.criticality);
       }
       if (scanned.back().key < scanned[least].key) least = scanned.size() - 1;
+    };
+    // Every task scanned one by one, and the least of each group of tasks that rank alike
+    // (ready_set.cpp): the others of a group rank as it does and come after it in the
+    // tie-break, so neither the best, nor under criticality the order, nor batching
+    // (groups hold plain units only) reads them.
+    // Groups form only in a ready set this large (SchedulerConfig::group_from): below it a
+    // scan of every task is as cheap.
+    const bool grouping = ready_count() >= s.config_.group_from;
+    to_group.clear();
+    for (int t : ready) {
+      rank_task(t);
+      if (grouping) to_group.push_back(t);
+    }
+    for (int g : live_groups) rank_task(groups[static_cast<std::size_t>(g)].tasks.begin()->second);
+    // Those that rank alike from now on join their group, with nothing changed since the scan.
+    for (int t : to_group) {
+      GroupKey gk;
+      if (group_key(t, now, gk)) join_group(t, gk);
     }
     const int shed_below = overload ? top : std::numeric_limits<int>::min();
     auto before = [shed_below](const Scan& a, const Scan& b) {
@@ -1038,6 +1063,9 @@ void Scheduler::apply_events(TimePoint now) {
   Impl& m = *impl_;
   while (m.next_event < scenario_.events.size() && scenario_.events[m.next_event].at <= now) {
     const EventSpec& e = scenario_.events[m.next_event];
+    // A new version may change an operation's criticality, which ranking reads: the ready
+    // set's groups (ready_set.cpp) form again from the next scan.
+    m.ungroup_all();
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
@@ -1104,19 +1132,19 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
     --j.running;
     if (j.ended) {
       u.state = UState::Cancelled;  // output discarded: the job was aborted meanwhile
-      j.dirty = true;
+      m.touch(j);
       if (j.running == 0) m.free_job(mb.slot);
       continue;
     }
     if (status != UnitStatus::Completed) {
       u.state = UState::Cancelled;
-      j.dirty = true;
+      m.touch(j);
       j.reason = reason.empty() ? std::string(to_string(status)) : std::string(reason);
       m.end_job(mb.slot, JobOutcome::Failed, now);
       continue;
     }
     u.state = UState::Done;
-    j.dirty = true;
+    m.touch(j);
     --j.unfinished;
     for (int sx : j.g->units[static_cast<std::size_t>(mb.unit)].succs) {
       UnitRt& su = j.u[static_cast<std::size_t>(sx)];
@@ -1186,7 +1214,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   m.admit_released(now);
   int idle = 0;
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
-  if (idle > 0 && !m.ready.empty()) {
+  if (idle > 0 && m.ready_count() > 0) {
     ++stats_.decisions;
     m.assess_overload(now);
     while (idle > 0 && m.pick(now)) --idle;
@@ -1213,7 +1241,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (!m.observers.empty()) {
     // Ready for any lane: a task ready only behind a busy lane's unit (queue_depth > 1)
     // cannot take an idle lane.
-    int ready = static_cast<int>(m.ready.size());
+    int ready = m.ready_count();  // grouped tasks are for any lane
     if (config_.queue_depth > 1)
       for (int t : m.ready) ready -= m.task(t).lane_only >= 0 ? 1 : 0;
     for (Observer* ob : m.observers) ob->on_decision(now, ready, idle, waiting);
@@ -1227,7 +1255,7 @@ TimePoint Scheduler::next_wakeup() const {
   if (m.next_event < scenario_.events.size()) t = std::min(t, scenario_.events[m.next_event].at);
   t = std::min(t, m.next_tick().first);
   if (!m.deadlines.empty()) t = std::min(t, m.deadlines.front().first);
-  if (!m.ready.empty()) t = std::min(t, m.min_wait);
+  if (m.ready_count() > 0) t = std::min(t, m.min_wait);
   return t;
 }
 
@@ -1250,7 +1278,7 @@ void Scheduler::finish(TimePoint end) {
 }
 
 int Scheduler::ready_tasks() const noexcept {
-  return static_cast<int>(impl_->ready.size());
+  return impl_->ready_count();
 }
 
 bool Scheduler::drained() const {

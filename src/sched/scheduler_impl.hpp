@@ -8,9 +8,12 @@
 
 #include <algorithm>
 #include <array>
+#include <compare>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -83,6 +86,7 @@ struct Job {
   std::vector<int> dependents;        // slots of jobs waiting for this one (depends_on)
   std::vector<JobId> dependent_ids;
   std::string reason;
+  int grouped = 0;  // its ready tasks kept in a ReadyGroup (ready_set.cpp)
 };
 
 struct Key {
@@ -118,7 +122,8 @@ struct Task {
   TimePoint min_release{0};
   TimePoint wait_until{0};
   bool in_waits = false;  // listed in Impl::waits (it began a merge wait)
-  int ready_pos = -1;
+  int ready_pos = -1;     // in Impl::ready; -1 when not there (in a group, or not ready)
+  int group = -1;         // its ReadyGroup (ready_set.cpp), -1: none
   Duration cost{0};
   // Ready only for this lane (-1: any): its member waits on a unit that lane holds, and runs
   // after it there in the lane's order (UnitRt::early).
@@ -133,6 +138,29 @@ struct Task {
 struct TaskRank {
   Key tie{};
   TimePoint job_deadline{0};
+};
+
+// The ready set's groups (ready_set.cpp). Ready tasks that rank alike at every `now` — one
+// unit each that neither merges nor batches, of jobs with no unit running and nothing
+// changed since their caches were built, with the same view (TaskView: deadline, release,
+// remaining work, cost, criticality, job deadline) at every `now` — differ only in their
+// tie-break keys, so a scan needs only the least of each group.
+struct GroupKey {
+  TimePoint deadline;  // the job's (with re-assignment) or the height's (static modes)
+  double share;        // the height's budget share under re-assignment; 0 otherwise
+  TimePoint release;
+  Duration cost;
+  Duration remaining;      // the job's remaining work
+  TimePoint job_deadline;  // the job's end-to-end deadline
+  TimePoint by_job;        // what ranking by job deadline reads (Impl::rank_deadline)
+  int criticality;
+  auto operator<=>(const GroupKey&) const = default;
+};
+
+struct ReadyGroup {
+  GroupKey key{};
+  std::set<std::pair<Key, int>> tasks;  // (tie-break key, task), the least first
+  int live_pos = -1;                    // in Impl::live_groups
 };
 
 struct OpState {
@@ -241,9 +269,17 @@ struct Scheduler::Impl {
   std::vector<Task> tasks;
   std::vector<TaskRank> task_ranks;  // beside `tasks`
   std::vector<int> free_tasks;
+  // The ready set: tasks scanned one by one (`ready`), and those kept in groups that rank
+  // alike (ready_set.cpp), scanned by their least only.
   std::vector<int> ready;
-  std::vector<int> waits;  // tasks that began a merge wait (a superset of those still waiting)
-  int ready_encoders = 0;  // encoder tasks in `ready`
+  std::vector<ReadyGroup> groups;
+  std::vector<int> free_groups;
+  std::vector<int> live_groups;
+  std::map<GroupKey, int> group_of;
+  int grouped_tasks = 0;
+  std::vector<int> to_group;  // scratch of pick(): tasks that can join a group after the scan
+  std::vector<int> waits;     // tasks that began a merge wait (a superset of those still waiting)
+  int ready_encoders = 0;     // encoder tasks in `ready`
   std::vector<std::vector<int>> open_enc;  // per sensor: queued encoder tasks
   std::vector<Lane> lanes;
   std::vector<Dispatch*> out;
@@ -516,6 +552,28 @@ struct Scheduler::Impl {
   void free_task(int t);
 
   void remove_member(int t, int slot, int unit);
+
+  // ---- the ready set's groups (ready_set.cpp) -------------------------------------------
+
+  // Ready tasks in all (grouped or not).
+  [[nodiscard]] int ready_count() const noexcept {
+    return static_cast<int>(ready.size()) + grouped_tasks;
+  }
+  // The key task t ranks by at every `now`, when it can be kept in a group (pick() has just
+  // ranked it); false when it cannot.
+  bool group_key(int t, TimePoint now, GroupKey& gk);
+  // Moves ready task t from `ready` into the group of key gk.
+  void join_group(int t, const GroupKey& gk);
+  // Takes task t out of its group (back into `ready` when `keep_ready`).
+  void leave_group(int t, bool keep_ready);
+  // A job whose caches are about to change (dirty): its grouped tasks go back to `ready`.
+  void touch(Job& j) {
+    j.dirty = true;
+    if (j.grouped > 0) ungroup_job(j);
+  }
+  void ungroup_job(Job& j);
+  // Every group back into `ready` (an event changed what ranking reads: criticalities).
+  void ungroup_all();
 
   void make_ready(int slot, int unit);
 

@@ -28,7 +28,11 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
   }
   PolicyRun run;
   MetricsCollector metrics(s, s.scheduler.qoe_lambda, keep_units);
-  Simulator sim(s, p, std::move(pol), SimOptions{seed, std::chrono::seconds{60}, costs});
+  SimOptions options;
+  options.seed = seed;
+  options.drain_limit = std::chrono::seconds{60};
+  options.costs = costs;
+  Simulator sim(s, p, std::move(pol), options);
   sim.add_observer(&metrics);
   for (Observer* o : extra) sim.add_observer(o);
   const auto t0 = std::chrono::steady_clock::now();

@@ -38,7 +38,12 @@ Simulator::Simulator(const Scenario& scenario, const Profile& profile,
                      std::unique_ptr<Policy> policy, SimOptions options)
     : scenario_(scenario),
       options_(options),
-      scheduler_(scenario, profile, std::move(policy), SchedulerConfig::from(scenario, profile)),
+      scheduler_(scenario, profile, std::move(policy),
+                 [&] {
+                   SchedulerConfig c = SchedulerConfig::from(scenario, profile);
+                   if (options.group_from) c.group_from = *options.group_from;
+                   return c;
+                 }()),
       sampler_(scenario, options.costs != nullptr ? *options.costs : profile, options.seed,
                slowdown_of(scenario)),
       sync_cost_(scenario.device.sync_cost  ? *scenario.device.sync_cost

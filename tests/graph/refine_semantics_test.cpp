@@ -217,7 +217,9 @@ TEST(RefineSemantics, AblationsKeepTheInvariant) {
       ASSERT_TRUE(s.has_value()) << s.error().to_string();
       SCOPED_TRACE(std::string(a.name) + ", scenario seed " + std::to_string(seed) + ":\n" + yaml);
       test::RecordingObserver rec;
-      Simulator sim(*s, profile, make_policy("red", a.o), SimOptions{s->seed});
+      SimOptions options;
+      options.seed = s->seed;
+      Simulator sim(*s, profile, make_policy("red", a.o), options);
       sim.add_observer(&rec);
       sim.run();
       const auto problems = test::check_semantics(*s, rec);

@@ -710,7 +710,9 @@ struct Starts {
 };
 
 Starts starts(const Scenario& s, const Profile& p, std::unique_ptr<Policy> policy) {
-  Simulator sim(s, p, std::move(policy), SimOptions{.seed = s.seed});
+  SimOptions options;
+  options.seed = s.seed;
+  Simulator sim(s, p, std::move(policy), options);
   StartLog log;
   sim.add_observer(&log);
   const SimResult r = sim.run();

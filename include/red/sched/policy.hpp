@@ -140,7 +140,9 @@ class Policy {
   /// The mechanisms the scheduler applies for this policy.
   [[nodiscard]] virtual const PolicyOptions& options() const noexcept = 0;
   /// Rank of a ready task: the smallest runs first. Ties: earlier release, then operation
-  /// order, then node order (the scheduler breaks them).
+  /// order, then node order (the scheduler breaks them). A function of the view and `now`
+  /// alone: the scheduler ranks tasks whose views are equal at every `now` by one call
+  /// (SchedulerConfig::group_from).
   [[nodiscard]] virtual std::int64_t rank(const TaskView& t, TimePoint now) const noexcept = 0;
   /// A promise about rank(): true when it returns `t.deadline.count()` and reads nothing
   /// else of the view (earliest deadline first). The scheduler then ranks a task that is

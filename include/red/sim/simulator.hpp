@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "red/profile/profile.hpp"
@@ -25,6 +26,8 @@ struct SimOptions {
   /// a calibration of the machine (docs/FIDELITY.md) under a run planned with another
   /// profile. Not owned; must outlive the simulator.
   const Profile* costs = nullptr;
+  /// SchedulerConfig::group_from, when set (the tests compare decisions with and without groups).
+  std::optional<int> group_from;
 };
 
 /// What a run did, besides what observers saw.
