@@ -1,10 +1,8 @@
 #pragma once
 /// \file
 /// Internal to src/sched: the scheduler's state (jobs, tasks, lanes, the ready set) behind
-/// Scheduler::Impl, shared by the files of its mechanisms. scheduler.cpp keeps the order of
-/// a decision (releases, deadlines, DynamicMerge, batching, dispatch); overload.cpp holds
-/// The demand test of docs/DESIGN.md, "Overload", admission and the estimates hopeless aborts
-/// judge by.
+/// Scheduler::Impl, shared by the files of its mechanisms (listed at the top of
+/// scheduler.cpp, which keeps the order of a decision).
 
 #include <algorithm>
 #include <array>

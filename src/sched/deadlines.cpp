@@ -1,0 +1,132 @@
+// Deadline assignment (docs/DESIGN.md, "Intermediate deadlines" and "Re-assignment"): a
+// job's cached level costs and budget shares, rebuilt when one of its units starts or ends,
+// and the deadline of each height at a decision. Part of the scheduler (scheduler_impl.hpp).
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "scheduler_impl.hpp"
+
+namespace red {
+
+void Scheduler::Impl::rebuild(Job& j) {
+  j.dirty = false;
+  const RefinedGraph& g = *j.g;
+  const auto levels = static_cast<std::size_t>(g.levels);
+  const bool sum = s.config_.level_cost == LevelCost::Sum;
+  j.lvl_base.assign(levels, Duration{0});
+  j.has_base.assign(levels, 0);
+  j.running_units.clear();
+  j.enc_queued.clear();
+  j.work_base.fill(Duration{0});
+  j.work_most.fill(Duration{0});
+  j.cp_base.fill(Duration{0});
+  j.started = false;
+  for (std::size_t i = 0; i < g.units.size(); ++i) {
+    const UnitRt& u = j.u[i];
+    const RefinedUnit& ru = g.units[i];
+    if (u.state == UState::Done || u.state == UState::Running) j.started = true;
+    if (u.state == UState::Done || u.state == UState::Cancelled) continue;
+    const auto h = static_cast<std::size_t>(ru.height);
+    j.has_base[h] = 1;
+    if (u.state == UState::Running) {
+      j.running_units.push_back(static_cast<int>(i));
+      for (std::size_t k = 0; k < kEstimates; ++k)
+        j.work_most[k] += ru.costs[k] / std::max(1, u.share);
+      continue;
+    }
+    const Duration c = ru.estimate;
+    j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
+    for (std::size_t k = 0; k < kEstimates; ++k) j.cp_base[k] = std::max(j.cp_base[k], ru.tail[k]);
+    if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
+      j.enc_queued.push_back(static_cast<int>(i));
+      // Shared by the task's members now; more may join (less each), and a member that
+      // leaves marks the others dirty (remove_member).
+      const auto members =
+          static_cast<std::int64_t>(std::max<std::size_t>(1, task(u.task).members.size()));
+      for (std::size_t k = 0; k < kEstimates; ++k) j.work_most[k] += ru.costs[k] / members;
+    } else {
+      for (std::size_t k = 0; k < kEstimates; ++k) {
+        j.work_base[k] += ru.costs[k];
+        j.work_most[k] += ru.costs[k];
+      }
+    }
+  }
+  j.remaining_base = Duration{0};
+  for (Duration l : j.lvl_base) j.remaining_base += l;
+
+  if (opt.reassign && j.running_units.empty()) shares(j, j.lvl_base, j.has_base, j.frac);
+}
+
+void Scheduler::Impl::shares(const Job& j, const std::vector<Duration>& lvl,
+                             const std::vector<std::uint8_t>& has,
+                             std::vector<double>& frac) const {
+  const RefinedGraph& g = *j.g;
+  const std::size_t levels = lvl.size();
+  frac.resize(levels);
+  std::int64_t total = 0;
+  std::int64_t n = 0;
+  for (std::size_t h = 0; h < levels; ++h) {
+    if (has[h] == 0) continue;
+    ++n;
+    total += (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
+  }
+  const bool equal = opt.deadlines == DeadlineMode::Equal || total <= 0;
+  const std::int64_t denom = equal ? n : total;
+  std::int64_t cum = 0;
+  double last = 0.0;  // before the first height with work: now
+  for (std::size_t h = 0; h < levels; ++h) {
+    if (has[h] != 0) {
+      cum +=
+          equal ? 1 : (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
+      last = cum == denom ? 1.0 : static_cast<double>(cum) / static_cast<double>(denom);
+    }
+    frac[h] = last;
+  }
+}
+
+void Scheduler::Impl::eval_now(Job& j, TimePoint now) {
+  j.stamp = stamp;
+  const RefinedGraph& g = *j.g;
+  const bool sum = s.config_.level_cost == LevelCost::Sum;
+  j.lvl = j.lvl_base;
+  for (int i : j.running_units) {
+    const UnitRt& u = j.u[static_cast<std::size_t>(i)];
+    Duration c = g.units[static_cast<std::size_t>(i)].estimate;
+    if (now > u.start) c = std::max(Duration{0}, c - (now - u.start));
+    const auto h = static_cast<std::size_t>(g.units[static_cast<std::size_t>(i)].height);
+    j.lvl[h] = sum ? j.lvl[h] + c : std::max(j.lvl[h], c);
+  }
+  j.remaining = Duration{0};
+  for (Duration l : j.lvl) j.remaining += l;
+  if (opt.reassign) shares(j, j.lvl, j.has_base, j.frac_now);
+}
+
+TimePoint Scheduler::Impl::height_deadline(Job& j, int h, TimePoint now) {
+  const auto hi = static_cast<std::size_t>(h);
+  switch (opt.deadlines) {
+    case DeadlineMode::None:
+      return j.release;
+    case DeadlineMode::EndToEnd:
+      return j.deadline;
+    case DeadlineMode::Proportional:
+    case DeadlineMode::Equal:
+      break;
+  }
+  if (!opt.reassign) return j.release + j.g->static_offset[hi];
+  refresh(j);
+  if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
+  eval(j, now);
+  return from_share(j, j.frac_now[hi], now);
+}
+
+Duration Scheduler::Impl::remaining_work(Job& j, TimePoint now) {
+  refresh(j);
+  if (j.running_units.empty()) return j.remaining_base;
+  eval(j, now);
+  return j.remaining;
+}
+
+}  // namespace red
