@@ -104,29 +104,4 @@ void Scheduler::Impl::eval_now(Job& j, TimePoint now) {
   if (opt.reassign) shares(j, j.lvl, j.has_base, j.frac_now);
 }
 
-TimePoint Scheduler::Impl::height_deadline(Job& j, int h, TimePoint now) {
-  const auto hi = static_cast<std::size_t>(h);
-  switch (opt.deadlines) {
-    case DeadlineMode::None:
-      return j.release;
-    case DeadlineMode::EndToEnd:
-      return j.deadline;
-    case DeadlineMode::Proportional:
-    case DeadlineMode::Equal:
-      break;
-  }
-  if (!opt.reassign) return j.release + j.g->static_offset[hi];
-  refresh(j);
-  if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
-  eval(j, now);
-  return from_share(j, j.frac_now[hi], now);
-}
-
-Duration Scheduler::Impl::remaining_work(Job& j, TimePoint now) {
-  refresh(j);
-  if (j.running_units.empty()) return j.remaining_base;
-  eval(j, now);
-  return j.remaining;
-}
-
 }  // namespace red

@@ -22,30 +22,12 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   TimePoint by_job = kNever;
   v.cost = k.cost;
   Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
-  // Re-assignment (docs/DESIGN.md, "Re-assignment") (red, red-ida): one look at the job's cache
-  // gives both its height's deadline and its remaining work (height_deadline and remaining_work,
-  // inlined).
-  const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
-                                       opt.deadlines == DeadlineMode::Equal);
   for (std::size_t i = 0; i < k.members.size(); ++i) {
     const auto [slot, unit] = k.members[i];
     const auto [height, node] = k.member_at[i];
     Job& j = job(slot);
-    if (shared) {
-      refresh(j);
-      const auto h = static_cast<std::size_t>(height);
-      if (j.running_units.empty()) {
-        v.deadline = std::min(v.deadline, from_share(j, j.frac[h], now));
-        v.remaining = std::max(v.remaining, j.remaining_base);
-      } else {
-        eval(j, now);
-        v.deadline = std::min(v.deadline, from_share(j, j.frac_now[h], now));
-        v.remaining = std::max(v.remaining, j.remaining);
-      }
-    } else {
-      v.deadline = std::min(v.deadline, height_deadline(j, height, now));
-      v.remaining = std::max(v.remaining, remaining_work(j, now));
-    }
+    v.deadline = std::min(v.deadline, unit_deadline(j, height, now));
+    v.remaining = std::max(v.remaining, remaining_work(j, now));
     v.release = std::min(v.release, j.release);
     v.job_deadline = std::min(v.job_deadline, j.deadline);
     if (rank_by_job) by_job = std::min(by_job, rank_deadline(j, unit));
@@ -74,24 +56,8 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
 TimePoint Scheduler::Impl::task_deadline(const Task& k, TimePoint now) {
   // key()'s deadline, with no other look: the members' caches are as key() left them.
   TimePoint d = kNever;
-  const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
-                                       opt.deadlines == DeadlineMode::Equal);
-  for (std::size_t i = 0; i < k.members.size(); ++i) {
-    Job& j = job(k.members[i].first);
-    const int height = k.member_at[i].first;
-    if (shared) {
-      refresh(j);
-      const auto h = static_cast<std::size_t>(height);
-      if (j.running_units.empty()) {
-        d = std::min(d, from_share(j, j.frac[h], now));
-      } else {
-        eval(j, now);
-        d = std::min(d, from_share(j, j.frac_now[h], now));
-      }
-    } else {
-      d = std::min(d, height_deadline(j, height, now));
-    }
-  }
+  for (std::size_t i = 0; i < k.members.size(); ++i)
+    d = std::min(d, unit_deadline(job(k.members[i].first), k.member_at[i].first, now));
   return d;
 }
 

@@ -33,7 +33,7 @@ bool Scheduler::Impl::group_key(int t, TimePoint now, GroupKey& gk) {
     gk.deadline = j.deadline;
     gk.share = j.frac[static_cast<std::size_t>(height)];
   } else {
-    gk.deadline = height_deadline(j, height, now);  // fixed in these modes
+    gk.deadline = unit_deadline(j, height, now);  // fixed in these modes
     gk.share = 0.0;
   }
   gk.release = j.release;

@@ -376,7 +376,7 @@ TimePoint Scheduler::unit_deadline(int slot, int unit, TimePoint now) {
   Impl& m = *impl_;
   ++m.stamp;
   Job& j = m.job(slot);
-  return m.height_deadline(j, j.g->units[static_cast<std::size_t>(unit)].height, now);
+  return m.unit_deadline(j, j.g->units[static_cast<std::size_t>(unit)].height, now);
 }
 
 }  // namespace red

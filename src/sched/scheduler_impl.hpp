@@ -389,12 +389,36 @@ struct Scheduler::Impl {
   }
   void eval_now(Job& j, TimePoint now);
 
-  // Absolute intermediate deadline of height h of a job at `now` (docs/DESIGN.md, "Intermediate
-  // deadlines" and "Policies").
-  TimePoint height_deadline(Job& j, int h, TimePoint now);
+  // The one place a unit's deadline is assigned: the absolute intermediate deadline of height
+  // h of a job at `now` (docs/DESIGN.md, "Intermediate deadlines" and "Policies"). Ranking,
+  // batching, the ready set's groups and Scheduler::unit_deadline all read it. Inline: ranking
+  // calls it for every member of every ready task.
+  TimePoint unit_deadline(Job& j, int h, TimePoint now) {
+    const auto hi = static_cast<std::size_t>(h);
+    switch (opt.deadlines) {
+      case DeadlineMode::None:
+        return j.release;
+      case DeadlineMode::EndToEnd:
+        return j.deadline;
+      case DeadlineMode::Proportional:
+      case DeadlineMode::Equal:
+        break;
+    }
+    if (!opt.reassign) return j.release + j.g->static_offset[hi];
+    // Re-assignment: the shares of the job's cache, as they are at `now`.
+    refresh(j);
+    if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
+    eval(j, now);
+    return from_share(j, j.frac_now[hi], now);
+  }
 
   // Estimated work left in a job (Σ remaining level costs: its critical-path estimate).
-  Duration remaining_work(Job& j, TimePoint now);
+  Duration remaining_work(Job& j, TimePoint now) {
+    refresh(j);
+    if (j.running_units.empty()) return j.remaining_base;
+    eval(j, now);
+    return j.remaining;
+  }
 
   // The job's remaining critical path under the drop estimate (docs/DESIGN.md, "Overload":
   // optimistic, so that a job that can still make it is kept): the longest path through its
