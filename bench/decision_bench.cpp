@@ -27,11 +27,13 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "red/core/assert.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
+#include "red/sched/round.hpp"
 #include "red/sched/scheduler.hpp"
 #include "red/sim/cost_sampler.hpp"
 
@@ -125,24 +127,26 @@ class DecisionDriver {
       if (wake <= now_) wake = kNever;
       if (next_frame_ <= end && next_frame_ <= wake) {
         now_ = next_frame_;
-        scheduler_.on_frame(0, frame_++, now_);
+        untimed_round([&] { scheduler_.on_frame(0, frame_++, now_); });
         next_frame_ += frame_period_;
-        untimed_round();
         continue;
       }
       if (wake < end) {
         now_ = wake;
-        untimed_round();
+        untimed_round([] {});
         continue;
       }
       RED_ASSERT(lane >= 0);
       now_ = end;
       lane_end_[static_cast<std::size_t>(lane)] = kNever;
       inflight_ = scheduler_.jobs_in_flight();
-      const auto t0 = Clock::now();
-      scheduler_.on_complete(lane, now_, UnitStatus::Completed);
-      const auto t1 = Clock::now();
-      scheduler_.advance(now_);
+      // One round (red/sched/round.hpp); the completion and the decision are timed.
+      Clock::time_point t0, t1;
+      open_round(scheduler_, now_, [&] {
+        t0 = Clock::now();
+        scheduler_.on_complete(lane, now_, UnitStatus::Completed);
+        t1 = Clock::now();
+      });
       ready_ = scheduler_.ready_tasks();
       const auto t2 = Clock::now();
       const std::span<Dispatch* const> started = scheduler_.dispatch(now_);
@@ -166,9 +170,9 @@ class DecisionDriver {
 
   // A scheduling point that is not a unit completion (frame, release tick, drop, end of
   // a merge wait): handled like the simulator does, not timed.
-  void untimed_round() {
-    scheduler_.advance(now_);
-    for (Dispatch* d : scheduler_.dispatch(now_)) {
+  template <typename Inputs>
+  void untimed_round(Inputs&& inputs) {
+    for (Dispatch* d : run_round(scheduler_, now_, std::forward<Inputs>(inputs))) {
       scheduler_.on_start(d->lane, start_time(*d));
       lane_end_[static_cast<std::size_t>(d->lane)] = end_time(*d);
     }

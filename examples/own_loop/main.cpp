@@ -15,6 +15,7 @@
 #include <red/profile/profile.hpp>
 #include <red/scenario/builder.hpp>
 #include <red/sched/policy.hpp>
+#include <red/sched/round.hpp>
 #include <red/sched/scheduler.hpp>
 #include <red/version.hpp>
 
@@ -133,19 +134,19 @@ int main(int argc, char** argv) {
     std::this_thread::sleep_for(t - clock_now());
     now = std::max({now, t, clock_now()});  // scheduling points never go back in time
 
-    // The recipe of red/sched/scheduler.hpp, in its order.
-    s.apply_events(now);
-    for (std::size_t lane = 0; lane < lane_done.size(); ++lane)
-      if (lane_done[lane] <= now) {
-        lane_done[lane] = red::kNever;
-        s.on_complete(static_cast<int>(lane), now, red::UnitStatus::Completed);
+    // One round, in the order red/sched/round.hpp keeps: events, inputs, releases, decision.
+    const auto started = red::run_round(s, now, [&] {
+      for (std::size_t lane = 0; lane < lane_done.size(); ++lane)
+        if (lane_done[lane] <= now) {
+          lane_done[lane] = red::kNever;
+          s.on_complete(static_cast<int>(lane), now, red::UnitStatus::Completed);
+        }
+      if (releasing && next_frame <= now) {
+        s.on_frame(0, frame++, now);
+        next_frame += period;
       }
-    if (releasing && next_frame <= now) {
-      s.on_frame(0, frame++, now);
-      next_frame += period;
-    }
-    s.advance(now);
-    for (const red::Dispatch* d : s.dispatch(now)) {
+    });
+    for (const red::Dispatch* d : started) {
       s.on_start(d->lane, now);  // this executor starts at once (no round trip to pay)
       lane_done[static_cast<std::size_t>(d->lane)] = now + unit_cost(scenario, profile, *d);
     }

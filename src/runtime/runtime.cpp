@@ -21,6 +21,7 @@
 
 #include "red/core/assert.hpp"
 #include "red/core/clock.hpp"
+#include "red/sched/round.hpp"
 #include "red/sim/cost_sampler.hpp"
 
 namespace red {
@@ -338,30 +339,30 @@ struct Runtime::Impl {
   // workload events, then completions and frames in arrival order, timers, and a decision
   // for every idle lane. Returns the number of frames released.
   std::uint64_t round(TimePoint now) {
-    sched.apply_events(now);
     round_completed.clear();
     TimePoint completed_at = kNever;
     std::uint64_t frames = 0;
-    for (InEvent& e : round_events) {
-      if (e.kind == InEvent::Complete) {
-        sched.on_complete(e.index, now, e.status, e.reason, e.started);
-        round_completed.push_back(e.index);  // within the reserved capacity (one per lane)
-        completed_at = std::min(completed_at, e.t);
-      } else if (releasing) {
-        sched.on_frame(e.index, e.frame, now);
-        ++frames;
-        std::lock_guard rl(report_mu);
-        if (options.external_frames) report.frame_release_us.push_back(to_us(clock.now() - e.t));
-        if (e.t >= scenario.warmup) {
-          ++report.frames_released;
-          report.release_late_us.push_back(to_us(now - e.t));
-          if (now - e.t > period_of(sched.sensor_rate(e.index))) ++report.frames_behind;
+    open_round(sched, now, [&] {  // red/sched/round.hpp: events, these inputs, releases
+      for (InEvent& e : round_events) {
+        if (e.kind == InEvent::Complete) {
+          sched.on_complete(e.index, now, e.status, e.reason, e.started);
+          round_completed.push_back(e.index);  // within the reserved capacity (one per lane)
+          completed_at = std::min(completed_at, e.t);
+        } else if (releasing) {
+          sched.on_frame(e.index, e.frame, now);
+          ++frames;
+          std::lock_guard rl(report_mu);
+          if (options.external_frames) report.frame_release_us.push_back(to_us(clock.now() - e.t));
+          if (e.t >= scenario.warmup) {
+            ++report.frames_released;
+            report.release_late_us.push_back(to_us(now - e.t));
+            if (now - e.t > period_of(sched.sensor_rate(e.index))) ++report.frames_behind;
+          }
         }
       }
-    }
-    round_events.clear();
-    if (watchdog_on()) check_watchdog(now);
-    sched.advance(now);
+      round_events.clear();
+      if (watchdog_on()) check_watchdog(now);
+    });
     // Per-edge: a handler that completed waits here for its next unit (a round trip).
     const Dispatch* none = decide(now, -1, round_completed, completed_at);
     RED_ASSERT(none == nullptr);
@@ -624,8 +625,9 @@ struct Runtime::Impl {
         std::unique_lock lock(sched_mu, std::adopt_lock);
         const TimePoint locked = waited ? clock.now() : end;
         const TimePoint now = advance_now(end);
-        sched.on_complete(lane, now, status);
-        sched.advance(now);
+        // A round like the global synchronizer's (red/sched/round.hpp): workload events due
+        // by now first, so that this decision never runs on a replaced version.
+        open_round(sched, now, [&] { sched.on_complete(lane, now, status); });
         next = decide(now, lane, std::span<const int>(&lane, 1), end);
         prev_end = next != nullptr ? end : kNever;
         // It does not need to answer: wake it only when its timers moved earlier.
@@ -847,8 +849,9 @@ struct Runtime::Impl {
         std::unique_lock lock(sched_mu, std::adopt_lock);
         const TimePoint locked = waited ? clock.now() : end;
         const TimePoint now = advance_now(end);
-        sched.on_complete(lane, now, status, reason, started);
-        sched.advance(now);
+        // A round like the global synchronizer's (red/sched/round.hpp): workload events due
+        // by now first, so that this decision never runs on a replaced version.
+        open_round(sched, now, [&] { sched.on_complete(lane, now, status, reason, started); });
         if (status == UnitStatus::Completed) {
           // Every idle lane gets work (this one too, when it holds nothing more).
           // (The unit behind it, if any, is decided later, by the lead.)

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "red/core/rng.hpp"
+#include "red/sched/round.hpp"
 
 namespace red {
 
@@ -142,32 +143,33 @@ SimResult Simulator::run() {
       break;
     }
     now = t;
-    scheduler_.apply_events(now);
-    while (!q.empty() && q.top().t == now) {
-      const Ev e = q.top();
-      q.pop();
-      ++r.events;
-      if (e.kind == EvKind::Complete) {
-        auto& h = held[static_cast<std::size_t>(e.index)];
-        if (h.empty() || h.front().id != e.value) continue;
-        h.pop_front();
-        ++r.unit_events;
-        scheduler_.on_complete(e.index, now, UnitStatus::Completed);
-        plan_ahead(e.index);
-      } else if (e.kind == EvKind::Ahead) {
-        // Still holding what it held when this was planned, with room: decide now.
-        const auto& h = held[static_cast<std::size_t>(e.index)];
-        if (!h.empty() && h.back().id == e.value) touched.push_back(e.index);
-      } else {
-        if (!releasing) continue;  // a frame
-        const auto s = static_cast<std::size_t>(e.index);
-        scheduler_.on_frame(e.index, e.value, now);
-        base[s] += period_of(scheduler_.sensor_rate(e.index));
-        q.push({base[s] + jitter(s, e.value + 1), seq++, EvKind::Frame, e.index, e.value + 1});
+    // One round (red/sched/round.hpp): events, then what happened at `now`, then releases.
+    const auto started = run_round(scheduler_, now, [&] {
+      while (!q.empty() && q.top().t == now) {
+        const Ev e = q.top();
+        q.pop();
+        ++r.events;
+        if (e.kind == EvKind::Complete) {
+          auto& h = held[static_cast<std::size_t>(e.index)];
+          if (h.empty() || h.front().id != e.value) continue;
+          h.pop_front();
+          ++r.unit_events;
+          scheduler_.on_complete(e.index, now, UnitStatus::Completed);
+          plan_ahead(e.index);
+        } else if (e.kind == EvKind::Ahead) {
+          // Still holding what it held when this was planned, with room: decide now.
+          const auto& h = held[static_cast<std::size_t>(e.index)];
+          if (!h.empty() && h.back().id == e.value) touched.push_back(e.index);
+        } else {
+          if (!releasing) continue;  // a frame
+          const auto s = static_cast<std::size_t>(e.index);
+          scheduler_.on_frame(e.index, e.value, now);
+          base[s] += period_of(scheduler_.sensor_rate(e.index));
+          q.push({base[s] + jitter(s, e.value + 1), seq++, EvKind::Frame, e.index, e.value + 1});
+        }
       }
-    }
-    scheduler_.advance(now);
-    for (Dispatch* d : scheduler_.dispatch(now)) {
+    });
+    for (Dispatch* d : started) {
       // A calibrated profile measured the hand-off without a round trip too.
       start_unit(*d, now + (d->round_trip ? sync_cost_ : handoff_));
       plan_ahead(d->lane);

@@ -5,14 +5,15 @@
 /// dispatch. It reads no clock: the driver (simulator or real runtime) passes the time in. Same
 /// code, both backends.
 ///
-/// Driving it, at every scheduling point `now` (non-decreasing):
+/// Driving it, at every scheduling point `now` (non-decreasing), in the order
+/// red/sched/round.hpp keeps for every driver:
 ///
-///     s.apply_events(now);                 // workload events due by now (docs/DESIGN.md, "Task
-///     model") s.on_complete(lane, now, status);    // units that finished at now
-///     s.on_frame(sensor, frame_id, now);   // frames that arrived at now
-///     s.advance(now);                      // own-rate releases, strict drops
-///     for (const Dispatch* d : s.dispatch(now)) executor.start(*d);
-///     wake up again at s.next_wakeup() or at the next external input.
+///     red::run_round(s, now, [&] {
+///       s.on_complete(lane, now, status);  // units that finished by now
+///       s.on_frame(sensor, frame_id, now); // frames that arrived by now
+///     });  // = s.apply_events(now); the inputs; s.advance(now); s.dispatch(now)
+///     then executor.start(*d) for every dispatch it returns, and wake up again at
+///     s.next_wakeup() or at the next external input.
 ///
 /// Not thread-safe: one thread (the global synchronizer) owns it.
 
