@@ -3,10 +3,16 @@
 /// two public entry points turn into an Error, so a scenario is either complete or absent.
 /// Events are resolved by replaying them in order on copies of the operation snapshots;
 /// every rule is checked against the workload as it is at the event's time.
+///
+/// Its parts: this file keeps the top-level load order (device, model, scheduler, sensors,
+/// operations and their graphs) and the public entry points; fields.cpp reads and checks typed
+/// values (fields.hpp); events.cpp reads the timed events; overrides.cpp applies `--set`
+/// (apply_override). loader_impl.hpp declares the Loader they share.
 
 #include "red/scenario/loader.hpp"
-
+#include "fields.hpp"
 #include "limits.hpp"
+#include "loader_impl.hpp"
 #include "red/core/file.hpp"
 #include "red/sched/policy.hpp"
 #include "yaml_tree.hpp"
@@ -32,208 +38,9 @@
 #include <fmt/format.h>
 
 namespace red {
-namespace {
+namespace loader_detail {
 
 using namespace limits;  // the bounds of every value read (limits.hpp)
-
-/// The only exception the loader raises; never leaves this file.
-struct Failure {
-  int line = 0;
-  std::string message;
-};
-
-[[noreturn]] void fail(int line, std::string message) {
-  throw Failure{line, std::move(message)};
-}
-
-/// The 1-based line of a node; 0 unknown.
-int mark_line(const yaml::Node& n) {
-  return n.line();
-}
-
-/// A YAML value, the line to report it by and its path in the file (for messages).
-struct Val {
-  yaml::Node node;
-  int line = 0;
-  std::string what;  ///< e.g. "operations.drive.deadline_ms"; empty for the top level
-};
-
-/// "<what>: " or nothing at the top level.
-std::string at(const std::string& what) {
-  return what.empty() ? std::string{} : what + ": ";
-}
-
-std::string got(const yaml::Node& n) {
-  if (n.is_null()) return ", got nothing";
-  if (n.is_map()) return ", got a mapping";
-  if (n.is_sequence()) return ", got a list";
-  if (n.tag() == "!") return ", got the quoted string '" + n.scalar() + "'";
-  if (n.tag() == "tag:yaml.org,2002:str") return ", got the string !!str '" + n.scalar() + "'";
-  return ", got '" + n.scalar() + "'";
-}
-
-std::string join(const std::vector<std::string>& items) {
-  std::string out;
-  for (const auto& s : items) out += (out.empty() ? "" : ", ") + s;
-  return out;
-}
-
-/// One `key: value` of a mapping, in file order.
-struct Entry {
-  std::string key;
-  int key_line = 0;
-  Val value;
-};
-
-/// The entries of a mapping; `kind` names what a duplicate key is ("key", "node", ...).
-std::vector<Entry> entries_of(const Val& v, std::string_view kind = "key") {
-  if (!v.node.is_map()) fail(v.line, at(v.what) + "must be a mapping" + got(v.node));
-  std::vector<Entry> out;
-  std::unordered_map<std::string, int> first_line;  // O(1) per key: mappings of 50,000 nodes
-  for (const auto& [key, value] : v.node.entries()) {
-    const int key_line = mark_line(key);
-    if (!key.is_scalar() || key.scalar().empty())
-      fail(key_line, at(v.what) + "keys must be non-empty names" + got(key));
-    const std::string name = key.scalar();
-    if (const auto [seen, fresh] = first_line.emplace(name, key_line); !fresh)
-      fail(key_line, fmt::format("{}duplicate {} '{}' (first at line {})", at(v.what), kind, name,
-                                 seen->second));
-    // A null value's mark points at the next token, possibly lines later: use the key's.
-    const int value_line = value.is_null() ? key_line : mark_line(value);
-    out.push_back(Entry{name, key_line,
-                        Val{value, value_line ? value_line : key_line,
-                            v.what.empty() ? name : v.what + "." + name}});
-  }
-  return out;
-}
-
-/// A mapping with a fixed set of allowed keys.
-class Fields {
- public:
-  Fields(const Val& v, std::initializer_list<const char*> allowed)
-      : line_(v.line), what_(v.what), entries_(entries_of(v)) {
-    for (const auto& e : entries_) {
-      bool known = false;
-      for (const char* a : allowed) known = known || e.key == a;
-      if (known) continue;
-      std::vector<std::string> names(allowed.begin(), allowed.end());
-      fail(e.key_line,
-           fmt::format("{}unknown key '{}' (allowed: {})", at(what_), e.key, join(names)));
-    }
-  }
-
-  [[nodiscard]] const Val* get(std::string_view key) const {
-    for (const auto& e : entries_)
-      if (e.key == key) return &e.value;
-    return nullptr;
-  }
-
-  [[nodiscard]] const Val& need(std::string_view key) const {
-    if (const Val* v = get(key)) return *v;
-    fail(line_, fmt::format("{}missing required key '{}'", at(what_), key));
-  }
-
-  [[nodiscard]] const std::vector<Entry>& entries() const { return entries_; }
-  [[nodiscard]] int line() const { return line_; }
-
- private:
-  int line_;
-  std::string what_;
-  std::vector<Entry> entries_;
-};
-
-// ---- scalars -------------------------------------------------------------------------
-
-/// A scalar that may be read as a number: plain (untagged, unquoted) or tagged `!!int` /
-/// `!!float`. A quoted "15" or a `!!str 15` is a string, not a number.
-bool is_plain_scalar(const yaml::Node& n) {
-  if (!n.is_scalar()) return false;
-  const std::string& tag = n.tag();
-  return tag.empty() || tag == "?" || tag == "tag:yaml.org,2002:int" ||
-         tag == "tag:yaml.org,2002:float";
-}
-
-double number(const Val& v) {
-  if (is_plain_scalar(v.node)) {
-    std::string_view s = v.node.scalar();
-    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
-    double x = 0.0;
-    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
-    if (ec == std::errc{} && end == s.data() + s.size() && std::isfinite(x)) return x;
-  }
-  fail(v.line, at(v.what) + "must be a number" + got(v.node));
-}
-
-double positive(const Val& v) {
-  const double x = number(v);
-  if (!(x > 0.0)) fail(v.line, at(v.what) + "must be > 0" + got(v.node));
-  return x;
-}
-
-double rate(const Val& v) {
-  const double x = positive(v);
-  if (x < kMinRateHz || x > kMaxRateHz)
-    fail(v.line, at(v.what) +
-                     fmt::format("must be between {:g} Hz (one a day) and {:g} Hz", kMinRateHz,
-                                 kMaxRateHz) +
-                     got(v.node));
-  return x;
-}
-
-double non_negative(const Val& v) {
-  const double x = number(v);
-  if (x < 0.0) fail(v.line, at(v.what) + "must be >= 0" + got(v.node));
-  return x;
-}
-
-std::int64_t integer(const Val& v, std::int64_t lo, std::int64_t hi) {
-  if (is_plain_scalar(v.node)) {
-    std::string_view s = v.node.scalar();
-    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
-    std::int64_t x = 0;
-    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
-    if (ec == std::errc{} && end == s.data() + s.size()) {
-      if (x < lo || x > hi)
-        fail(v.line,
-             fmt::format("{}must be an integer in [{}, {}]{}", at(v.what), lo, hi, got(v.node)));
-      return x;
-    }
-  }
-  fail(v.line, at(v.what) + "must be an integer" + got(v.node));
-}
-
-int small_int(const Val& v, int lo) {
-  return static_cast<int>(integer(v, lo, std::numeric_limits<int>::max()));
-}
-
-std::string text(const Val& v) {
-  if (!v.node.is_scalar() || v.node.scalar().empty())
-    fail(v.line, at(v.what) + "must be a non-empty string" + got(v.node));
-  return v.node.scalar();
-}
-
-/// An absolute ROS 2 topic name (`/a/b_1`: letters, digits, `_`, tokens not starting with a
-/// digit, no `//`, no trailing `/`), for `red node` (docs/ROS2.md).
-std::string ros_topic(const Val& v) {
-  const std::string t = text(v);
-  bool ok = t.size() >= 2 && t.front() == '/' && t.back() != '/';
-  for (std::size_t i = 1; ok && i < t.size(); ++i) {
-    const char c = t[i], prev = t[i - 1];
-    ok = (std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '/') &&
-         !(c == '/' && prev == '/') &&
-         !(prev == '/' && std::isdigit(static_cast<unsigned char>(c)) != 0);
-  }
-  if (!ok)
-    fail(v.line,
-         at(v.what) + "must be an absolute ROS 2 topic name like /camera/image_raw" + got(v.node));
-  return t;
-}
-
-/// Milliseconds or seconds from a file, bounded so the nanosecond count cannot overflow.
-Duration ms_value(const Val& v, double ms) {
-  if (ms > 1e12) fail(v.line, at(v.what) + "is too large" + got(v.node));
-  return from_ms(ms);
-}
 
 // ---- graph checks --------------------------------------------------------------------
 
@@ -305,59 +112,6 @@ std::set<std::pair<int, int>> edge_set(const OperationSpec& op) {
   for (const EdgeSpec& e : op.edges) edges.emplace(e.from, e.to);
   return edges;
 }
-
-/// An edge as read from the file, resolved to node indices.
-struct ReadEdge {
-  EdgeSpec edge;
-  int line = 0;
-};
-
-const char* const kEventKinds[] = {"add_nodes",    "remove_nodes",  "add_edges",
-                                   "remove_edges", "add_operation", "remove_operation",
-                                   "set_deadline", "set_rate"};
-
-// ---- the loader ----------------------------------------------------------------------
-
-class Loader {
- public:
-  explicit Loader(std::string file) : file_(std::move(file)) {}
-
-  Scenario run(const yaml::Node& root);
-
- private:
-  /// An operation as parsed, before depends_on is resolved to an index.
-  struct Parsed {
-    OperationSpec op;
-    std::optional<Val> depends_on;  ///< the operation name to wait for
-  };
-
-  std::string resolve_path(const std::string& p) const;
-  void parse_device(const Val& v);
-  void parse_model(const Val& v);
-  void parse_scheduler(const Val& v);
-  void parse_interference(const Val& v);
-  void parse_sensors(const Val& v);
-  int sensor_index(const Val& v) const;
-  Parsed parse_operation(const Val& v, const std::string& named_base);
-  NodeSpec parse_node(const Entry& entry) const;
-  void add_nodes(OperationSpec& op, const Val& v) const;
-  std::vector<ReadEdge> read_edges(const OperationSpec& op, const Val& v) const;
-  DeadlineSpec parse_deadline(const Val& v) const;
-  /// A fixed deadline in ms (deadline_ms), within [1 us, 1e12 ms].
-  Duration deadline_value(const Val& v) const;
-  void check_graph(const OperationSpec& op, const std::vector<ReadEdge>& edges,
-                   int fallback_line) const;
-  int active_index(const std::string& name) const;
-  int need_active(const Val& v, Duration t) const;
-  void parse_events(const Val& v);
-  EventSpec parse_event(const Val& v, Duration& last_at, int& last_line);
-
-  std::string file_;
-  Scenario s_;
-  bool have_model_ = false;
-  /// The workload during replay: snapshot by operation index, null when not present.
-  std::vector<std::shared_ptr<const OperationSpec>> current_;
-};
 
 std::string Loader::resolve_path(const std::string& p) const {
   const std::filesystem::path path(p);
@@ -650,7 +404,7 @@ Loader::Parsed Loader::parse_operation(const Val& v, const std::string& named_ba
   if (trigger && rate)
     fail(rate->line, at(named.what) + "give trigger (a sensor) or rate_hz, not both");
   if (trigger) op.trigger_sensor = sensor_index(*trigger);
-  if (rate) op.rate_hz = red::rate(*rate);
+  if (rate) op.rate_hz = loader_detail::rate(*rate);
   if (release) {
     const Fields r(*release, {"count"});
     op.release_count = static_cast<int>(integer(r.need("count"), 1, kMaxReleaseCount));
@@ -685,201 +439,6 @@ Loader::Parsed Loader::parse_operation(const Val& v, const std::string& named_ba
   }
   check_graph(op, edges, f.line());
   return p;
-}
-
-int Loader::active_index(const std::string& name) const {
-  for (std::size_t i = 0; i < current_.size(); ++i)
-    if (current_[i] && current_[i]->name == name) return static_cast<int>(i);
-  return -1;
-}
-
-int Loader::need_active(const Val& v, Duration t) const {
-  const std::string name = text(v);
-  const int i = active_index(name);
-  if (i >= 0) return i;
-  const bool existed = std::find(s_.names_.begin(), s_.names_.end(), name) != s_.names_.end();
-  fail(v.line, fmt::format("{}no operation '{}' in the workload at {} s{}", at(v.what), name,
-                           to_s(t), existed ? " (an earlier event removed it)" : ""));
-}
-
-EventSpec Loader::parse_event(const Val& v, Duration& last_at, int& last_line) {
-  const Fields f(v, {"at_s", "add_nodes", "remove_nodes", "add_edges", "remove_edges",
-                     "add_operation", "remove_operation", "set_deadline", "set_rate"});
-  EventSpec ev;
-  ev.line = v.line;
-  const Val& at_s = f.need("at_s");
-  const double t = non_negative(at_s);
-  if (t > 1e9) fail(at_s.line, at(at_s.what) + "is too large" + got(at_s.node));
-  ev.at = from_s(t);
-  if (ev.at >= s_.duration)
-    fail(at_s.line, fmt::format("{}event at {} s is not before the end of the scenario "
-                                "(duration_s {})",
-                                at(at_s.what), t, to_s(s_.duration)));
-  if (ev.at < last_at)
-    fail(at_s.line, fmt::format("{}events out of time order: at_s {} comes after an event at "
-                                "{} s (line {})",
-                                at(at_s.what), t, to_s(last_at), last_line));
-  last_at = ev.at;
-  last_line = v.line;
-
-  const Entry* action = nullptr;
-  for (const auto& e : f.entries()) {
-    if (e.key == "at_s") continue;
-    if (action)
-      fail(e.key_line, fmt::format("{}an event has exactly one action; this one has '{}' and "
-                                   "'{}'",
-                                   at(v.what), action->key, e.key));
-    action = &e;
-  }
-  if (!action) {
-    std::vector<std::string> kinds(std::begin(kEventKinds), std::end(kEventKinds));
-    fail(v.line, at(v.what) + "event has no action (one of: " + join(kinds) + ")");
-  }
-  ev.kind = action->key;
-  const Val& a = action->value;
-
-  if (ev.kind == "add_operation") {
-    Parsed p = parse_operation(a, a.what);
-    if (active_index(p.op.name) >= 0)
-      fail(a.line, fmt::format("{}an operation named '{}' already exists at {} s", at(a.what),
-                               p.op.name, t));
-    if (p.depends_on) p.op.depends_on = need_active(*p.depends_on, ev.at);
-    const int index = static_cast<int>(current_.size());
-    auto snap = std::make_shared<const OperationSpec>(std::move(p.op));
-    current_.push_back(snap);
-    s_.names_.push_back(snap->name);
-    ev.changes.emplace_back(index, std::move(snap));
-    return ev;
-  }
-  if (ev.kind == "set_rate") {
-    const Fields sr(a, {"operation", "sensor", "rate_hz"});
-    const Val* op_name = sr.get("operation");
-    const Val* sensor = sr.get("sensor");
-    if ((op_name != nullptr) == (sensor != nullptr))
-      fail(sr.line(), at(a.what) + "give exactly one of 'operation' or 'sensor'");
-    const double rate = red::rate(sr.need("rate_hz"));
-    if (sensor) {
-      ev.sensor_rates.emplace_back(sensor_index(*sensor), rate);
-      return ev;
-    }
-    const int i = need_active(*op_name, ev.at);
-    auto op = std::make_shared<OperationSpec>(*current_[static_cast<std::size_t>(i)]);
-    if (op->trigger_sensor >= 0 || op->rate_hz <= 0.0)
-      fail(op_name->line, fmt::format("{}operation '{}' has no own rate_hz to change{}",
-                                      at(op_name->what), op->name,
-                                      op->trigger_sensor >= 0 ? " (it follows its trigger sensor; "
-                                                                "set the sensor's rate)"
-                                                              : ""));
-    op->rate_hz = rate;
-    current_[static_cast<std::size_t>(i)] = op;
-    ev.changes.emplace_back(i, std::move(op));
-    return ev;
-  }
-
-  // Every other action names an existing operation and changes only it.
-  const Fields af = [&] {
-    if (ev.kind == "add_nodes") return Fields(a, {"operation", "nodes", "edges"});
-    if (ev.kind == "remove_nodes") return Fields(a, {"operation", "nodes"});
-    if (ev.kind == "add_edges" || ev.kind == "remove_edges")
-      return Fields(a, {"operation", "edges"});
-    if (ev.kind == "set_deadline") return Fields(a, {"operation", "deadline_ms"});
-    return Fields(a, {"operation"});  // remove_operation
-  }();
-  const int i = need_active(af.need("operation"), ev.at);
-  const auto index = static_cast<std::size_t>(i);
-
-  if (ev.kind == "remove_operation") {
-    for (const auto& other : current_)
-      if (other && other->depends_on == i)
-        fail(a.line, fmt::format("{}cannot remove operation '{}': operation '{}' depends on it",
-                                 at(a.what), current_[index]->name, other->name));
-    current_[index] = nullptr;
-    ev.changes.emplace_back(i, nullptr);
-    return ev;
-  }
-
-  auto op = std::make_shared<OperationSpec>(*current_[index]);
-  std::vector<ReadEdge> new_edges;
-  if (ev.kind == "add_nodes") {
-    add_nodes(*op, af.need("nodes"));
-    if (const Val* e = af.get("edges")) new_edges = read_edges(*op, *e);
-  } else if (ev.kind == "remove_nodes") {
-    const Val& list = af.need("nodes");
-    if (!list.node.is_sequence() || list.node.size() == 0)
-      fail(list.line, at(list.what) + "must be a non-empty list of node names" + got(list.node));
-    std::vector<bool> removed(op->nodes.size(), false);
-    const std::unordered_map<std::string, int> nodes = node_indices(*op);
-    for (const yaml::Node& item : list.node.items()) {
-      const Val iv{item, mark_line(item) ? mark_line(item) : list.line, list.what};
-      const std::string name = text(iv);
-      const auto found = nodes.find(name);
-      const int n = found == nodes.end() ? -1 : found->second;
-      if (n < 0)
-        fail(iv.line, fmt::format("{}operation '{}' has no node '{}' at {} s (nodes: {})",
-                                  at(list.what), op->name, name, t, node_names(*op)));
-      if (removed[static_cast<std::size_t>(n)])
-        fail(iv.line, at(list.what) + "node '" + name + "' is listed twice");
-      removed[static_cast<std::size_t>(n)] = true;
-    }
-    std::vector<int> remap(op->nodes.size(), -1);
-    std::vector<NodeSpec> kept;
-    for (std::size_t n = 0; n < op->nodes.size(); ++n) {
-      if (removed[n]) continue;
-      remap[n] = static_cast<int>(kept.size());
-      kept.push_back(op->nodes[n]);
-    }
-    std::vector<EdgeSpec> edges;
-    for (const auto& e : op->edges) {
-      const int from = remap[static_cast<std::size_t>(e.from)];
-      const int to = remap[static_cast<std::size_t>(e.to)];
-      if (from >= 0 && to >= 0) edges.push_back(EdgeSpec{from, to});
-    }
-    op->nodes = std::move(kept);
-    op->edges = std::move(edges);
-  } else if (ev.kind == "add_edges") {
-    new_edges = read_edges(*op, af.need("edges"));
-    if (new_edges.empty()) fail(a.line, at(a.what) + "edges must not be empty");
-  } else if (ev.kind == "remove_edges") {
-    const auto gone = read_edges(*op, af.need("edges"));
-    if (gone.empty()) fail(a.line, at(a.what) + "edges must not be empty");
-    for (const auto& g : gone) {
-      const auto it = std::find_if(op->edges.begin(), op->edges.end(), [&](const EdgeSpec& x) {
-        return x.from == g.edge.from && x.to == g.edge.to;
-      });
-      if (it == op->edges.end())
-        fail(g.line, fmt::format("{}operation '{}' has no edge [{}, {}] at {} s", at(a.what),
-                                 op->name, op->nodes[static_cast<std::size_t>(g.edge.from)].name,
-                                 op->nodes[static_cast<std::size_t>(g.edge.to)].name, t));
-      op->edges.erase(it);
-    }
-  } else {  // set_deadline
-    op->deadline = parse_deadline(af.need("deadline_ms"));
-  }
-  std::set<std::pair<int, int>> seen = edge_set(*op);
-  for (const auto& e : new_edges) {
-    if (!seen.emplace(e.edge.from, e.edge.to).second)
-      fail(e.line, fmt::format("{}operation '{}' already has edge [{}, {}]", at(a.what), op->name,
-                               op->nodes[static_cast<std::size_t>(e.edge.from)].name,
-                               op->nodes[static_cast<std::size_t>(e.edge.to)].name));
-    op->edges.push_back(e.edge);
-  }
-  // A cycle made by an event is reported at the event, where the change was written.
-  check_graph(*op, {}, v.line);
-  current_[index] = op;
-  ev.changes.emplace_back(i, std::move(op));
-  return ev;
-}
-
-void Loader::parse_events(const Val& v) {
-  if (!v.node.is_sequence()) fail(v.line, at(v.what) + "must be a list of events" + got(v.node));
-  Duration last_at{0};
-  int last_line = 0;
-  std::size_t k = 0;
-  for (const yaml::Node& item : v.node.items()) {
-    const Val ev{item, mark_line(item) ? mark_line(item) : v.line,
-                 fmt::format("{}[{}]", v.what, k++)};
-    s_.events.push_back(parse_event(ev, last_at, last_line));
-  }
 }
 
 Scenario Loader::run(const yaml::Node& root) {
@@ -957,45 +516,18 @@ Scenario Loader::run(const yaml::Node& root) {
   return std::move(s_);
 }
 
-// ---- overrides -----------------------------------------------------------------------
+}  // namespace loader_detail
 
-std::optional<Duration> scaled(Duration d, double factor) {
-  const double x = static_cast<double>(d.count()) * factor;
-  if (!(x <= 1e18)) return std::nullopt;
-  return Duration{static_cast<std::int64_t>(std::llround(x))};
-}
-
-/// Rewrites every operation snapshot (initial and in events) with `edit`, which returns
-/// false when a value would overflow. Snapshots shared between places stay shared.
-template <typename Edit>
-bool rewrite_operations(Scenario& s, Edit edit) {
-  std::map<const OperationSpec*, std::shared_ptr<const OperationSpec>> done;
-  auto redo = [&](std::shared_ptr<const OperationSpec>& p) {
-    if (!p) return true;
-    auto [it, fresh] = done.try_emplace(p.get());
-    if (fresh) {
-      auto copy = std::make_shared<OperationSpec>(*p);
-      if (!edit(*copy)) return false;
-      it->second = std::move(copy);
-    }
-    p = it->second;
-    return true;
-  };
-  for (auto& p : s.initial)
-    if (!redo(p)) return false;
-  for (auto& ev : s.events)
-    for (auto& [index, p] : ev.changes)
-      if (!redo(p)) return false;
-  return true;
-}
-
-}  // namespace
+using loader_detail::Failure;
+using loader_detail::got;
+using loader_detail::Loader;
+using loader_detail::mark_line;
 
 Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::string& file) {
   // YAML is UTF-8 text, and every name read here reaches UTF-8 outputs (summary.json).
   if (auto e = check_utf8(yaml_text, file)) return *e;
   try {
-    auto doc = yaml::parse(yaml_text, kMaxNesting);
+    auto doc = yaml::parse(yaml_text, limits::kMaxNesting);
     if (!doc) return Error{file, doc.error().line, doc.error().message};
     if (const int second = second_yaml_document_line(yaml_text); second > 0)
       return Error{file, second,
@@ -1024,102 +556,6 @@ Expected<Scenario> load_scenario(const std::string& path) {
   auto text = read_file(path);
   if (!text) return text.error();
   return parse_scenario(text.value(), path);
-}
-
-std::optional<Error> apply_override(Scenario& s, const std::string& key, double value,
-                                    std::vector<std::string>* warnings) {
-  auto bad = [&](const std::string& why) {
-    return Error{"", 0, fmt::format("override {}={}: {}", key, value, why)};
-  };
-  if (!std::isfinite(value)) return bad("the value must be a finite number");
-  Scenario out = s;
-  if (key == "deadline_scale") {
-    if (!(value > 0.0)) return bad("must be > 0");
-    const bool ok = rewrite_operations(out, [&](OperationSpec& op) {
-      if (op.deadline.critical_path_x) {
-        *op.deadline.critical_path_x *= value;
-        if (!(*op.deadline.critical_path_x >= kMinCriticalPathX &&
-              *op.deadline.critical_path_x <= kMaxCriticalPathX))
-          return false;
-      }
-      const auto fixed = scaled(op.deadline.fixed, value);
-      if (!fixed || (op.deadline.fixed > Duration{0} && *fixed < kMinDeadline)) return false;
-      op.deadline.fixed = *fixed;
-      for (auto& n : op.nodes) {
-        if (!n.deadline) continue;
-        const auto d = scaled(*n.deadline, value);
-        if (!d || *d < kMinDeadline) return false;
-        n.deadline = *d;
-      }
-      return true;
-    });
-    if (!ok)
-      return bad(
-          fmt::format("a deadline would leave its range (at least 0.001 ms, at most 1e12 ms; "
-                      "critical_path_x within [{:g}, {:g}])",
-                      kMinCriticalPathX, kMaxCriticalPathX));
-  } else if (key == "rate_scale") {
-    if (!(value > 0.0)) return bad("must be > 0");
-    for (auto& sensor : out.sensors) sensor.rate_hz *= value;
-    for (auto& ev : out.events)
-      for (auto& [index, rate] : ev.sensor_rates) rate *= value;
-    bool ok = rewrite_operations(out, [&](OperationSpec& op) {
-      op.rate_hz *= value;  // 0 (no own rate) stays 0
-      return op.rate_hz == 0.0 || (op.rate_hz >= kMinRateHz && op.rate_hz <= kMaxRateHz);
-    });
-    auto in_range = [](double r) { return r >= kMinRateHz && r <= kMaxRateHz; };
-    for (const auto& sensor : out.sensors) ok = ok && in_range(sensor.rate_hz);
-    for (const auto& ev : out.events)
-      for (const auto& [index, r] : ev.sensor_rates) ok = ok && in_range(r);
-    if (!ok) return bad(fmt::format("a rate would leave [{:g}, {:g}] Hz", kMinRateHz, kMaxRateHz));
-  } else if (key == "qoe_lambda") {
-    if (!(value > 0.0)) return bad("must be > 0");
-    out.scheduler.qoe_lambda = value;
-  } else if (key == "gamma_ms") {
-    if (value < 0.0 || value > 1e12) return bad("must be in [0, 1e12]");
-    out.scheduler.gamma = from_ms(value);
-  } else if (key == "lanes") {
-    if (value < 1.0 || value > static_cast<double>(kMaxLanes) || value != std::floor(value))
-      return bad(fmt::format("must be an integer in [1, {}]", kMaxLanes));
-    out.device.lanes = static_cast<int>(value);
-  } else if (key == "queue_depth") {
-    if (value < 1.0 || value > static_cast<double>(kMaxQueueDepth) || value != std::floor(value))
-      return bad(fmt::format("must be an integer in [1, {}]", kMaxQueueDepth));
-    out.device.queue_depth = static_cast<int>(value);
-  } else if (key == "duration_s") {
-    if (!(value > 0.0)) return bad("must be > 0");
-    if (value > 1e9) return bad("is too large (at most 1e9 s)");
-    out.duration = from_s(value);
-    if (out.warmup >= out.duration)
-      return bad(fmt::format("must be more than warmup_s ({})", to_s(out.warmup)));
-    // A shorter run leaves out the events it ends before (they are in time order, and no
-    // earlier event depends on a later one), saying so.
-    const auto first_late =
-        std::find_if(out.events.begin(), out.events.end(),
-                     [&](const EventSpec& ev) { return ev.at >= out.duration; });
-    if (first_late != out.events.end() && warnings != nullptr) {
-      std::string lines;
-      for (auto it = first_late; it != out.events.end(); ++it)
-        lines += (lines.empty() ? "" : ", ") + std::to_string(it->line);
-      warnings->push_back(
-          fmt::format("duration_s={:g} leaves out {} event(s) at or after {:g} s (line(s) {})",
-                      value, out.events.end() - first_late, value, lines));
-    }
-    out.events.erase(first_late, out.events.end());
-  } else if (key == "seed") {
-    if (value < 0.0 || value >= 9.2e18 || value != std::floor(value))
-      return bad("must be an integer >= 0");
-    out.seed = static_cast<std::uint64_t>(value);
-  } else {
-    return Error{"", 0,
-                 fmt::format("override {}={}: unknown key '{}' (allowed: deadline_scale, "
-                             "qoe_lambda, gamma_ms, lanes, queue_depth, rate_scale, duration_s, "
-                             "seed)",
-                             key, value, key)};
-  }
-  if (auto e = check_size(out)) return bad(e->message);
-  s = std::move(out);
-  return std::nullopt;
 }
 
 }  // namespace red

@@ -36,7 +36,7 @@ std::optional<std::string> needs_full(const std::vector<std::string>& args) {
   const std::string& cmd = args.front();
   if (cmd == "node" || cmd == "camera") return "the DDS bridge";
   if (cmd == "profile") return "LibTorch";
-  // The defaults of each command's --backend (cmd_simulate.cpp).
+  // The defaults of each command's --backend (cmd_compare.cpp, cmd_run.cpp).
   if (cmd == "run" && backend_of(args, "torch") == "torch") return "LibTorch";
   if (cmd == "compare" && backend_of(args, "sim") == "torch") return "LibTorch";
   return std::nullopt;
