@@ -14,7 +14,6 @@
 #include "red/metrics/distribution.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sched/observer.hpp"
-#include "red/sched/scheduler.hpp"
 
 namespace red {
 
