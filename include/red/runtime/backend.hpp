@@ -18,7 +18,7 @@
 #include <string_view>
 #include <vector>
 
-#include "red/sched/observer.hpp"
+#include "red/sched/records.hpp"
 
 namespace red {
 
