@@ -64,12 +64,7 @@ void Scheduler::Impl::join_group(int t, const GroupKey& gk) {
     group_of.emplace(gk, g);
   }
   Task& k = task(t);
-  // Out of `ready` (as pop_ready, without the count of encoders: a group holds none).
-  const int last = ready.back();
-  ready[static_cast<std::size_t>(k.ready_pos)] = last;
-  task(last).ready_pos = k.ready_pos;
-  ready.pop_back();
-  k.ready_pos = -1;
+  unlist_ready(k);  // no encoder count to keep: a group holds none
   k.group = g;
   groups[static_cast<std::size_t>(g)].tasks.emplace(task_rank(t).tie, t);
   ++job(k.members.front().first).grouped;

@@ -568,6 +568,14 @@ struct Scheduler::Impl {
   void push_ready(int t);
 
   void pop_ready(int t);
+  // Takes task t out of `ready` (where it is), keeping the others in place but the last.
+  void unlist_ready(Task& k) {
+    const int last = ready.back();
+    ready[static_cast<std::size_t>(k.ready_pos)] = last;
+    task(last).ready_pos = k.ready_pos;
+    ready.pop_back();
+    k.ready_pos = -1;
+  }
 
   void drop_open(int t);
 

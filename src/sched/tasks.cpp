@@ -46,11 +46,7 @@ void Scheduler::Impl::pop_ready(int t) {
   }
   if (k.ready_pos < 0) return;
   ready_encoders -= k.kind == UnitKind::Encoder ? 1 : 0;
-  const int last = ready.back();
-  ready[static_cast<std::size_t>(k.ready_pos)] = last;
-  task(last).ready_pos = k.ready_pos;
-  ready.pop_back();
-  k.ready_pos = -1;
+  unlist_ready(k);
 }
 
 void Scheduler::Impl::drop_open(int t) {

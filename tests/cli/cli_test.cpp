@@ -26,16 +26,9 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-/// What one run of the binary did.
-struct RunResult {
-  bool exited = false;  ///< ended by exit() (not by a signal)
-  int code = -1;        ///< exit status when `exited`
-  std::string out;
-  std::string err;
-};
-
 using test::quote;
 using test::read_text;
+using test::RunResult;
 using test::scenario;
 
 std::string data(const std::string& name) {
@@ -85,18 +78,7 @@ class Cli : public ::testing::Test {
   /// Runs `red ARGS`, capturing stdout and stderr. `wrapper` (e.g. "timeout 120") runs the
   /// binary under another command, so a hang shows as a failure instead of stalling the suite.
   RunResult red(const std::string& args, const std::string& wrapper = "") {
-    const fs::path out = dir_ / "stdout.txt";
-    const fs::path err = dir_ / "stderr.txt";
-    const std::string cmd = wrapper + (wrapper.empty() ? "" : " ") + quote(RED_CLI) + " " + args +
-                            " >" + quote(out.string()) + " 2>" + quote(err.string()) +
-                            " </dev/null";
-    const int status = std::system(cmd.c_str());
-    RunResult r;
-    r.exited = status != -1 && WIFEXITED(status);
-    r.code = r.exited ? WEXITSTATUS(status) : -1;
-    r.out = read_text(out);
-    r.err = read_text(err);
-    return r;
+    return test::run_red(args, dir_, wrapper);
   }
 
   /// Expects exit code exactly 2 (bad input), a message on stderr, and no crash.
