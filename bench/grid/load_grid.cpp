@@ -116,7 +116,7 @@ std::string render(const Summary& sum, int seeds, double duration) {
   out += fmt::format(
       "Mean on-time fraction (met / released) per family of task sets and load (rate_scale of "
       "the necessary work: 1.0 fills the lanes), {} seeds per (lanes, shape, nodes) cell, {} s "
-      "simulated each; `bound` is the work bound (docs/DESIGN.md#overload); `waste` is "
+      "simulated each; `bound` is the work bound ([Overload](DESIGN.md#overload)); `waste` is "
       "red-robust's wasted lane "
       "time.\n\n",
       seeds, duration);
@@ -144,7 +144,7 @@ std::string render(const Summary& sum, int seeds, double duration) {
       sum.points, sum.worst_vs_edf, sum.worst_vs_edf_at, sum.worst_vs_red, sum.worst_vs_red_at,
       sum.worst_vs_bound, sum.worst_vs_bound_at, 100 * sum.wasted_15);
   out += fmt::format(
-      "Points that miss an overload target (docs/DESIGN.md#overload): {} of {} below edf − 0.005; "
+      "Points that miss an [overload](DESIGN.md#overload) target: {} of {} below edf − 0.005; "
       "{} of {} below red − 0.005; "
       "{} of {} past capacity below 0.9 × the bound; {} of {} at 1.5× over 10 % wasted.\n",
       sum.below_edf, sum.points, sum.below_red, sum.points, sum.below_bound, sum.overloaded,
@@ -227,7 +227,19 @@ red::Scenario with_options(const red::Scenario& s, const std::string& policy,
 // --robots: edf, red and red-robust on N seeded robot workloads (robot_workload.hpp) at
 // 0.5 to 2.5x load; the worst point of red-robust against each, and of every operation more
 // critical than the workload's least against red (on-time fractions, after warm-up).
-int robots(int n, const red::Profile& profile, const std::string& with) {
+// With points_file, one TSV line per point: seed, load, the three on-time fractions and the
+// number of more critical operations below red.
+int robots(int n, const red::Profile& profile, const std::string& with,
+           const std::string& points_file) {
+  std::ofstream tsv;
+  if (!points_file.empty()) {
+    tsv.open(points_file);
+    if (!tsv) {
+      std::cerr << "red_load_grid: cannot write " << points_file << "\n";
+      return 1;
+    }
+    tsv << "seed\tload\tedf\tred\tred_robust\tcritical_below_red\n";
+  }
   const std::vector<double> loads{0.5, 1.0, 1.5, 2.0, 2.5};
   double worst_red = 1, worst_edf = 1, worst_crit = 1;
   std::string at_red, at_edf, at_crit;
@@ -276,16 +288,21 @@ int robots(int n, const red::Profile& profile, const std::string& with) {
       };
       int least = 1 << 30;
       for (int i = 0; i < s.operation_count(); ++i) least = std::min(least, crit(i));
+      int point_crit_below = 0;
       for (int i = 0; i < s.operation_count(); ++i) {
         const auto ii = static_cast<std::size_t>(i);
         if (crit(i) <= least || op_on_time["red"][ii] < 0) continue;
         const double d = op_on_time["red-robust"][ii] - op_on_time["red"][ii];
         crit_below += d < -0.005 ? 1 : 0;
+        point_crit_below += d < -0.005 ? 1 : 0;
         if (d < worst_crit) {
           worst_crit = d;
           at_crit = at + " " + s.operation_name(i);
         }
       }
+      if (tsv.is_open())
+        tsv << fmt::format("{}\t{:.1f}\t{:.4f}\t{:.4f}\t{:.4f}\t{}\n", seed, load, on_time["edf"],
+                           on_time["red"], on_time["red-robust"], point_crit_below);
     }
   std::cout << fmt::format(
       "{} points ({} robot workloads x {} loads)\n"
@@ -432,7 +449,7 @@ int main(int argc, char** argv) {
       std::cout << red::robot::workload_yaml(static_cast<std::uint64_t>(robot_seed), rp);
       return 0;
     }
-    return robots(robot_count, rp, with);
+    return robots(robot_count, rp, with, points_file);
   }
   if (point) {
     point->first.duration_s = duration;

@@ -99,6 +99,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   if (o.inflight >= o.max_inflight) {
     // max_inflight (docs/DESIGN.md, "max_inflight"): the frame is skipped and counted as a drop.
     o.last_skip = now;
+    last_miss = now;
     Job tmp;
     tmp.id = next_job_id++;
     tmp.op = op_index;
@@ -118,7 +119,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
       opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality && [&] {
         if (rates_changed) plan_rates();
         return outranked[static_cast<std::size_t>(op_index)] != 0 && past_capacity() &&
-               ahead_shed(op_index, now);
+               evidenced(now) && ahead_shed(op_index, now);
       }();
   const int slot = alloc_job();
   Job& j = job(slot);
@@ -202,6 +203,7 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   --ops[static_cast<std::size_t>(j.op)].inflight;
   if (outcome == JobOutcome::Dropped && !rejecting_by_rate)
     ops[static_cast<std::size_t>(j.op)].last_shed = now;
+  if (outcome == JobOutcome::Missed || outcome == JobOutcome::Dropped) last_miss = now;
   const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
                                    [this](int a, int b) { return earlier(a, b); });
   if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);

@@ -51,8 +51,8 @@ Duration Scheduler::Impl::work_left(Job& j, TimePoint now, std::size_t k) {
   return w;
 }
 
-bool Scheduler::Impl::looking_ahead() const {
-  return opt.lookahead &&
+bool Scheduler::Impl::looking_ahead(TimePoint now) const {
+  return opt.lookahead && evidenced(now) &&
          offered > kLookaheadAt * kOfferedWindow * static_cast<double>(s.config_.lanes);
 }
 
@@ -109,7 +109,7 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
                                    std::size_t from, bool skip_doomed, int min_crit) {
   // Admission (skip_doomed) looking ahead counts, by each job's deadline, the work of the
   // jobs still to come that are due by then too.
-  const bool ahead = skip_doomed && looking_ahead();
+  const bool ahead = skip_doomed && looking_ahead(now);
   const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
   if (lane_count > 1 && schedule)
     return first_overrun_lanes(now, k, margin, from, skip_doomed, min_crit);
@@ -341,8 +341,8 @@ void Scheduler::Impl::admit(TimePoint now) {
   // goes and the test starts again; a window with nothing to shed is passed over. A job that
   // cannot make it even alone (on the estimate, from now) counts for nothing: the hopeless
   // check ends it, and its work would make every later window overrun.
-  const bool ahead = looking_ahead();
-  if (opt.shed_lone && schedule) shed_lone_jobs(now, k, margin);
+  const bool ahead = looking_ahead(now);
+  if (opt.shed_lone && schedule && evidenced(now)) shed_lone_jobs(now, k, margin);
   // Criticality (docs/DESIGN.md, "Criticality"): under overload pick() runs the most critical work
   // first, so a job is in the way of a more critical one only through the units the lanes hold. A
   // job is rejected for a window only if the jobs of its criticality or more overrun by themselves;
@@ -367,7 +367,7 @@ void Scheduler::Impl::admit(TimePoint now) {
       refresh(j);
       if (j.started || doomed(j, now, k)) continue;
       const int crit = ops[static_cast<std::size_t>(j.op)].criticality;
-      if (crit >= carried_from) continue;
+      if (crit >= carried_from || (mixed_criticality && crit > least_op_criticality())) continue;
       const Duration w = work_left(j, now, k);
       const bool better = victim < 0 || crit < victim_crit ||
                           (crit == victim_crit && w > victim_work) ||
@@ -399,6 +399,13 @@ void Scheduler::Impl::admit(TimePoint now) {
     ++s.stats_.rejected;
     end_job(victim, JobOutcome::Dropped, now);
   }
+}
+
+int Scheduler::Impl::least_op_criticality() const {
+  int least = std::numeric_limits<int>::max();
+  for (const OpState& o : ops)
+    if (o.g != nullptr && o.remaining != 0) least = std::min(least, o.criticality);
+  return least;
 }
 
 int Scheduler::Impl::least_criticality() {
@@ -455,7 +462,8 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin)
     const int least = least_criticality();
     std::erase_if(lone, [&](int slot) {
       const int crit = ops[static_cast<std::size_t>(job(slot).op)].criticality;
-      return crit > least && first_overrun(now, est, true, margin, 0, true, crit) < 0;
+      return crit > least_op_criticality() ||
+             (crit > least && first_overrun(now, est, true, margin, 0, true, crit) < 0);
     });
   }
   for (const int slot : lone) {
@@ -470,7 +478,7 @@ void Scheduler::Impl::assess_overload(TimePoint now) {
   // release, so finishing its oldest job first is what keeps its frames (red-robust ranks by job
   // deadline then).
   const bool robust = opt.rank == RankMode::Overload;
-  const bool at_limit = robust && saturated();
+  const bool at_limit = robust && saturated() && evidenced(now);
   // The demand test (a walk over every job in flight) decides nothing that a saturated
   // operation has not decided already, unless criticalities differ or a ready encoder on
   // several lanes is ranked by it (no encoder becomes ready within a round): skipped then.

@@ -129,6 +129,7 @@ std::string set_option(PolicyOptions& o, std::string_view key, std::string_view 
   if (key == "shed_lone") return choose(o.shed_lone, key, value, kBool);
   if (key == "batch_by_job") return choose(o.batch_by_job, key, value, kBool);
   if (key == "path_rank") return choose(o.path_rank, key, value, kBool);
+  if (key == "miss_gate") return choose(o.miss_gate, key, value, kBool);
   if (key == "rank")
     return choose(
         o.rank, key, value,
@@ -161,7 +162,7 @@ const std::vector<std::string>& option_keys() {
   static const std::vector<std::string> v{
       "graph",     "deadlines",     "reassign",     "merge",        "batching", "sync",
       "drop",      "drop_estimate", "admission",    "admit_margin", "rank",     "shed_rate",
-      "lookahead", "shed_lone",     "batch_by_job", "path_rank"};
+      "lookahead", "shed_lone",     "batch_by_job", "path_rank",    "miss_gate"};
   return v;
 }
 
@@ -223,6 +224,7 @@ std::optional<PolicyOptions> preset_options(std::string_view name) {
       o.shed_lone = true;
       o.batch_by_job = true;
       o.path_rank = true;
+      o.miss_gate = true;
     }
   } else {
     return std::nullopt;

@@ -299,6 +299,15 @@ struct Scheduler::Impl {
   double offered = 0.0;
   TimePoint offered_at{0};
   bool overloaded = false;
+  // Evidence of overload (opt.miss_gate): when a job last ended without meeting its deadline
+  // (missed, dropped, skipped at max_inflight). The mechanisms that act on signs of overload
+  // other than the demand test (lookahead, shed_lone, shedding by rate, ranking by job deadline
+  // at max_inflight) act only within kMissWindow of it.
+  static constexpr double kMissWindow = 1.0;  // seconds
+  TimePoint last_miss = kNever;
+  bool evidenced(TimePoint now) const {
+    return !opt.miss_gate || (last_miss != kNever && now - last_miss <= from_s(kMissWindow));
+  }
   bool demand_overrun = false;  // this round's demand test found more work than the lanes do
   // red-robust ranks by job deadline until then (docs/DESIGN.md, "Overload").
   TimePoint overload_hold{0};
@@ -445,7 +454,7 @@ struct Scheduler::Impl {
   // Lookahead (docs/DESIGN.md, "Overload", opt.lookahead): true while admission also counts the
   // jobs periodic operations will release, i.e. once the offered load passes kLookaheadAt × the
   // lanes.
-  bool looking_ahead() const;
+  bool looking_ahead(TimePoint now) const;
   // The work of the jobs periodic operations (own rate or triggered by a sensor) will release
   // after `now` with deadlines by `t`, at their current rates, on estimate kind k: a job its
   // units' cost, a frame's encoder run divided among the operations it triggers. `largest`,
@@ -516,6 +525,9 @@ struct Scheduler::Impl {
   void shed_lone_jobs(TimePoint now, std::size_t k, int margin);
   // The least criticality of the jobs in flight (INT_MAX with none).
   int least_criticality();
+  // The least criticality of the workload's live operations: admission and shed_lone reject only
+  // jobs of it (docs/DESIGN.md, "Criticality").
+  int least_op_criticality() const;
   std::vector<int> lone;  // shed_lone_jobs' victims, reused
 
   // The latest a batch may end for every member of task k to finish its job by the job's

@@ -121,7 +121,7 @@ void add_with_option(CLI::App* cmd, ScenarioArgs& a) {
   cmd->add_option("--with", a.with,
                   "Policy options key=value,… for every policy run (graph, deadlines, reassign, "
                   "merge, batching, sync, drop, drop_estimate, admission, admit_margin, rank, "
-                  "shed_rate, lookahead, shed_lone, batch_by_job, path_rank; "
+                  "shed_rate, lookahead, shed_lone, batch_by_job, path_rank, miss_gate; "
                   "docs/CLI.md)");
 }
 

@@ -98,6 +98,12 @@ struct PolicyOptions {
   /// alone, which ran a job's off-path units ahead of another job's critical path on
   /// several lanes.
   bool path_rank = false;
+  /// With rank=overload (docs/DESIGN.md, "Overload"): the mechanisms that act on signs of
+  /// overload other than the demand test — ranking by job deadline because an operation is at
+  /// its max_inflight, lookahead, shed_by_rate and shed_lone — act only within 1 s of a job that
+  /// did not meet its deadline (missed, dropped or skipped at max_inflight). Admission by the
+  /// demand test, hopeless aborts and the criticality order are not gated.
+  bool miss_gate = false;
 
   bool operator==(const PolicyOptions&) const = default;
 };
