@@ -50,14 +50,6 @@ using test::Driver;
 
 /// Wall time of one runtime run (the scenario's timeline is compressed to it).
 constexpr Duration kRuntimeDuration = std::chrono::milliseconds{600};
-/// Where wall time enters: the runtime stamps a frame when it releases it, after the camera
-/// thread woke at the frame's nominal time (about 0.1 ms later on an idle machine). The
-/// tolerance leaves room for a loaded machine and ThreadSanitizer; a frame is still never
-/// used before its time, and a sensor's frames keep their order (check_semantics).
-constexpr Duration kRuntimeFrameLateness = std::chrono::milliseconds{100};
-/// Where wall time enters on an asynchronous lane: a unit's end is recorded when the host
-/// handles its completion, the next unit's start when the device started it (before that).
-constexpr Duration kRuntimeQueuedOverlap = std::chrono::milliseconds{100};
 
 /// A scenario of the suite: a bundled file, or a random one from a seed.
 struct Source {
@@ -151,21 +143,28 @@ struct Recorded {
 
 // A runtime run lasts kRuntimeDuration of wall time: the suite's tests of one parameter
 // check the same run, made by the first of them to ask (each check is independent of the
-// others). Runs of an earlier iteration (--gtest_repeat) are not reused: the environment
-// empties the cache as each iteration starts.
+// others). Runs of an earlier iteration (--gtest_repeat) are not reused: a listener empties
+// the cache as each iteration starts (a global environment would not: gtest sets those up
+// once for all iterations).
 std::map<std::string, std::shared_ptr<const Recorded>>& runtime_runs() {
   static std::map<std::string, std::shared_ptr<const Recorded>> runs;
   return runs;
 }
 
-class FreshRuntimeRunsPerIteration final : public testing::Environment {
+class FreshRuntimeRunsPerIteration final : public testing::EmptyTestEventListener {
  public:
-  void SetUp() override { runtime_runs().clear(); }
-  void TearDown() override { runtime_runs().clear(); }
+  void OnTestIterationStart(const testing::UnitTest& /*unit*/, int /*iteration*/) override {
+    runtime_runs().clear();
+  }
+  void OnTestIterationEnd(const testing::UnitTest& /*unit*/, int /*iteration*/) override {
+    runtime_runs().clear();
+  }
 };
 
-[[maybe_unused]] testing::Environment* const kFreshRuns =
-    testing::AddGlobalTestEnvironment(new FreshRuntimeRunsPerIteration);
+[[maybe_unused]] const bool kFreshRuns = [] {
+  testing::UnitTest::GetInstance()->listeners().Append(new FreshRuntimeRunsPerIteration);
+  return true;
+}();
 
 class Conformance : public testing::TestWithParam<Param> {
  protected:
@@ -220,10 +219,9 @@ TEST_P(Conformance, PrecedenceAndRefinementSemantics) {
   const test::RecordingObserver& rec = recorded().rec;
   ASSERT_GT(rec.units().size(), 0U);
   test::SemanticsOptions opt;
-  if (driver() == Driver::Runtime) {
-    opt.frame_late_by = kRuntimeFrameLateness;
-    opt.queued_overlap = kRuntimeQueuedOverlap;
-  }
+  // Where wall time enters (a frame's stamp, an asynchronous lane's recorded end), the
+  // runtime is checked for order, not lateness (SemanticsOptions::wall_clock).
+  opt.wall_clock = driver() == Driver::Runtime;
   const auto problems = test::check_semantics(scenario_, rec, opt);
   EXPECT_TRUE(problems.empty()) << test::join_lines(problems);
   EXPECT_EQ(rec.unknown_unit_ends(), 0U);
@@ -293,8 +291,7 @@ TEST_P(Conformance, NoLaneIdlesWhileWorkIsReadyAndOneUnitPerLane) {
              ", idle lanes " + std::to_string(v.idle_lanes) + ", in a merge wait " +
              std::to_string(v.waiting) + "\n";
   EXPECT_EQ(rec.idle_violation_count(), 0U) << first;
-  const auto lanes = test::check_lanes(
-      scenario_, rec, driver() == Driver::Runtime ? kRuntimeQueuedOverlap : Duration{0});
+  const auto lanes = test::check_lanes(scenario_, rec, driver() == Driver::Runtime);
   EXPECT_TRUE(lanes.empty()) << test::join_lines(lanes);
 }
 
