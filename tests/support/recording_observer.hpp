@@ -35,7 +35,7 @@ struct SeenJob {
 
 /// One unit execution (a dispatch) as the observer saw it.
 struct SeenUnit {
-  Dispatch d;  ///< copy taken at on_unit_start (members, start, lane, ...)
+  Dispatch d;  ///< copy taken at on_unit_start (members, lane, ...); start as at its end
   std::uint64_t start_event = 0;
   std::uint64_t end_event = 0;  ///< 0 while running
   TimePoint end = kNever;
@@ -101,6 +101,9 @@ class RecordingObserver final : public Observer {
     }
     SeenUnit& u = units_[it->second];
     if (u.ended) ++double_unit_ends_;
+    // The start it ended with: a unit queued behind another on an asynchronous lane is
+    // given its start when it was queued, corrected once that one ended (Scheduler::on_complete).
+    u.d.start = d.start;
     u.ended = true;
     u.end = end;
     u.end_event = event_;

@@ -7,8 +7,10 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <iterator>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -25,6 +27,17 @@ struct SemanticsOptions {
   bool all_jobs = true;
   /// At most this many messages are returned.
   std::size_t max_messages = 25;
+  /// Times come from a real clock (the runtime), where only their order is checked:
+  /// * the runtime stamps a frame when it releases it, after the camera thread woke, so a
+  ///   frame may be stamped any time after its arrival window opens (never before; and a
+  ///   sensor's frames keep one stamp each, in frame order, checked in both cases);
+  /// * on a lane that holds several units (device.queue_depth > 1, an asynchronous lane), a
+  ///   unit's end is recorded when the host handles its completion and the next unit's start
+  ///   as the device reports it, already running by then: the next one starts no earlier
+  ///   than the one before it did, instead of no earlier than its recorded end.
+  /// false in the simulator: a frame arrives within [time, time + jitter], and a queued unit
+  /// starts at the end of the one before.
+  bool wall_clock = false;
 };
 
 namespace detail {
@@ -158,7 +171,8 @@ inline std::vector<std::string> check_semantics(const Scenario& s, const Recordi
         const bool in_lane_order = queued && pe != nullptr && pe->unit->d.lane == d.lane;
         if (pe == nullptr || !pe->unit->ended || pe->unit->status != UnitStatus::Completed ||
             (!in_lane_order && pe->unit->end_event > e.unit->start_event) ||
-            pe->unit->end > d.start)
+            (in_lane_order && opt.wall_clock ? pe->unit->d.start > d.start
+                                             : pe->unit->end > d.start))
           fail(fmt::format("{}: unit {} ({}) started at {} before its predecessor {} ({}) ended",
                            who, unit, to_string(ru.kind), d.start.count(), p,
                            to_string(g.units[static_cast<std::size_t>(p)].kind)));
@@ -207,12 +221,12 @@ inline std::vector<std::string> check_semantics(const Scenario& s, const Recordi
         const detail::FrameSchedule& f = schedules[static_cast<std::size_t>(sensor)];
         if (f.known) {
           const TimePoint base = f.phase + f.period * static_cast<std::int64_t>(m.frame);
-          if (m.frame_time < base || m.frame_time > base + f.jitter)
-            fail(
-                fmt::format("{}: unit {} reads frame {} of sensor {} stamped {}, but that frame "
-                            "arrives in [{}, {}]",
-                            who, unit, m.frame, sensor, m.frame_time.count(), base.count(),
-                            (base + f.jitter).count()));
+          const TimePoint last = base + f.jitter;
+          if (m.frame_time < base || (!opt.wall_clock && m.frame_time > last))
+            fail(fmt::format(
+                "{}: unit {} reads frame {} of sensor {} stamped {}, but that frame "
+                "arrives in [{}, {}]",
+                who, unit, m.frame, sensor, m.frame_time.count(), base.count(), last.count()));
         }
         // A job released by a frame computes on that frame (only sampling jobs take newer).
         if (spec.trigger_sensor == sensor && m.frame_time != j.release)
@@ -249,12 +263,35 @@ inline std::vector<std::string> check_semantics(const Scenario& s, const Recordi
       const detail::Exec* b = producer[static_cast<std::size_t>(e.to)];
       if (a == nullptr || b == nullptr || a->unit == b->unit) continue;
       const bool in_lane_order = queued && a->unit->d.lane == b->unit->d.lane;
-      if (a->unit->end > b->unit->d.start ||
+      if ((in_lane_order && opt.wall_clock ? a->unit->d.start > b->unit->d.start
+                                           : a->unit->end > b->unit->d.start) ||
           (!in_lane_order && a->unit->end_event > b->unit->start_event))
         fail(fmt::format("{}: node {} started at {} before its predecessor {} ended at {}", who,
                          spec.nodes[static_cast<std::size_t>(e.to)].name, b->unit->d.start.count(),
                          spec.nodes[static_cast<std::size_t>(e.from)].name, a->unit->end.count()));
     }
+  }
+
+  // One stamp per frame, and a sensor's later frames stamped no earlier (whatever the
+  // tolerance above, a unit reads the frame it names).
+  std::map<std::pair<int, std::uint64_t>, TimePoint> stamps;
+  for (const SeenUnit& u : rec.units())
+    for (const Member& m : u.d.members) {
+      if (m.graph == nullptr || m.unit < 0 || m.unit >= static_cast<int>(m.graph->units.size()))
+        continue;
+      const RefinedUnit& ru = m.graph->units[static_cast<std::size_t>(m.unit)];
+      if (ru.sensor < 0 || (ru.kind != UnitKind::Encoder && ru.kind != UnitKind::Coarse)) continue;
+      const auto [it, fresh] = stamps.try_emplace({ru.sensor, m.frame}, m.frame_time);
+      if (!fresh && it->second != m.frame_time)
+        fail(fmt::format("frame {} of sensor {} read with stamps {} and {}", m.frame, ru.sensor,
+                         it->second.count(), m.frame_time.count()));
+    }
+  for (auto it = stamps.begin(); it != stamps.end(); ++it) {
+    const auto next = std::next(it);
+    if (next != stamps.end() && next->first.first == it->first.first && next->second < it->second)
+      fail(fmt::format("sensor {}: frame {} stamped {} before frame {} stamped {}", it->first.first,
+                       next->first.second, next->second.count(), it->first.second,
+                       it->second.count()));
   }
 
   // Within one dispatch, the members of one merged task share its sensor and frame.
@@ -281,7 +318,9 @@ inline std::vector<std::string> check_semantics(const Scenario& s, const Recordi
 
 /// Checks that every lane runs at most one unit at a time: per lane, a dispatch is decided
 /// and started only after the previous one on that lane ended.
-inline std::vector<std::string> check_lanes(const Scenario& s, const RecordingObserver& rec) {
+/// `wall_clock` as in SemanticsOptions.
+inline std::vector<std::string> check_lanes(const Scenario& s, const RecordingObserver& rec,
+                                            bool wall_clock = false) {
   std::vector<std::string> out;
   std::vector<const SeenUnit*> last(static_cast<std::size_t>(s.device.lanes), nullptr);
   // Lanes that hold several units (device.queue_depth > 1) are given the next while one
@@ -293,7 +332,8 @@ inline std::vector<std::string> check_lanes(const Scenario& s, const RecordingOb
       continue;
     }
     const SeenUnit*& prev = last[static_cast<std::size_t>(u.d.lane)];
-    if (prev != nullptr && depth > 1 && (!prev->ended || prev->end > u.d.start))
+    if (prev != nullptr && depth > 1 &&
+        (!prev->ended || (wall_clock ? prev->d.start > u.d.start : prev->end > u.d.start)))
       out.push_back(fmt::format("lane {}: dispatch {} starts at {} before dispatch {} ends at {}",
                                 u.d.lane, u.d.id, u.d.start.count(), prev->d.id,
                                 prev->ended ? prev->end.count() : -1));
