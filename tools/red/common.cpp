@@ -117,6 +117,20 @@ Expected<Profile> cli_profile(const Scenario& s, const std::optional<std::string
   return p;
 }
 
+std::optional<LoadedScenario> load_with_profile(const ScenarioArgs& a) {
+  auto s = load(a);
+  if (!s) {
+    print_error(s.error());
+    return std::nullopt;
+  }
+  auto p = cli_profile(*s, a.profile);
+  if (!p) {
+    print_error(p.error());
+    return std::nullopt;
+  }
+  return LoadedScenario{std::move(s).value(), std::move(p).value()};
+}
+
 void add_with_option(CLI::App* cmd, ScenarioArgs& a) {
   cmd->add_option("--with", a.with,
                   "Policy options key=value,… for every policy run (graph, deadlines, reassign, "

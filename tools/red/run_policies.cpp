@@ -197,16 +197,10 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       return kBadInput;
     }
   }
-  auto s = load(a.scenario);
-  if (!s) {
-    print_error(s.error());
-    return kBadInput;
-  }
-  auto p = cli_profile(*s, a.scenario.profile);
-  if (!p) {
-    print_error(p.error());
-    return kBadInput;
-  }
+  auto loaded = load_with_profile(a.scenario);
+  if (!loaded) return kBadInput;
+  Scenario& s = loaded->scenario;
+  const Profile& p = loaded->profile;
   for (const std::string& n : names) {
     if (!make_policy(n)) {
       std::string known;
@@ -226,16 +220,16 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       print_error(Error{"", 0, "--timeline: the timeline is drawn into --out DIR; give --out"});
       return kBadInput;
     }
-    if (w->first >= s->duration) {
+    if (w->first >= s.duration) {
       print_error(Error{"", 0,
                         fmt::format("--timeline: FROM ({:g} s) is not before the end of the run "
                                     "({:g} s, duration_s)",
-                                    to_s(w->first), to_s(s->duration))});
+                                    to_s(w->first), to_s(s.duration))});
       return kBadInput;
     }
     timeline = *w;
   }
-  const std::uint64_t seed = a.seed ? *a.seed : s->seed;
+  const std::uint64_t seed = a.seed ? *a.seed : s.seed;
   const bool sim = a.backend == "sim";
   std::optional<Profile> costs;
   if (a.costs) {
@@ -250,7 +244,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       print_error(c.error());
       return kBadInput;
     }
-    if (auto e = check_profile_covers(*c, *s)) {
+    if (auto e = check_profile_covers(*c, s)) {
       print_error(*e);
       return kBadInput;
     }
@@ -267,12 +261,12 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   // the summary's bounded state is kept (the rows too for --phases).
   real.keep_rows = !a.out && a.phases;
   std::unique_ptr<Backend> backend;
-  if (!sim && real.watchdog_x > 0 && p->source == "builtin-default")
+  if (!sim && real.watchdog_x > 0 && p.source == "builtin-default")
     std::cerr << "red: warning: watchdog limits come from the built-in profile, not one "
                  "measured here; measure one (red profile) or turn it off (--watchdog-x 0)\n";
   if (!sim) {
     // One backend (one loaded model) serves every policy.
-    auto b = make_backend(*s, *p, real);
+    auto b = make_backend(s, p, real);
     if (!b) {
       print_error(b.error());
       return kBadInput;
@@ -281,8 +275,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   }
   // Asynchronous lanes (--async, or a GPU) hold the scenario's queue depth, 2 unless it sets
   // one: the scheduler, the simulator and the prediction beside a real run all plan so.
-  if ((a.real.asynchronous || (backend && backend->asynchronous())) && !s->device.queue_depth)
-    s->device.queue_depth = 2;
+  if ((a.real.asynchronous || (backend && backend->asynchronous())) && !s.device.queue_depth)
+    s.device.queue_depth = 2;
   // The output directory's old manifest goes before anything else is written, so that the
   // files of an earlier run are never taken for this run's (docs/REPORTS.md).
   std::optional<OutputSet> set;
@@ -305,7 +299,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   std::unique_ptr<CsvRowStream> stream;
   std::optional<RowQueue> queue;
   if (!sim && a.out) {
-    auto st = CsvRowStream::open(*a.out, *s, true);
+    auto st = CsvRowStream::open(*a.out, s, true);
     if (!st) {
       failed(st.error());
       return kRunFailure;
@@ -334,23 +328,23 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     // left out; a real run ends as at its duration and is kept).
     if (stop_signal() != 0) break;
     const std::string& n = names[i];
-    traces.push_back(a.out ? make_trace(*s, a.trace_events, names.size()) : nullptr);
+    traces.push_back(a.out ? make_trace(s, a.trace_events, names.size()) : nullptr);
     std::vector<Observer*> extra{&progress};
     if (traces.back()) extra.push_back(traces.back().get());
     progress.begin_run(names.size() == 1 ? n : fmt::format("{} [{}/{}]", n, i + 1, names.size()),
-                       s->duration);
+                       s.duration);
     RuntimeReport report;
     if (!sim && names.size() > 1) {
       // A real compare takes the scenario's duration per policy: say which one runs, also
       // off a terminal (where the progress line is not drawn).
       real.label = fmt::format("{} ({} of {})", n, i + 1, names.size());
       std::cerr << fmt::format("red: policy {}: running for {:g} s (warm-up {:g} s)\n", real.label,
-                               to_s(s->duration), to_s(s->warmup));
+                               to_s(s.duration), to_s(s.warmup));
     }
     if (stream) stream->begin_policy(n);
-    auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value(), real.sync,
+    auto r = sim ? simulate_policy(s, p, n, seed, extra, a.out.has_value(), real.sync,
                                    costs ? &*costs : nullptr)
-                 : run_real(*s, *p, n, *backend, real, extra, &report);
+                 : run_real(s, p, n, *backend, real, extra, &report);
     progress.finish();
     if (!r && stop_signal() != 0) break;  // a simulation ended by the signal: left out
     if (!r) {
@@ -367,7 +361,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       }
     if (sim)
       std::cerr << fmt::format(
-          "red: simulated {} on {} in {:.3f} s ({:.2f} M unit events/s)\n", n, s->name, r->wall_s,
+          "red: simulated {} on {} in {:.3f} s ({:.2f} M unit events/s)\n", n, s.name, r->wall_s,
           static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
     else
       print_runtime_report(n, report);
@@ -426,23 +420,23 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   std::vector<PolicyMetrics> metrics;
   for (const PolicyRun& r : runs) metrics.push_back(r.metrics);
   apply_ratios(metrics, "edf");
-  fmt::print("scenario {} (backend {}, seed {}, profile {}, {} lane(s), {:g} s measured)\n",
-             s->name, sim ? "sim" : backend->name(), seed, p->source, s->device.lanes,
+  fmt::print("scenario {} (backend {}, seed {}, profile {}, {} lane(s), {:g} s measured)\n", s.name,
+             sim ? "sim" : backend->name(), seed, p.source, s.device.lanes,
              metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
   fmt::print("{}", releases_table(metrics));
   std::string prediction;
   std::vector<HtmlTable> prediction_html;
   if (!sim && stop_signal() == 0)
-    prediction = print_prediction(*s, *p, seed, runs, handoffs, real.sync, prediction_html);
+    prediction = print_prediction(s, p, seed, runs, handoffs, real.sync, prediction_html);
   if (a.phases) {
     std::vector<std::string> names_run;
     std::vector<std::vector<PhaseMetrics>> phases;
     for (const PolicyRun& r : runs) {
       names_run.push_back(r.metrics.name);
-      phases.push_back(phase_metrics(*s, r.jobs, r.result.end));
+      phases.push_back(phase_metrics(s, r.jobs, r.result.end));
     }
-    fmt::print("{}", phase_table(*s, names_run, phases));
+    fmt::print("{}", phase_table(s, names_run, phases));
   }
   if (!table) {
     const PolicyMetrics& m = metrics.front();
@@ -470,7 +464,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
         AnalysisOptions ao;
         ao.policy = r.metrics.name;
         ao.headroom = false;
-        if (auto an = analyze(*s, *p, ao)) verdicts.push_back(std::move(an).value());
+        if (auto an = analyze(s, p, ao)) verdicts.push_back(std::move(an).value());
       }
       o.verdicts = verdict_html_table(verdicts);
       o.prediction = std::move(prediction_html);
@@ -484,7 +478,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     o.rows_files = streamed;
     o.set = &*set;
     OutputReport written;
-    (void)write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written);
+    (void)write_outputs(*a.out, s, p, sim ? "sim" : a.backend, seed, runs, o, &written);
     for (const Error& e : written.errors) print_error(e);
     write_failed = write_failed || !written.errors.empty();
     auto put = [&](const std::string& name, const std::string& text) {
