@@ -10,6 +10,7 @@
 #include "red/analysis/bound.hpp"
 #include "red/analysis/workload.hpp"
 #include "red/core/stop.hpp"
+#include "red/scenario/estimate.hpp"
 #include "red/sim/run.hpp"
 
 namespace red {
@@ -29,20 +30,6 @@ const char* to_string(Verdict v) noexcept {
 }
 
 namespace {
-
-const char* estimate_name(EstimateKind k) {
-  switch (k) {
-    case EstimateKind::Mean:
-      return "mean";
-    case EstimateKind::P95:
-      return "p95";
-    case EstimateKind::P99:
-      return "p99";
-    case EstimateKind::Max:
-      return "max";
-  }
-  return "?";
-}
 
 const PhaseFigures* figures_of(const PhaseMetrics& pm, const std::string& name) {
   for (const auto& [n, f] : pm.operations)
@@ -232,7 +219,7 @@ std::string scale_text(const ScaleSearch& r, bool rate) {
 std::string analysis_text(const Analysis& a) {
   std::string t = fmt::format(
       "red analyze: {} — policy {}, profile {}, {} lane{}, estimate {}{}\n", a.scenario, a.policy,
-      a.profile, a.lanes, a.lanes == 1 ? "" : "s", estimate_name(a.estimate),
+      a.profile, a.lanes, a.lanes == 1 ? "" : "s", to_string(a.estimate),
       a.slowdown != 1.0 ? fmt::format(", interference ×{:g}", a.slowdown) : std::string());
   t += "(times in ms; cp: critical path; work per job on mean costs; miss: simulated miss rate "
        "on profiled / worst-case costs)\n";
@@ -309,7 +296,7 @@ std::string analysis_json(const Analysis& a) {
   j["policy"] = a.policy;
   j["profile"] = a.profile;
   j["lanes"] = a.lanes;
-  j["estimate"] = estimate_name(a.estimate);
+  j["estimate"] = to_string(a.estimate);
   j["slowdown"] = a.slowdown;
   j["miss_limit"] = a.miss_limit;
   j["verdict"] = to_string(a.verdict);

@@ -14,6 +14,7 @@
 #include "limits.hpp"
 #include "loader_impl.hpp"
 #include "red/core/file.hpp"
+#include "red/scenario/estimate.hpp"
 #include "red/sched/policy.hpp"
 #include "yaml_tree.hpp"
 
@@ -196,16 +197,16 @@ void Loader::parse_scheduler(const Val& v) {
   if (const Val* x = f.get("gamma_ms")) sc.gamma = ms_value(*x, non_negative(*x));
   if (const Val* x = f.get("estimate")) {
     const std::string e = text(*x);
-    if (e == "mean")
-      sc.estimate = EstimateKind::Mean;
-    else if (e == "p95")
-      sc.estimate = EstimateKind::P95;
-    else if (e == "p99")
-      sc.estimate = EstimateKind::P99;
-    else if (e == "max")
-      sc.estimate = EstimateKind::Max;
-    else
-      fail(x->line, at(x->what) + "must be one of mean, p95, p99, max" + got(x->node));
+    std::string names;
+    bool known = false;
+    for (const auto& [name, kind] : kEstimateKinds) {
+      names += (names.empty() ? "" : ", ") + std::string(name);
+      if (e == name) {
+        sc.estimate = kind;
+        known = true;
+      }
+    }
+    if (!known) fail(x->line, at(x->what) + "must be one of " + names + got(x->node));
   }
   if (const Val* x = f.get("level_cost")) {
     const std::string l = text(*x);

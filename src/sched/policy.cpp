@@ -2,9 +2,12 @@
 
 #include <array>
 #include <charconv>
+#include <cstdint>
 #include <string>
 #include <system_error>
 #include <utility>
+
+#include "red/scenario/estimate.hpp"
 
 namespace red {
 
@@ -42,21 +45,7 @@ const char* to_string(Admission m) noexcept {
 
 namespace {
 
-const char* estimate_name(EstimateKind k) noexcept {
-  switch (k) {
-    case EstimateKind::Mean:
-      return "mean";
-    case EstimateKind::P95:
-      return "p95";
-    case EstimateKind::P99:
-      return "p99";
-    case EstimateKind::Max:
-      return "max";
-  }
-  return "?";
-}
-
-// One option: its key, how it is spelled, how it is read.
+// One option value: `value` is one of `values` (their spellings), else an error naming them.
 template <typename E, std::size_t N>
 std::string choose(E& field, std::string_view key, std::string_view value,
                    const std::array<std::pair<const char*, E>, N>& values) {
@@ -76,66 +65,240 @@ std::string choose(E& field, std::string_view key, std::string_view value,
 constexpr std::array<std::pair<const char*, bool>, 6> kBool{
     {{"yes", true}, {"no", false}, {"true", true}, {"false", false}, {"on", true}, {"off", false}}};
 
+const char* yes_no(bool b) noexcept {
+  return b ? "yes" : "no";
+}
+
+// One policy option: its key (the only place it is spelled), how its value is read
+// (set_option, --with, the scenario's `with`) and how it is shown (describe).
+struct OptionSpec {
+  const char* key;
+  std::string (*set)(PolicyOptions& o, std::string_view key, std::string_view value);
+  std::string (*show)(const PolicyOptions& o);
+};
+
+// Every option, in documentation order (option_keys(), describe(), the CLI's --with help).
+const std::array<OptionSpec, 17> kOptions{{
+    {"graph",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(
+           o.graph, k, v,
+           std::array<std::pair<const char*, GraphMode>, 3>{{{"coarse", GraphMode::Coarse},
+                                                             {"fine", GraphMode::Fine},
+                                                             {"mono", GraphMode::Mono}}});
+     },
+     [](const PolicyOptions& o) -> std::string { return to_string(o.graph); }},
+    {"deadlines",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.deadlines, k, v,
+                     std::array<std::pair<const char*, DeadlineMode>, 4>{
+                         {{"none", DeadlineMode::None},
+                          {"end-to-end", DeadlineMode::EndToEnd},
+                          {"proportional", DeadlineMode::Proportional},
+                          {"equal", DeadlineMode::Equal}}});
+     },
+     [](const PolicyOptions& o) -> std::string { return to_string(o.deadlines); }},
+    {"reassign",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.reassign, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.reassign); }},
+    {"merge",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.merge, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.merge); }},
+    {"batching",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.batching, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.batching); }},
+    {"sync",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.sync, k, v,
+                     std::array<std::pair<const char*, SyncMode>, 2>{
+                         {{"per-edge", SyncMode::PerEdge}, {"on-demand", SyncMode::OnDemand}}});
+     },
+     [](const PolicyOptions& o) -> std::string { return to_string(o.sync); }},
+    {"drop",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(
+           o.drop, k, v,
+           std::array<std::pair<const char*, DropMode>, 3>{{{"none", DropMode::None},
+                                                            {"strict", DropMode::Strict},
+                                                            {"hopeless", DropMode::Hopeless}}});
+     },
+     [](const PolicyOptions& o) -> std::string { return to_string(o.drop); }},
+    {"drop_estimate",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.drop_estimate, k, v, kEstimateKinds);
+     },
+     [](const PolicyOptions& o) -> std::string { return to_string(o.drop_estimate); }},
+    {"admission",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.admission, k, v,
+                     std::array<std::pair<const char*, Admission>, 2>{
+                         {{"none", Admission::None}, {"shed", Admission::Shed}}});
+     },
+     [](const PolicyOptions& o) -> std::string { return to_string(o.admission); }},
+    {"admit_margin",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) -> std::string {
+       int n = -1;
+       const auto [end, ec] = std::from_chars(v.data(), v.data() + v.size(), n);
+       if (ec != std::errc{} || end != v.data() + v.size() || n < 0 || n > 100)
+         return "option '" + std::string(k) + "': '" + std::string(v) +
+                "' is not a whole percent from 0 to 100";
+       o.admit_margin = n;
+       return {};
+     },
+     [](const PolicyOptions& o) { return std::to_string(o.admit_margin); }},
+    {"rank",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(
+           o.rank, k, v,
+           std::array<std::pair<const char*, RankMode>, 3>{{{"policy", RankMode::Policy},
+                                                            {"job-deadline", RankMode::JobDeadline},
+                                                            {"overload", RankMode::Overload}}});
+     },
+     [](const PolicyOptions& o) -> std::string { return to_string(o.rank); }},
+    {"shed_rate",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.shed_by_rate, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.shed_by_rate); }},
+    {"lookahead",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.lookahead, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.lookahead); }},
+    {"shed_lone",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.shed_lone, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.shed_lone); }},
+    {"batch_by_job",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.batch_by_job, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.batch_by_job); }},
+    {"path_rank",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.path_rank, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.path_rank); }},
+    {"miss_gate",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.miss_gate, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.miss_gate); }},
+}};
+
+// What every preset starts from (docs/DESIGN.md, "Policies").
+PolicyOptions preset_base() {
+  PolicyOptions o;
+  o.reassign = false;
+  o.merge = false;
+  o.batching = false;
+  o.sync = SyncMode::PerEdge;
+  o.drop = DropMode::Strict;
+  return o;
+}
+
+// red, lst and red-robust: the whole of RED.
+PolicyOptions red_options() {
+  PolicyOptions o = preset_base();
+  o.graph = GraphMode::Fine;
+  o.deadlines = DeadlineMode::Proportional;
+  o.reassign = o.merge = o.batching = true;
+  o.sync = SyncMode::OnDemand;
+  return o;
+}
+
+// The class make_policy builds for a preset.
+enum class PolicyClass : std::uint8_t { Edf, Fifo, LeastSlack };
+
+// One preset: its name, the policy class, whether `red compare` runs it by default, and its
+// options.
+struct Preset {
+  std::string_view name;
+  PolicyClass policy;
+  bool by_default;
+  PolicyOptions (*options)();
+};
+
+// Every preset, in table order (docs/DESIGN.md, "Policies"; red-robust: "Overload").
+const std::array<Preset, 8> kPresets{{
+    {"fifo", PolicyClass::Fifo, true,
+     [] {
+       PolicyOptions o = preset_base();
+       o.graph = GraphMode::Coarse;
+       o.deadlines = DeadlineMode::None;
+       o.drop = DropMode::None;
+       return o;
+     }},
+    {"mono", PolicyClass::Edf, true,
+     [] {
+       PolicyOptions o = preset_base();
+       o.graph = GraphMode::Mono;
+       o.deadlines = DeadlineMode::EndToEnd;
+       return o;
+     }},
+    {"edf", PolicyClass::Edf, true,
+     [] {
+       PolicyOptions o = preset_base();
+       o.graph = GraphMode::Coarse;
+       o.deadlines = DeadlineMode::EndToEnd;
+       return o;
+     }},
+    {"red-fg", PolicyClass::Edf, true,
+     [] {
+       PolicyOptions o = preset_base();
+       o.graph = GraphMode::Fine;
+       o.deadlines = DeadlineMode::Proportional;
+       o.merge = true;
+       return o;
+     }},
+    {"red-ida", PolicyClass::Edf, true,
+     [] {
+       PolicyOptions o = preset_base();
+       o.graph = GraphMode::Fine;
+       o.deadlines = DeadlineMode::Proportional;
+       o.reassign = o.merge = true;
+       return o;
+     }},
+    {"red", PolicyClass::Edf, true, red_options},
+    {"red-robust", PolicyClass::Edf, true,
+     [] {
+       // docs/DESIGN.md, "Overload": shed early on an optimistic estimate, finish what was
+       // started while overloaded.
+       PolicyOptions o = red_options();
+       o.drop = DropMode::Hopeless;
+       o.drop_estimate = EstimateKind::Mean;
+       o.admission = Admission::Shed;
+       o.admit_margin = 5;  // the least of 0, 5, 10, 20 % with the most points near the bound
+       o.rank = RankMode::Overload;
+       o.shed_by_rate = true;
+       o.lookahead = true;
+       o.shed_lone = true;
+       o.batch_by_job = true;
+       o.path_rank = true;
+       o.miss_gate = true;
+       return o;
+     }},
+    {"lst", PolicyClass::LeastSlack, false, red_options},
+}};
+
+const Preset* find_preset(std::string_view name) {
+  for (const Preset& p : kPresets)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
 }  // namespace
 
 std::string set_option(PolicyOptions& o, std::string_view key, std::string_view value) {
-  if (key == "graph")
-    return choose(
-        o.graph, key, value,
-        std::array<std::pair<const char*, GraphMode>, 3>{
-            {{"coarse", GraphMode::Coarse}, {"fine", GraphMode::Fine}, {"mono", GraphMode::Mono}}});
-  if (key == "deadlines")
-    return choose(o.deadlines, key, value,
-                  std::array<std::pair<const char*, DeadlineMode>, 4>{
-                      {{"none", DeadlineMode::None},
-                       {"end-to-end", DeadlineMode::EndToEnd},
-                       {"proportional", DeadlineMode::Proportional},
-                       {"equal", DeadlineMode::Equal}}});
-  if (key == "reassign") return choose(o.reassign, key, value, kBool);
-  if (key == "merge") return choose(o.merge, key, value, kBool);
-  if (key == "batching") return choose(o.batching, key, value, kBool);
-  if (key == "sync")
-    return choose(o.sync, key, value,
-                  std::array<std::pair<const char*, SyncMode>, 2>{
-                      {{"per-edge", SyncMode::PerEdge}, {"on-demand", SyncMode::OnDemand}}});
-  if (key == "drop")
-    return choose(
-        o.drop, key, value,
-        std::array<std::pair<const char*, DropMode>, 3>{{{"none", DropMode::None},
-                                                         {"strict", DropMode::Strict},
-                                                         {"hopeless", DropMode::Hopeless}}});
-  if (key == "drop_estimate")
-    return choose(
-        o.drop_estimate, key, value,
-        std::array<std::pair<const char*, EstimateKind>, 4>{{{"mean", EstimateKind::Mean},
-                                                             {"p95", EstimateKind::P95},
-                                                             {"p99", EstimateKind::P99},
-                                                             {"max", EstimateKind::Max}}});
-  if (key == "admission")
-    return choose(o.admission, key, value,
-                  std::array<std::pair<const char*, Admission>, 2>{
-                      {{"none", Admission::None}, {"shed", Admission::Shed}}});
-  if (key == "admit_margin") {
-    int v = -1;
-    const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), v);
-    if (ec != std::errc{} || end != value.data() + value.size() || v < 0 || v > 100)
-      return "option 'admit_margin': '" + std::string(value) +
-             "' is not a whole percent from 0 to 100";
-    o.admit_margin = v;
-    return {};
-  }
-  if (key == "shed_rate") return choose(o.shed_by_rate, key, value, kBool);
-  if (key == "lookahead") return choose(o.lookahead, key, value, kBool);
-  if (key == "shed_lone") return choose(o.shed_lone, key, value, kBool);
-  if (key == "batch_by_job") return choose(o.batch_by_job, key, value, kBool);
-  if (key == "path_rank") return choose(o.path_rank, key, value, kBool);
-  if (key == "miss_gate") return choose(o.miss_gate, key, value, kBool);
-  if (key == "rank")
-    return choose(
-        o.rank, key, value,
-        std::array<std::pair<const char*, RankMode>, 3>{{{"policy", RankMode::Policy},
-                                                         {"job-deadline", RankMode::JobDeadline},
-                                                         {"overload", RankMode::Overload}}});
+  for (const OptionSpec& spec : kOptions)
+    if (key == spec.key) return spec.set(o, key, value);
   std::string keys;
   for (const std::string& k : option_keys()) keys += (keys.empty() ? "" : ", ") + k;
   return "unknown policy option '" + std::string(key) + "' (options: " + keys + ")";
@@ -159,98 +322,59 @@ std::string apply_options(PolicyOptions& o, std::string_view list) {
 }
 
 const std::vector<std::string>& option_keys() {
-  static const std::vector<std::string> v{
-      "graph",     "deadlines",     "reassign",     "merge",        "batching", "sync",
-      "drop",      "drop_estimate", "admission",    "admit_margin", "rank",     "shed_rate",
-      "lookahead", "shed_lone",     "batch_by_job", "path_rank",    "miss_gate"};
+  static const std::vector<std::string> v = [] {
+    std::vector<std::string> keys;
+    for (const OptionSpec& spec : kOptions) keys.emplace_back(spec.key);
+    return keys;
+  }();
   return v;
 }
 
 std::string describe(const PolicyOptions& o) {
-  auto yn = [](bool b) { return b ? "yes" : "no"; };
-  return std::string("graph=") + to_string(o.graph) + ",deadlines=" + to_string(o.deadlines) +
-         ",reassign=" + yn(o.reassign) + ",merge=" + yn(o.merge) + ",batching=" + yn(o.batching) +
-         ",sync=" + to_string(o.sync) + ",drop=" + to_string(o.drop) +
-         ",drop_estimate=" + estimate_name(o.drop_estimate) +
-         ",admission=" + to_string(o.admission) +
-         ",admit_margin=" + std::to_string(o.admit_margin) + ",rank=" + to_string(o.rank) +
-         ",shed_rate=" + yn(o.shed_by_rate) + ",lookahead=" + yn(o.lookahead) +
-         ",shed_lone=" + yn(o.shed_lone) + ",batch_by_job=" + yn(o.batch_by_job) +
-         ",path_rank=" + yn(o.path_rank);
+  std::string out;
+  for (const OptionSpec& spec : kOptions)
+    out += (out.empty() ? "" : ",") + std::string(spec.key) + "=" + spec.show(o);
+  return out;
 }
 
 std::optional<PolicyOptions> preset_options(std::string_view name) {
-  // docs/DESIGN.md, "Policies": every preset is a row of the table; red-robust is docs/DESIGN.md,
-  // "Overload".
-  PolicyOptions o;
-  o.reassign = false;
-  o.merge = false;
-  o.batching = false;
-  o.sync = SyncMode::PerEdge;
-  o.drop = DropMode::Strict;
-  if (name == "fifo") {
-    o.graph = GraphMode::Coarse;
-    o.deadlines = DeadlineMode::None;
-    o.drop = DropMode::None;
-  } else if (name == "edf") {
-    o.graph = GraphMode::Coarse;
-    o.deadlines = DeadlineMode::EndToEnd;
-  } else if (name == "mono") {
-    o.graph = GraphMode::Mono;
-    o.deadlines = DeadlineMode::EndToEnd;
-  } else if (name == "red-fg") {
-    o.graph = GraphMode::Fine;
-    o.deadlines = DeadlineMode::Proportional;
-    o.merge = true;
-  } else if (name == "red-ida") {
-    o.graph = GraphMode::Fine;
-    o.deadlines = DeadlineMode::Proportional;
-    o.reassign = o.merge = true;
-  } else if (name == "red" || name == "lst" || name == "red-robust") {
-    o.graph = GraphMode::Fine;
-    o.deadlines = DeadlineMode::Proportional;
-    o.reassign = o.merge = o.batching = true;
-    o.sync = SyncMode::OnDemand;
-    if (name == "red-robust") {
-      // docs/DESIGN.md, "Overload": shed early on an optimistic estimate, finish what was started
-      // while overloaded.
-      o.drop = DropMode::Hopeless;
-      o.drop_estimate = EstimateKind::Mean;
-      o.admission = Admission::Shed;
-      o.admit_margin = 5;  // the least of 0, 5, 10, 20 % with the most points near the bound
-      o.rank = RankMode::Overload;
-      o.shed_by_rate = true;
-      o.lookahead = true;
-      o.shed_lone = true;
-      o.batch_by_job = true;
-      o.path_rank = true;
-      o.miss_gate = true;
-    }
-  } else {
-    return std::nullopt;
-  }
-  return o;
+  const Preset* p = find_preset(name);
+  if (p == nullptr) return std::nullopt;
+  return p->options();
 }
 
 std::unique_ptr<Policy> make_policy(std::string_view name,
                                     const std::optional<PolicyOptions>& overrides) {
-  auto o = preset_options(name);
-  if (!o) return nullptr;
-  if (overrides) o = overrides;
-  if (name == "fifo") return std::make_unique<FifoPolicy>(*o);
-  if (name == "lst") return std::make_unique<LeastSlackPolicy>(*o);
-  return std::make_unique<EdfPolicy>(std::string(name), *o);
+  const Preset* p = find_preset(name);
+  if (p == nullptr) return nullptr;
+  const PolicyOptions o = overrides ? *overrides : p->options();
+  switch (p->policy) {
+    case PolicyClass::Fifo:
+      return std::make_unique<FifoPolicy>(o);
+    case PolicyClass::LeastSlack:
+      return std::make_unique<LeastSlackPolicy>(o);
+    case PolicyClass::Edf:
+      break;
+  }
+  return std::make_unique<EdfPolicy>(std::string(name), o);
 }
 
 const std::vector<std::string>& default_presets() {
-  static const std::vector<std::string> v{"fifo",    "mono", "edf",       "red-fg",
-                                          "red-ida", "red",  "red-robust"};
+  static const std::vector<std::string> v = [] {
+    std::vector<std::string> names;
+    for (const Preset& p : kPresets)
+      if (p.by_default) names.emplace_back(p.name);
+    return names;
+  }();
   return v;
 }
 
 const std::vector<std::string>& known_policies() {
-  static const std::vector<std::string> v{"fifo",    "mono", "edf",        "red-fg",
-                                          "red-ida", "red",  "red-robust", "lst"};
+  static const std::vector<std::string> v = [] {
+    std::vector<std::string> names;
+    for (const Preset& p : kPresets) names.emplace_back(p.name);
+    return names;
+  }();
   return v;
 }
 

@@ -30,18 +30,12 @@ struct AnalyzeArgs {
 };
 
 int run_analyze(const AnalyzeArgs& a) {
-  auto s = load(a.scenario);
-  if (!s) {
-    print_error(s.error());
-    return kBadInput;
-  }
-  auto p = cli_profile(*s, a.scenario.profile);
-  if (!p) {
-    print_error(p.error());
-    return kBadInput;
-  }
-  warn_suspect_profile(*p, a.scenario.profile.value_or(s->profile));
-  const auto opts = policy_options(*s, a.policy);
+  auto loaded = load_with_profile(a.scenario);
+  if (!loaded) return kBadInput;
+  Scenario& s = loaded->scenario;
+  const Profile& p = loaded->profile;
+  warn_suspect_profile(p, a.scenario.profile.value_or(s.profile));
+  const auto opts = policy_options(s, a.policy);
   if (!opts) {
     std::string known;
     for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;
@@ -55,7 +49,7 @@ int run_analyze(const AnalyzeArgs& a) {
   AnalysisOptions o;
   o.policy = a.policy;
   o.headroom = !a.no_headroom;
-  auto an = analyze(*s, *p, o);
+  auto an = analyze(s, p, o);
   if (!an) {
     print_error(an.error());
     return kRunFailure;
@@ -86,7 +80,7 @@ int run_analyze(const AnalyzeArgs& a) {
   if (a.nptest) {
     std::optional<Duration> window;
     if (a.nptest_window_ms) window = from_ms(*a.nptest_window_ms);
-    auto x = export_nptest(*s, *p, *opts, window);
+    auto x = export_nptest(s, p, *opts, window);
     if (!x) {
       print_error(x.error());
       return kBadInput;
@@ -102,7 +96,7 @@ int run_analyze(const AnalyzeArgs& a) {
         "wrote {}/jobs.csv ({} jobs), jobs.prec.csv ({} edges), tasks.csv: window {:g} ms, {}; "
         "times in μs (nptest {}/jobs.csv -p {}/jobs.prec.csv{})\n",
         *a.nptest, x->jobs, x->edges, to_ms(x->window), x->note, *a.nptest, *a.nptest,
-        s->device.lanes > 1 ? fmt::format(" -m {}", s->device.lanes) : std::string());
+        s.device.lanes > 1 ? fmt::format(" -m {}", s.device.lanes) : std::string());
   }
   return a.check && an->verdict != Verdict::Ok ? kRunFailure : kOk;
 }

@@ -97,16 +97,10 @@ struct NodeArgs {
 };
 
 int run_node(const NodeArgs& a) {
-  auto s = load(a.scenario);
-  if (!s) {
-    print_error(s.error());
-    return kBadInput;
-  }
-  auto p = cli_profile(*s, a.scenario.profile);
-  if (!p) {
-    print_error(p.error());
-    return kBadInput;
-  }
+  auto loaded = load_with_profile(a.scenario);
+  if (!loaded) return kBadInput;
+  Scenario& s = loaded->scenario;
+  const Profile& p = loaded->profile;
   if (!make_policy(a.policy)) {
     std::string known;
     for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;
@@ -143,18 +137,18 @@ int run_node(const NodeArgs& a) {
     }
   RealRunOptions real = a.real;
   real.backend = a.backend;
-  real.seed = s->seed;
-  auto backend = make_backend(*s, *p, real);
+  real.seed = s.seed;
+  auto backend = make_backend(s, p, real);
   if (!backend) {
     print_error(backend.error());
     return kBadInput;
   }
-  auto node = dds::Node::make(*s, *p, **backend, o);
+  auto node = dds::Node::make(s, p, **backend, o);
   if (!node) {
     print_error(node.error());
     return kRunFailure;
   }
-  MetricsCollector metrics(*s, s->scheduler.qoe_lambda, a.out.has_value());
+  MetricsCollector metrics(s, s.scheduler.qoe_lambda, a.out.has_value());
   // A node runs for the life of a robot: its rows go to jobs.csv and units.csv as jobs end
   // (with --out), never into memory; the summary keeps bounded state (docs/REPORTS.md).
   metrics.set_keep_rows(false);
@@ -168,7 +162,7 @@ int run_node(const NodeArgs& a) {
       return kRunFailure;
     }
     set = std::move(begun.value());
-    auto st = CsvRowStream::open(*a.out, *s, true);
+    auto st = CsvRowStream::open(*a.out, s, true);
     if (!st) {
       print_error(st.error());
       return kRunFailure;
@@ -181,16 +175,16 @@ int run_node(const NodeArgs& a) {
   }
   (*node)->add_observer(&metrics);
   const dds::NodeTopics& t = (*node)->topics();
-  std::cerr << fmt::format("red node: {} on DDS domain {} ({}{}), policy {}, backend {}\n", s->name,
+  std::cerr << fmt::format("red node: {} on DDS domain {} ({}{}), policy {}, backend {}\n", s.name,
                            o.domain, o.config.empty() ? "loopback only" : a.dds.config,
                            o.shared_memory ? ", shared memory" : "", a.policy, (*backend)->name());
   for (std::size_t i = 0; i < t.sensors.size(); ++i)
     std::cerr << fmt::format("red node:   in  {} (sensor {}, sensor_msgs/msg/Image)\n",
-                             t.sensors[i], s->sensors[i].name);
+                             t.sensors[i], s.sensors[i].name);
   for (const auto& [key, topic] : t.nodes) {
     const int head = t.heads.at(key);
     if (head < 0) continue;
-    const auto kind = dds::output_kind(s->model.heads[static_cast<std::size_t>(head)]);
+    const auto kind = dds::output_kind(s.model.heads[static_cast<std::size_t>(head)]);
     std::cerr << fmt::format("red node:   out {} ({})\n", topic,
                              kind == dds::OutputKind::Velocity
                                  ? "geometry_msgs/msg/Twist, and TwistStamped on <topic>/stamped"
@@ -303,7 +297,7 @@ int run_node(const NodeArgs& a) {
     oo.rows_files = stream->finished();
     oo.set = &*set;
     OutputReport wrote;
-    if (auto e = write_outputs(*a.out, *s, *p, std::string((*backend)->name()), s->seed, {run}, oo,
+    if (auto e = write_outputs(*a.out, s, p, std::string((*backend)->name()), s.seed, {run}, oo,
                                &wrote)) {
       for (const Error& f : wrote.errors) print_error(f);
       return kRunFailure;

@@ -137,18 +137,13 @@ void register_sweep(CLI::App& app, int& exit_code) {
       exit_code = kBadInput;
       return;
     }
-    auto base = load(a->scenario);
-    if (!base) {
-      print_error(base.error());
+    auto loaded = load_with_profile(a->scenario);
+    if (!loaded) {
       exit_code = kBadInput;
       return;
     }
-    auto p = cli_profile(*base, a->scenario.profile);
-    if (!p) {
-      print_error(p.error());
-      exit_code = kBadInput;
-      return;
-    }
+    Scenario& base = loaded->scenario;
+    const Profile& p = loaded->profile;
     const auto names = a->policies.empty() ? default_presets() : split_list(a->policies);
     for (const std::string& n : names)
       if (!make_policy(n)) {
@@ -158,7 +153,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
       }
     const auto& [key, all_values] = sw.value();
     std::vector<double> values;  // the values every policy ran at (all, unless stopped)
-    const std::uint64_t seed = a->seed ? *a->seed : base->seed;
+    const std::uint64_t seed = a->seed ? *a->seed : base.seed;
     // results[policy][value]
     std::vector<std::vector<PolicyMetrics>> results(names.size());
     const SteadyClock clock;
@@ -173,7 +168,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
       // A stop signal: no further value starts; the finished values are written (a
       // simulation in progress ends at once, its value is left out).
       if (stop_signal() != 0) break;
-      Scenario s = *base;
+      Scenario s = base;
       std::vector<std::string> warnings;
       if (auto e = apply_override(s, key, v, &warnings)) {
         progress.finish();
@@ -186,7 +181,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
       for (std::size_t i = 0; i < names.size() && stop_signal() == 0; ++i) {
         progress.begin_run(fmt::format("{}={:g} {} [{}/{}]", key, v, names[i], ++done, total),
                            s.duration);
-        auto r = simulate_policy(s, *p, names[i], seed, {&progress}, false);
+        auto r = simulate_policy(s, p, names[i], seed, {&progress}, false);
         if (!r && stop_signal() != 0) break;  // ended by the signal: this value is left out
         if (!r) {
           progress.finish();
@@ -237,7 +232,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
     std::string limit_text;  // what follows "physical limit: "
     std::vector<std::vector<std::string>> bd_rows;  // policy, breakdown, fraction, next
     if (key == "rate_scale") {
-      need = necessary_load(*base, *p);
+      need = necessary_load(base, p);
       limit = need.limit_scale();
       has_limit = std::isfinite(limit) && limit > 0;
       limit_text = fmt::format(
@@ -263,11 +258,11 @@ void register_sweep(CLI::App& app, int& exit_code) {
       for (const auto& r : bd_rows)
         text += fmt::format("{:<{}} {:>9} {:>12}   ({})\n", r[0], name_width, r[1], r[2], r[3]);
     }
-    fmt::print("scenario {} (backend sim, seed {})\n{}", base->name, seed, text);
+    fmt::print("scenario {} (backend sim, seed {})\n{}", base.name, seed, text);
     if (a->out) {
       nlohmann::ordered_json j;
       j["schema"] = 1;
-      j["scenario"] = base->name;
+      j["scenario"] = base.name;
       j["parameter"] = key;
       j["values"] = values;
       j["seed"] = seed;
@@ -332,7 +327,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
       for (std::size_t i = 0; i < names.size(); ++i) series.push_back({names[i], results[i]});
       PlotOptions po;
       po.gnuplot = gnuplot_command();
-      const PlotReport plots = write_sweep_plots(*a->out, base->name, key, values, series, po);
+      const PlotReport plots = write_sweep_plots(*a->out, base.name, key, values, series, po);
       if (!plots.note.empty()) std::cerr << "red: " << plots.note << '\n';
       for (const Error& e : plots.errors) {
         print_error(e);
@@ -340,7 +335,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
       }
       const std::vector<HtmlLink> links = {{"sweep.csv", "one row per (policy, value)"},
                                            {"sweep.json", "the same numbers as JSON"}};
-      HtmlPage page = sweep_page(base->name, seed, key, values, series, plots, links);
+      HtmlPage page = sweep_page(base.name, seed, key, values, series, plots, links);
       if (!bd_rows.empty()) {
         HtmlSection sec;
         sec.id = "breakdown";

@@ -8,6 +8,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "red/graph/refine.hpp"
+#include "red/scenario/estimate.hpp"
 #include "red/scenario/manifest.hpp"
 
 namespace red::cli {
@@ -129,12 +130,8 @@ void register_validate(CLI::App& app, int& exit_code) {
     fmt::print("scenario {} ({}): {:g} s, warm-up {:g} s, seed {}, {} lane(s)\n", s->name, s->file,
                to_s(s->duration), to_s(s->warmup), s->seed, s->device.lanes);
     fmt::print("profile: {} ({}); estimate {}; gamma {:.1f} ms; max batch {}\n", p->source,
-               p->device,
-               s->scheduler.estimate == EstimateKind::Mean  ? "mean"
-               : s->scheduler.estimate == EstimateKind::P95 ? "p95"
-               : s->scheduler.estimate == EstimateKind::P99 ? "p99"
-                                                            : "max",
-               to_ms(s->scheduler.gamma), s->scheduler.max_batch);
+               p->device, to_string(s->scheduler.estimate), to_ms(s->scheduler.gamma),
+               s->scheduler.max_batch);
     if (!s->model.heads.empty()) {
       std::string heads;
       for (const std::string& h : s->model.heads) heads += (heads.empty() ? "" : ", ") + h;

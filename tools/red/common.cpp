@@ -117,12 +117,25 @@ Expected<Profile> cli_profile(const Scenario& s, const std::optional<std::string
   return p;
 }
 
+std::optional<LoadedScenario> load_with_profile(const ScenarioArgs& a) {
+  auto s = load(a);
+  if (!s) {
+    print_error(s.error());
+    return std::nullopt;
+  }
+  auto p = cli_profile(*s, a.profile);
+  if (!p) {
+    print_error(p.error());
+    return std::nullopt;
+  }
+  return LoadedScenario{std::move(s).value(), std::move(p).value()};
+}
+
 void add_with_option(CLI::App* cmd, ScenarioArgs& a) {
+  std::string keys;  // every option, as set_option() spells it
+  for (const std::string& k : option_keys()) keys += (keys.empty() ? "" : ", ") + k;
   cmd->add_option("--with", a.with,
-                  "Policy options key=value,… for every policy run (graph, deadlines, reassign, "
-                  "merge, batching, sync, drop, drop_estimate, admission, admit_margin, rank, "
-                  "shed_rate, lookahead, shed_lone, batch_by_job, path_rank, miss_gate; "
-                  "docs/CLI.md)");
+                  "Policy options key=value,… for every policy run (" + keys + "; docs/CLI.md)");
 }
 
 std::string gnuplot_command(const std::string& configured) {

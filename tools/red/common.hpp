@@ -55,6 +55,18 @@ Expected<Scenario> load(const ScenarioArgs& a, std::optional<ModelManifest>* man
 /// resolve_profile(), printing its warnings on stderr ("red: warning: ...").
 Expected<Profile> cli_profile(const Scenario& s, const std::optional<std::string>& cli_path);
 
+/// A scenario as a command runs it: loaded with its overrides (load()) and its profile
+/// (cli_profile()).
+struct LoadedScenario {
+  Scenario scenario;
+  Profile profile;
+};
+
+/// load(), then cli_profile() with `a.profile`, as every command that reads a scenario and a
+/// profile starts. The first error is printed (print_error) and gives nullopt: the caller
+/// exits with kBadInput (commands.hpp).
+std::optional<LoadedScenario> load_with_profile(const ScenarioArgs& a);
+
 /// Splits "a,b,c".
 std::vector<std::string> split_list(const std::string& s);
 

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include <iostream>
@@ -179,6 +180,174 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
   return doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
+// What differs between running the policies in the simulator and on a real backend (the
+// real-time runtime); run_policies chooses one of the two once (make_driver) and does the rest
+// the same way for both.
+class Driver {
+ public:
+  virtual ~Driver() = default;
+  /// The lanes are asynchronous (they hold a queue of units).
+  [[nodiscard]] virtual bool asynchronous() const { return false; }
+  /// Rows are streamed to jobs.csv and units.csv as jobs end (set_rows), not kept in memory.
+  [[nodiscard]] virtual bool streams_rows() const { return false; }
+  virtual void set_rows(RowSink* /*rows*/) {}
+  /// The backend in the table's heading, and in summary.json.
+  [[nodiscard]] virtual std::string heading_name() const = 0;
+  [[nodiscard]] virtual std::string summary_name() const = 0;
+  /// Said on stderr before policy `i` of `count` starts.
+  virtual void announce(const std::string& /*policy*/, std::size_t /*i*/, std::size_t /*count*/) {}
+  virtual Expected<PolicyRun> run(const std::string& policy, const std::vector<Observer*>& extra,
+                                  bool keep_units) = 0;
+  /// The exit code when a run fails.
+  [[nodiscard]] virtual int failure_code() const = 0;
+  /// After `policy` ran: its line on stderr, and what is kept of it for later.
+  virtual void finished(const std::string& policy, const PolicyRun& r) = 0;
+  /// The simulator's prediction of the runs, printed (prediction.json's text; "": none).
+  virtual std::string predict(const std::vector<PolicyRun>& /*runs*/,
+                              std::vector<HtmlTable>& /*html*/) {
+    return {};
+  }
+  /// The files write_more writes (index.html links them).
+  virtual void more_files(OutputOptions& /*o*/, const std::string& /*prediction*/) const {}
+  /// Writes the files besides write_outputs' through `put(name, text)`.
+  virtual void write_more(
+      const std::vector<std::string>& /*names*/, const std::string& /*prediction*/,
+      const std::string& /*run_id*/,
+      const std::function<void(const std::string&, const std::string&)>& /*put*/) const {}
+};
+
+// The simulator: the same releases and the same sampled unit times for every policy.
+class SimDriver final : public Driver {
+ public:
+  SimDriver(const Scenario& s, const Profile& p, std::uint64_t seed, std::optional<SyncMode> sync,
+            std::optional<Profile> costs)
+      : s_(s), p_(p), seed_(seed), sync_(sync), costs_(std::move(costs)) {}
+  [[nodiscard]] std::string heading_name() const override { return "sim"; }
+  [[nodiscard]] std::string summary_name() const override { return "sim"; }
+  Expected<PolicyRun> run(const std::string& policy, const std::vector<Observer*>& extra,
+                          bool keep_units) override {
+    return simulate_policy(s_, p_, policy, seed_, extra, keep_units, sync_,
+                           costs_ ? &*costs_ : nullptr);
+  }
+  [[nodiscard]] int failure_code() const override { return kBadInput; }
+  void finished(const std::string& policy, const PolicyRun& r) override {
+    std::cerr << fmt::format(
+        "red: simulated {} on {} in {:.3f} s ({:.2f} M unit events/s)\n", policy, s_.name, r.wall_s,
+        static_cast<double>(r.result.unit_events) / std::max(r.wall_s, 1e-9) / 1e6);
+  }
+
+ private:
+  const Scenario& s_;
+  const Profile& p_;
+  std::uint64_t seed_;
+  std::optional<SyncMode> sync_;
+  std::optional<Profile> costs_;  ///< --costs: the unit costs drawn from
+};
+
+// A real backend: one backend (one loaded model) serves every policy, each in turn for the
+// scenario's duration, on the same releases.
+class RealDriver final : public Driver {
+ public:
+  RealDriver(const Scenario& s, const Profile& p, std::uint64_t seed, std::string backend_name,
+             RealRunOptions real, std::unique_ptr<Backend> backend)
+      : s_(s),
+        p_(p),
+        seed_(seed),
+        backend_name_(std::move(backend_name)),
+        real_(std::move(real)),
+        backend_(std::move(backend)) {}
+  [[nodiscard]] bool asynchronous() const override { return backend_->asynchronous(); }
+  [[nodiscard]] bool streams_rows() const override { return true; }
+  void set_rows(RowSink* rows) override { real_.rows = rows; }
+  [[nodiscard]] std::string heading_name() const override { return std::string(backend_->name()); }
+  [[nodiscard]] std::string summary_name() const override { return backend_name_; }
+  void announce(const std::string& policy, std::size_t i, std::size_t count) override {
+    if (count <= 1) return;
+    // A real compare takes the scenario's duration per policy: say which one runs, also
+    // off a terminal (where the progress line is not drawn).
+    real_.label = fmt::format("{} ({} of {})", policy, i + 1, count);
+    std::cerr << fmt::format("red: policy {}: running for {:g} s (warm-up {:g} s)\n", real_.label,
+                             to_s(s_.duration), to_s(s_.warmup));
+  }
+  Expected<PolicyRun> run(const std::string& policy, const std::vector<Observer*>& extra,
+                          bool /*keep_units*/) override {
+    report_ = {};
+    return run_real(s_, p_, policy, *backend_, real_, extra, &report_);
+  }
+  [[nodiscard]] int failure_code() const override { return kRunFailure; }
+  void finished(const std::string& policy, const PolicyRun& /*r*/) override {
+    print_runtime_report(policy, report_);
+    // Only the samples are needed later (rss.csv): the timing samples go now, so a
+    // compare of many policies does not keep them all; the hand-offs feed the prediction
+    // from the run's own costs.
+    report_.decision_us = {};
+    handoffs_.push_back({std::move(report_.handoff_us), std::move(report_.queued_gap_us)});
+    report_.handoff_us = {};
+    report_.queued_gap_us = {};
+    report_.frame_release_us = {};
+    report_.release_late_us = {};
+    reports_.push_back(std::move(report_));
+  }
+  std::string predict(const std::vector<PolicyRun>& runs, std::vector<HtmlTable>& html) override {
+    return print_prediction(s_, p_, seed_, runs, handoffs_, real_.sync, html);
+  }
+  void more_files(OutputOptions& o, const std::string& prediction) const override {
+    o.more_files.emplace_back("rss.csv");
+    if (!prediction.empty()) o.more_files.emplace_back("prediction.json");
+  }
+  void write_more(
+      const std::vector<std::string>& names, const std::string& prediction,
+      const std::string& run_id,
+      const std::function<void(const std::string&, const std::string&)>& put) const override {
+    put("rss.csv", samples_csv(names, reports_));
+    if (!prediction.empty()) {
+      // The run id, where the format has room for it (docs/REPORTS.md).
+      auto doc = nlohmann::ordered_json::parse(prediction);
+      doc["run_id"] = run_id;
+      put("prediction.json",
+          doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n");
+    }
+  }
+
+ private:
+  const Scenario& s_;
+  const Profile& p_;
+  std::uint64_t seed_;
+  std::string backend_name_;  ///< as asked (--backend), for summary.json
+  RealRunOptions real_;
+  std::unique_ptr<Backend> backend_;
+  RuntimeReport report_;                // the run in progress: what the runtime measured
+  std::vector<RuntimeReport> reports_;  // what the runtime measured, per policy
+  std::vector<Handoffs> handoffs_;      // the hand-offs timed (a bounded sample), per policy
+};
+
+// The driver for `a.backend`, or the error that stops the command before any run (exit 2).
+Expected<std::unique_ptr<Driver>> make_driver(const RunArgs& a, const Scenario& s, const Profile& p,
+                                              std::uint64_t seed, RealRunOptions real) {
+  if (a.backend == "sim") {
+    std::optional<Profile> costs;
+    if (a.costs) {
+      auto c = load_profile(*a.costs);
+      if (!c) return c.error();
+      if (auto e = check_profile_covers(*c, s)) return *e;
+      costs = std::move(*c);
+    }
+    return std::unique_ptr<Driver>(
+        std::make_unique<SimDriver>(s, p, seed, real.sync, std::move(costs)));
+  }
+  if (a.costs)
+    return Error{"", 0,
+                 "--costs is for the simulator (--backend sim); a real run's costs "
+                 "are the machine's"};
+  if (real.watchdog_x > 0 && p.source == "builtin-default")
+    std::cerr << "red: warning: watchdog limits come from the built-in profile, not one "
+                 "measured here; measure one (red profile) or turn it off (--watchdog-x 0)\n";
+  auto b = make_backend(s, p, real);
+  if (!b) return b.error();
+  return std::unique_ptr<Driver>(
+      std::make_unique<RealDriver>(s, p, seed, a.backend, std::move(real), std::move(b.value())));
+}
+
 }  // namespace
 
 // Runs the given policies on one scenario and prints and writes the results. In the
@@ -197,16 +366,10 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       return kBadInput;
     }
   }
-  auto s = load(a.scenario);
-  if (!s) {
-    print_error(s.error());
-    return kBadInput;
-  }
-  auto p = cli_profile(*s, a.scenario.profile);
-  if (!p) {
-    print_error(p.error());
-    return kBadInput;
-  }
+  auto loaded = load_with_profile(a.scenario);
+  if (!loaded) return kBadInput;
+  Scenario& s = loaded->scenario;
+  const Profile& p = loaded->profile;
   for (const std::string& n : names) {
     if (!make_policy(n)) {
       std::string known;
@@ -226,36 +389,16 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       print_error(Error{"", 0, "--timeline: the timeline is drawn into --out DIR; give --out"});
       return kBadInput;
     }
-    if (w->first >= s->duration) {
+    if (w->first >= s.duration) {
       print_error(Error{"", 0,
                         fmt::format("--timeline: FROM ({:g} s) is not before the end of the run "
                                     "({:g} s, duration_s)",
-                                    to_s(w->first), to_s(s->duration))});
+                                    to_s(w->first), to_s(s.duration))});
       return kBadInput;
     }
     timeline = *w;
   }
-  const std::uint64_t seed = a.seed ? *a.seed : s->seed;
-  const bool sim = a.backend == "sim";
-  std::optional<Profile> costs;
-  if (a.costs) {
-    if (!sim) {
-      print_error(Error{"", 0,
-                        "--costs is for the simulator (--backend sim); a real run's costs "
-                        "are the machine's"});
-      return kBadInput;
-    }
-    auto c = load_profile(*a.costs);
-    if (!c) {
-      print_error(c.error());
-      return kBadInput;
-    }
-    if (auto e = check_profile_covers(*c, *s)) {
-      print_error(*e);
-      return kBadInput;
-    }
-    costs = std::move(*c);
-  }
+  const std::uint64_t seed = a.seed ? *a.seed : s.seed;
   RealRunOptions real = a.real;
   real.backend = a.backend;
   real.realtime = !a.no_realtime;
@@ -266,23 +409,16 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   // does not grow with its length (docs/REPORTS.md, "Streamed rows"); without --out only
   // the summary's bounded state is kept (the rows too for --phases).
   real.keep_rows = !a.out && a.phases;
-  std::unique_ptr<Backend> backend;
-  if (!sim && real.watchdog_x > 0 && p->source == "builtin-default")
-    std::cerr << "red: warning: watchdog limits come from the built-in profile, not one "
-                 "measured here; measure one (red profile) or turn it off (--watchdog-x 0)\n";
-  if (!sim) {
-    // One backend (one loaded model) serves every policy.
-    auto b = make_backend(*s, *p, real);
-    if (!b) {
-      print_error(b.error());
-      return kBadInput;
-    }
-    backend = std::move(b.value());
+  auto made = make_driver(a, s, p, seed, real);
+  if (!made) {
+    print_error(made.error());
+    return kBadInput;
   }
+  Driver& driver = *made.value();
   // Asynchronous lanes (--async, or a GPU) hold the scenario's queue depth, 2 unless it sets
   // one: the scheduler, the simulator and the prediction beside a real run all plan so.
-  if ((a.real.asynchronous || (backend && backend->asynchronous())) && !s->device.queue_depth)
-    s->device.queue_depth = 2;
+  if ((a.real.asynchronous || driver.asynchronous()) && !s.device.queue_depth)
+    s.device.queue_depth = 2;
   // The output directory's old manifest goes before anything else is written, so that the
   // files of an earlier run are never taken for this run's (docs/REPORTS.md).
   std::optional<OutputSet> set;
@@ -304,8 +440,8 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   };
   std::unique_ptr<CsvRowStream> stream;
   std::optional<RowQueue> queue;
-  if (!sim && a.out) {
-    auto st = CsvRowStream::open(*a.out, *s, true);
+  if (driver.streams_rows() && a.out) {
+    auto st = CsvRowStream::open(*a.out, s, true);
     if (!st) {
       failed(st.error());
       return kRunFailure;
@@ -319,11 +455,9 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     // Rows are formatted and written on the queue's thread, not on the lane that reports
     // them between one unit and the next (the hand-off, docs/BENCHMARKS.md).
     queue.emplace(*stream);
-    real.rows = &*queue;
+    driver.set_rows(&*queue);
   }
   std::vector<PolicyRun> runs;
-  std::vector<RuntimeReport> reports;  // real runs: what the runtime measured, per policy
-  std::vector<Handoffs> handoffs;      // real runs: the hand-offs timed (a bounded sample)
   // Observers beside the metrics: the timeline (only when it will be written) and the
   // progress line (only on a terminal, only for runs longer than a few seconds).
   std::vector<std::unique_ptr<TraceObserver>> traces;
@@ -334,28 +468,19 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     // left out; a real run ends as at its duration and is kept).
     if (stop_signal() != 0) break;
     const std::string& n = names[i];
-    traces.push_back(a.out ? make_trace(*s, a.trace_events, names.size()) : nullptr);
+    traces.push_back(a.out ? make_trace(s, a.trace_events, names.size()) : nullptr);
     std::vector<Observer*> extra{&progress};
     if (traces.back()) extra.push_back(traces.back().get());
     progress.begin_run(names.size() == 1 ? n : fmt::format("{} [{}/{}]", n, i + 1, names.size()),
-                       s->duration);
-    RuntimeReport report;
-    if (!sim && names.size() > 1) {
-      // A real compare takes the scenario's duration per policy: say which one runs, also
-      // off a terminal (where the progress line is not drawn).
-      real.label = fmt::format("{} ({} of {})", n, i + 1, names.size());
-      std::cerr << fmt::format("red: policy {}: running for {:g} s (warm-up {:g} s)\n", real.label,
-                               to_s(s->duration), to_s(s->warmup));
-    }
+                       s.duration);
+    driver.announce(n, i, names.size());
     if (stream) stream->begin_policy(n);
-    auto r = sim ? simulate_policy(*s, *p, n, seed, extra, a.out.has_value(), real.sync,
-                                   costs ? &*costs : nullptr)
-                 : run_real(*s, *p, n, *backend, real, extra, &report);
+    auto r = driver.run(n, extra, a.out.has_value());
     progress.finish();
     if (!r && stop_signal() != 0) break;  // a simulation ended by the signal: left out
     if (!r) {
       print_error(r.error());
-      return sim ? kBadInput : kRunFailure;
+      return driver.failure_code();
     }
     if (queue) queue->drain();
     if (stream && !write_failed)
@@ -365,24 +490,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
         failed(*e);
         std::cerr << "red: the runs go on; the table and summary.json follow at the end\n";
       }
-    if (sim)
-      std::cerr << fmt::format(
-          "red: simulated {} on {} in {:.3f} s ({:.2f} M unit events/s)\n", n, s->name, r->wall_s,
-          static_cast<double>(r->result.unit_events) / std::max(r->wall_s, 1e-9) / 1e6);
-    else
-      print_runtime_report(n, report);
-    if (!sim) {
-      // Only the samples are needed later (rss.csv): the timing samples go now, so a
-      // compare of many policies does not keep them all; the hand-offs feed the prediction
-      // from the run's own costs.
-      report.decision_us = {};
-      handoffs.push_back({std::move(report.handoff_us), std::move(report.queued_gap_us)});
-      report.handoff_us = {};
-      report.queued_gap_us = {};
-      report.frame_release_us = {};
-      report.release_late_us = {};
-      reports.push_back(std::move(report));
-    }
+    driver.finished(n, *r);
     if (traces.back() && traces.back()->truncated())
       std::cerr << fmt::format(
           "red: trace of {} stops at {:.3f} s (limit of {} events; see --trace-events)\n", n,
@@ -426,23 +534,21 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   std::vector<PolicyMetrics> metrics;
   for (const PolicyRun& r : runs) metrics.push_back(r.metrics);
   apply_ratios(metrics, "edf");
-  fmt::print("scenario {} (backend {}, seed {}, profile {}, {} lane(s), {:g} s measured)\n",
-             s->name, sim ? "sim" : backend->name(), seed, p->source, s->device.lanes,
-             metrics.front().measured_s);
+  fmt::print("scenario {} (backend {}, seed {}, profile {}, {} lane(s), {:g} s measured)\n", s.name,
+             driver.heading_name(), seed, p.source, s.device.lanes, metrics.front().measured_s);
   fmt::print("{}", comparison_table(metrics, "edf"));
   fmt::print("{}", releases_table(metrics));
   std::string prediction;
   std::vector<HtmlTable> prediction_html;
-  if (!sim && stop_signal() == 0)
-    prediction = print_prediction(*s, *p, seed, runs, handoffs, real.sync, prediction_html);
+  if (stop_signal() == 0) prediction = driver.predict(runs, prediction_html);
   if (a.phases) {
     std::vector<std::string> names_run;
     std::vector<std::vector<PhaseMetrics>> phases;
     for (const PolicyRun& r : runs) {
       names_run.push_back(r.metrics.name);
-      phases.push_back(phase_metrics(*s, r.jobs, r.result.end));
+      phases.push_back(phase_metrics(s, r.jobs, r.result.end));
     }
-    fmt::print("{}", phase_table(*s, names_run, phases));
+    fmt::print("{}", phase_table(s, names_run, phases));
   }
   if (!table) {
     const PolicyMetrics& m = metrics.front();
@@ -470,21 +576,18 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
         AnalysisOptions ao;
         ao.policy = r.metrics.name;
         ao.headroom = false;
-        if (auto an = analyze(*s, *p, ao)) verdicts.push_back(std::move(an).value());
+        if (auto an = analyze(s, p, ao)) verdicts.push_back(std::move(an).value());
       }
       o.verdicts = verdict_html_table(verdicts);
       o.prediction = std::move(prediction_html);
     }
     o.timeline = timeline;
-    if (!sim) {
-      o.more_files.emplace_back("rss.csv");
-      if (!prediction.empty()) o.more_files.emplace_back("prediction.json");
-    }
+    driver.more_files(o, prediction);
     o.rows_written = stream != nullptr;
     o.rows_files = streamed;
     o.set = &*set;
     OutputReport written;
-    (void)write_outputs(*a.out, *s, *p, sim ? "sim" : a.backend, seed, runs, o, &written);
+    (void)write_outputs(*a.out, s, p, driver.summary_name(), seed, runs, o, &written);
     for (const Error& e : written.errors) print_error(e);
     write_failed = write_failed || !written.errors.empty();
     auto put = [&](const std::string& name, const std::string& text) {
@@ -493,16 +596,7 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
       else
         set->add(name);
     };
-    if (!sim) {
-      put("rss.csv", samples_csv(names, reports));
-      if (!prediction.empty()) {
-        // The run id, where the format has room for it (docs/REPORTS.md).
-        auto doc = nlohmann::ordered_json::parse(prediction);
-        doc["run_id"] = set->run_id();
-        put("prediction.json",
-            doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n");
-      }
-    }
+    driver.write_more(names, prediction, set->run_id(), put);
     if (stop_signal() != 0) set->stopped(stop_signal_name());
     // Last: the manifest that marks the files as this run's complete set.
     const std::optional<Error> manifest = set->finish();
