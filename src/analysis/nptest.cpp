@@ -81,6 +81,19 @@ Duration hyperperiod(const Scenario& s, bool& bounded) {
   return Duration{h};
 }
 
+/// One part of a unit at one cost point.
+Duration part_cost(const UnitCosts& c, const UnitPart& part) {
+  switch (part.kind) {
+    case UnitPart::Kind::Encoder:
+      return c.encoder();
+    case UnitPart::Kind::Head:
+      return c.head(part.head);
+    case UnitPart::Kind::Plain:
+      return c.plain(*part.cost);
+  }
+  return Duration{0};
+}
+
 }  // namespace
 
 Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const PolicyOptions& o,
@@ -196,25 +209,10 @@ Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const 
       const char* kind = to_string(ru.kind);
       const NodeSpec* ns =
           ru.node >= 0 ? &re.spec->nodes[static_cast<std::size_t>(ru.node)] : nullptr;
-      switch (ru.kind) {
-        case UnitKind::Encoder:
-          cmin = lo.encoder();
-          cmax = hi.encoder();
-          break;
-        case UnitKind::Head:
-        case UnitKind::Plain:
-          cmin = lo.fine_node(*ns);
-          cmax = hi.fine_node(*ns);
-          break;
-        case UnitKind::Coarse:
-          cmin = lo.coarse_node(*ns);
-          cmax = hi.coarse_node(*ns);
-          break;
-        case UnitKind::Mono:
-          cmin = work_fine(*re.spec, lo);
-          cmax = work_fine(*re.spec, hi);
-          break;
-      }
+      for_each_part(*g, ru, [&](const UnitPart& part) {
+        cmin += part_cost(lo, part);
+        cmax += part_cost(hi, part);
+      });
       cmin += sync_lo;
       cmax += sync;
       if (ru.kind == UnitKind::Encoder) {

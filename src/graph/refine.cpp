@@ -119,6 +119,12 @@ std::vector<int> topo_nodes(const OperationSpec& op) {
 
 }  // namespace
 
+std::vector<UnitPart> unit_parts(const RefinedGraph& g, const RefinedUnit& u) {
+  std::vector<UnitPart> parts;
+  for_each_part(g, u, [&](const UnitPart& p) { parts.push_back(p); });
+  return parts;
+}
+
 Duration coarse_critical_path(const OperationSpec& op, const CostModel& costs) {
   std::vector<Duration> finish(op.nodes.size(), Duration{0});
   Duration best{0};
@@ -187,10 +193,6 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
   if (opt.mode == GraphMode::Mono) {
     RefinedUnit u;
     u.kind = UnitKind::Mono;
-    Duration cost = costs.encoder() * static_cast<std::int64_t>(g->sensors.size());
-    for (const NodeSpec& n : op.nodes)
-      cost += n.is_plain() ? CostModel::plain(*n.cost, costs.estimate) : costs.head(n.head);
-    u.estimate = cost;
     u.produces = order;
     g->units.push_back(std::move(u));
   } else {
@@ -206,7 +208,6 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
         e.kind = UnitKind::Encoder;
         e.node = v;
         e.sensor = n.sensor;
-        e.estimate = costs.encoder();
         enc_unit[static_cast<std::size_t>(v)] = static_cast<int>(g->units.size());
         g->units.push_back(std::move(e));
       }
@@ -218,17 +219,14 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
       u.produces = {v};
       if (n.is_plain()) {
         u.kind = UnitKind::Plain;
-        u.estimate = CostModel::plain(*n.cost, costs.estimate);
       } else if (opt.mode == GraphMode::Fine) {
         u.kind = UnitKind::Head;
         u.head = n.head;
         u.sensor = n.sensor;
-        u.estimate = costs.head(n.head);
       } else {
         u.kind = UnitKind::Coarse;
         u.head = n.head;
         u.sensor = n.sensor;
-        u.estimate = costs.encoder() + costs.head(n.head);
       }
       out_unit[static_cast<std::size_t>(v)] = static_cast<int>(g->units.size());
       g->units.push_back(std::move(u));
@@ -240,34 +238,30 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
                out_unit[static_cast<std::size_t>(e.to)]);
   }
 
-  // Every estimate kind of every unit, for the checks that judge by another one (docs/DESIGN.md,
-  // "Overload").
+  // Every unit's cost under every estimate kind, priced part by part (for_each_part), for the
+  // checks that judge by another kind (docs/DESIGN.md, "Overload").
   for (int k = 0; k < 4; ++k) {
     const CostModel ck = costs.with(static_cast<EstimateKind>(k));
     for (RefinedUnit& u : g->units) {
       Duration c{0};
-      switch (u.kind) {
-        case UnitKind::Encoder:
-          c = ck.encoder();
-          break;
-        case UnitKind::Head:
-          c = ck.head(u.head);
-          break;
-        case UnitKind::Coarse:
-          c = ck.encoder() + ck.head(u.head);
-          break;
-        case UnitKind::Plain:
-          c = CostModel::plain(*op.nodes[static_cast<std::size_t>(u.node)].cost, ck.estimate);
-          break;
-        case UnitKind::Mono:
-          c = ck.encoder() * static_cast<std::int64_t>(g->sensors.size());
-          for (const NodeSpec& n : op.nodes)
-            c += n.is_plain() ? CostModel::plain(*n.cost, ck.estimate) : ck.head(n.head);
-          break;
-      }
+      for_each_part(*g, u, [&](const UnitPart& p) {
+        switch (p.kind) {
+          case UnitPart::Kind::Encoder:
+            c += ck.encoder();
+            break;
+          case UnitPart::Kind::Head:
+            c += ck.head(p.head);
+            break;
+          case UnitPart::Kind::Plain:
+            c += CostModel::plain(*p.cost, ck.estimate);
+            break;
+        }
+      });
       u.costs[static_cast<std::size_t>(k)] = c;
     }
   }
+  // c(x) under the scheduler's own estimate kind.
+  for (RefinedUnit& u : g->units) u.estimate = u.costs[static_cast<std::size_t>(costs.estimate)];
 
   // Heights and critical path; units are in topological order by construction.
   std::vector<Duration> finish(g->units.size(), Duration{0});

@@ -140,25 +140,23 @@ Duration profiled_cost(const Dispatch& d, const UnitProfile* encoder,
   const Member& m = d.members.front();
   const RefinedGraph& g = *m.graph;
   const RefinedUnit& u = g.units[static_cast<std::size_t>(m.unit)];
-  switch (d.kind) {
-    case UnitKind::Encoder:
-      return at(encoder, d.batch);
-    case UnitKind::Head:
-      return head(d.head, d.batch);
-    case UnitKind::Coarse:
-      return at(encoder, d.batch) + head(u.head, d.batch);
-    case UnitKind::Plain: {
-      const NodeSpec& n = g.spec->nodes[static_cast<std::size_t>(m.node)];
-      return n.cost ? plain_stats(*n.cost).*stat * d.batch : Duration{0};
+  // A run of `batch` tasks prices each part at that batch; a mono unit is never batched.
+  const int batch = d.kind == UnitKind::Mono ? 1 : d.batch;
+  Duration t{0};
+  for_each_part(g, u, [&](const UnitPart& p) {
+    switch (p.kind) {
+      case UnitPart::Kind::Encoder:
+        t += at(encoder, batch);
+        break;
+      case UnitPart::Kind::Head:
+        t += head(p.head, batch);
+        break;
+      case UnitPart::Kind::Plain:
+        t += p.cost != nullptr ? plain_stats(*p.cost).*stat * batch : Duration{0};
+        break;
     }
-    case UnitKind::Mono: {
-      Duration t = at(encoder, 1) * static_cast<std::int64_t>(g.sensors.size());
-      for (const NodeSpec& n : g.spec->nodes)
-        t += n.is_plain() ? (n.cost ? plain_stats(*n.cost).*stat : Duration{0}) : head(n.head, 1);
-      return t;
-    }
-  }
-  return Duration{0};
+  });
+  return t;
 }
 
 Duration CostSampler::uncalibrated(const Dispatch& d) const {
@@ -166,37 +164,28 @@ Duration CostSampler::uncalibrated(const Dispatch& d) const {
   const Member& m = d.members.front();
   const RefinedGraph& g = *m.graph;
   const RefinedUnit& ru = g.units[static_cast<std::size_t>(m.unit)];
-  switch (d.kind) {
-    case UnitKind::Encoder:
-      // One run encodes `batch` frames; the first frame's draw picks the quantile.
-      return encoder(d.sensor, m.frame, d.batch);
-    case UnitKind::Head:
-      return head(d.head, m.operation, m.job_seq, m.node, d.batch);
-    case UnitKind::Coarse:
-      return encoder(ru.sensor, m.frame) + head(ru.head, m.operation, m.job_seq, m.node);
-    case UnitKind::Plain:
-      return plain(*g.spec->nodes[static_cast<std::size_t>(m.node)].cost, m.operation, m.job_seq,
-                   m.node);
-    case UnitKind::Mono: {
-      // The encoder once per sensor (CRN key: the job's frame of the first sensor, else
-      // the job), then every head and plain node of the job.
-      Duration t{0};
-      bool first = true;
-      for (int sensor : g.sensors) {
-        t += first ? encoder(sensor, m.frame)
-                   : encoder(sensor, m.job_seq * 131 + static_cast<std::uint64_t>(sensor));
+  // One run of an encoder or a head encodes or reads `batch` frames; the first frame's draw picks
+  // the quantile. A mono unit draws its encoder once per sensor, with the CRN key the job's frame
+  // of the first sensor, else the job.
+  const int batch = d.kind == UnitKind::Encoder || d.kind == UnitKind::Head ? d.batch : 1;
+  Duration t{0};
+  bool first = true;
+  for_each_part(g, ru, [&](const UnitPart& p) {
+    switch (p.kind) {
+      case UnitPart::Kind::Encoder:
+        t += first ? encoder(p.sensor, m.frame, batch)
+                   : encoder(p.sensor, m.job_seq * 131 + static_cast<std::uint64_t>(p.sensor));
         first = false;
-      }
-      for (std::size_t n = 0; n < g.spec->nodes.size(); ++n) {
-        const NodeSpec& ns = g.spec->nodes[n];
-        const int node = static_cast<int>(n);
-        t += ns.is_plain() ? plain(*ns.cost, m.operation, m.job_seq, node)
-                           : head(ns.head, m.operation, m.job_seq, node);
-      }
-      return t;
+        break;
+      case UnitPart::Kind::Head:
+        t += head(p.head, m.operation, m.job_seq, p.node, batch);
+        break;
+      case UnitPart::Kind::Plain:
+        t += plain(*p.cost, m.operation, m.job_seq, p.node);
+        break;
     }
-  }
-  return Duration{0};
+  });
+  return t;
 }
 
 }  // namespace red

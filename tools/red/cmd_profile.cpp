@@ -24,7 +24,7 @@
 
 #include "common.hpp"
 #include "real_run.hpp"
-#include "red/profile/calibrate.hpp"
+#include "red/calibrate/calibrate.hpp"
 #include "red/profile/profile.hpp"
 #include "red/profile/quality.hpp"
 #include "red/report/stream.hpp"

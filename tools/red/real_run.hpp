@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "red/calibrate/calibrate.hpp"
 #include "red/core/expected.hpp"
-#include "red/profile/calibrate.hpp"
 #include "red/profile/profile.hpp"
 #include "red/runtime/backend.hpp"
 #include "red/runtime/runtime.hpp"

@@ -81,6 +81,67 @@ struct RefinedGraph {
   std::vector<int> sensors;
 };
 
+/// One piece of work a unit runs: what each caller prices (a mean, a draw, a bound...) and sums.
+/// A unit's parts are listed once, here, by for_each_part; a new UnitKind is added there.
+struct UnitPart {
+  enum class Kind : std::uint8_t {
+    Encoder,  ///< the shared encoder on one sensor's frame
+    Head,     ///< one model head on encoder features
+    Plain,    ///< a plain compute node with its own cost
+  };
+  Kind kind = Kind::Plain;
+  /// The node it computes (Head, Plain) or encodes for (the Encoder of an Encoder or Coarse
+  /// unit); -1 for a Mono unit's encoders, which serve every node on their sensor.
+  int node = -1;
+  int head = -1;                    ///< Head: index into ModelSpec::heads, else -1
+  int sensor = -1;                  ///< Encoder, Head: the sensor whose frame it reads, else -1
+  const PlainCost* cost = nullptr;  ///< Plain: the node's cost (null if the node has none)
+};
+
+/// Calls `f(const UnitPart&)` for each part of unit `u` of graph `g`, in this order:
+/// - Encoder: the encoder on the unit's sensor;
+/// - Head: the unit's head;
+/// - Coarse: the encoder on the node's sensor, then the node's head;
+/// - Plain: the plain node;
+/// - Mono: the encoder once per sensor the operation reads (RefinedGraph::sensors, in order),
+///   then every node of the operation in index order, a Head or a Plain part.
+/// Callers sum in this order; the Duration sums are exact, so the order fixes nothing but
+/// the order of any draws a caller makes.
+template <class F>
+void for_each_part(const RefinedGraph& g, const RefinedUnit& u, F&& f) {
+  using K = UnitPart::Kind;
+  const auto plain = [&](int v) {
+    const NodeSpec& n = g.spec->nodes[static_cast<std::size_t>(v)];
+    return UnitPart{K::Plain, v, -1, -1, n.cost ? &*n.cost : nullptr};
+  };
+  switch (u.kind) {
+    case UnitKind::Encoder:
+      f(UnitPart{K::Encoder, u.node, -1, u.sensor, nullptr});
+      return;
+    case UnitKind::Head:
+      f(UnitPart{K::Head, u.node, u.head, u.sensor, nullptr});
+      return;
+    case UnitKind::Coarse:
+      f(UnitPart{K::Encoder, u.node, -1, u.sensor, nullptr});
+      f(UnitPart{K::Head, u.node, u.head, u.sensor, nullptr});
+      return;
+    case UnitKind::Plain:
+      f(plain(u.node));
+      return;
+    case UnitKind::Mono:
+      for (int sensor : g.sensors) f(UnitPart{K::Encoder, -1, -1, sensor, nullptr});
+      for (std::size_t v = 0; v < g.spec->nodes.size(); ++v) {
+        const NodeSpec& n = g.spec->nodes[v];
+        f(n.is_plain() ? plain(static_cast<int>(v))
+                       : UnitPart{K::Head, static_cast<int>(v), n.head, n.sensor, nullptr});
+      }
+      return;
+  }
+}
+
+/// The parts of unit `u` of graph `g`, in for_each_part's order.
+std::vector<UnitPart> unit_parts(const RefinedGraph& g, const RefinedUnit& u);
+
 /// Cost model used by refinement: unit estimates from a profile.
 struct CostModel {
   const Profile* profile = nullptr;

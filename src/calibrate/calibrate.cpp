@@ -5,7 +5,7 @@
 /// each part measured: the lane factor from units that started beside k busy lanes, the
 /// time factor as the median ratio within each block, the residual as what is left.
 
-#include "red/profile/calibrate.hpp"
+#include "red/calibrate/calibrate.hpp"
 
 #include <algorithm>
 #include <cmath>

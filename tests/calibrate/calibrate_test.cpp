@@ -6,7 +6,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "red/profile/calibrate.hpp"
+#include "red/calibrate/calibrate.hpp"
+#include "red/profile/calibrate.hpp"  // the old, forwarding path still compiles
 #include "red/scenario/builder.hpp"
 #include "red/sim/run.hpp"
 
