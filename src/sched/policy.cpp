@@ -97,7 +97,10 @@ const std::array<OptionSpec, 17> kOptions{{
                           {"proportional", DeadlineMode::Proportional},
                           {"equal", DeadlineMode::Equal}}});
      },
-     [](const PolicyOptions& o) -> std::string { return to_string(o.deadlines); }},
+     // The value --with accepts (to_string's "e2e" is the short name reports print).
+     [](const PolicyOptions& o) -> std::string {
+       return o.deadlines == DeadlineMode::EndToEnd ? "end-to-end" : to_string(o.deadlines);
+     }},
     {"reassign",
      [](PolicyOptions& o, std::string_view k, std::string_view v) {
        return choose(o.reassign, k, v, kBool);

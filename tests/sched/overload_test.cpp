@@ -470,6 +470,21 @@ void expect_option_of_red_robust_only(const std::string& key, bool PolicyOptions
   EXPECT_TRUE(o.*field) << key;  // a bad value changes nothing
 }
 
+TEST(Overload, MissGateIsAnOptionOfRedRobustOnly) {
+  expect_option_of_red_robust_only("miss_gate", &PolicyOptions::miss_gate);
+}
+
+// describe() lists every option as apply_options() reads it: each preset's description, applied
+// to the defaults, gives the preset back.
+TEST(Overload, DescribeRoundTripsThroughApplyOptions) {
+  for (const std::string& p : known_policies()) {
+    const std::string text = describe(*preset_options(p));
+    PolicyOptions o;
+    EXPECT_EQ(apply_options(o, text), "") << p << ": " << text;
+    EXPECT_EQ(describe(o), text) << p;
+  }
+}
+
 TEST(Overload, LookaheadIsAnOptionOfRedRobustOnly) {
   expect_option_of_red_robust_only("lookahead", &PolicyOptions::lookahead);
 }
