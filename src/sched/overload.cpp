@@ -348,6 +348,9 @@ void Scheduler::Impl::admit(TimePoint now) {
   // job is rejected for a window only if the jobs of its criticality or more overrun by themselves;
   // jobs at carried_from or above are known not to (rejections only make room).
   int carried_from = std::numeric_limits<int>::max();
+  // The workload's least critical operations: only their jobs are victims. Nothing in here
+  // changes which operations are live.
+  const int least_op = mixed_criticality ? least_op_criticality() : 0;
   std::size_t from = 0;
   for (;;) {
     const int over = first_overrun(now, k, schedule, margin, from, true);
@@ -367,7 +370,7 @@ void Scheduler::Impl::admit(TimePoint now) {
       refresh(j);
       if (j.started || doomed(j, now, k)) continue;
       const int crit = ops[static_cast<std::size_t>(j.op)].criticality;
-      if (crit >= carried_from || (mixed_criticality && crit > least_op_criticality())) continue;
+      if (crit >= carried_from || (mixed_criticality && crit > least_op)) continue;
       const Duration w = work_left(j, now, k);
       const bool better = victim < 0 || crit < victim_crit ||
                           (crit == victim_crit && w > victim_work) ||
@@ -460,9 +463,10 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin)
   // ahead of the others under overload).
   if (mixed_criticality && !lone.empty()) {
     const int least = least_criticality();
+    const int least_op = least_op_criticality();
     std::erase_if(lone, [&](int slot) {
       const int crit = ops[static_cast<std::size_t>(job(slot).op)].criticality;
-      return crit > least_op_criticality() ||
+      return crit > least_op ||
              (crit > least && first_overrun(now, est, true, margin, 0, true, crit) < 0);
     });
   }
