@@ -224,6 +224,19 @@ red::Scenario with_options(const red::Scenario& s, const std::string& policy,
   return out;
 }
 
+// --points: opens `path` (when given) and writes the header line; false, with a message, when
+// it cannot be written.
+bool open_tsv(std::ofstream& out, const std::string& path, const std::string& header) {
+  if (path.empty()) return true;
+  out.open(path);
+  if (!out) {
+    std::cerr << "red_load_grid: cannot write " << path << "\n";
+    return false;
+  }
+  out << header << "\n";
+  return true;
+}
+
 // --robots: edf, red and red-robust on N seeded robot workloads (robot_workload.hpp) at
 // 0.5 to 2.5x load; the worst point of red-robust against each, and of every operation more
 // critical than the workload's least against red (on-time fractions, after warm-up).
@@ -232,14 +245,7 @@ red::Scenario with_options(const red::Scenario& s, const std::string& policy,
 int robots(int n, const red::Profile& profile, const std::string& with,
            const std::string& points_file) {
   std::ofstream tsv;
-  if (!points_file.empty()) {
-    tsv.open(points_file);
-    if (!tsv) {
-      std::cerr << "red_load_grid: cannot write " << points_file << "\n";
-      return 1;
-    }
-    tsv << "seed\tload\tedf\tred\tred_robust\tcritical_below_red\n";
-  }
+  if (!open_tsv(tsv, points_file, "seed\tload\tedf\tred\tred_robust\tcritical_below_red")) return 1;
   const std::vector<double> loads{0.5, 1.0, 1.5, 2.0, 2.5};
   double worst_red = 1, worst_edf = 1, worst_crit = 1;
   std::string at_red, at_edf, at_crit;
@@ -473,17 +479,10 @@ int main(int argc, char** argv) {
   const red::Profile profile = red::default_profile();
   Summary sum;
   std::ofstream points_out;
-  if (!points_file.empty()) {
-    points_out.open(points_file);
-    if (!points_out) {
-      std::cerr << "red_load_grid: cannot write " << points_file << "\n";
-      return 1;
-    }
-    points_out << "point\tload";
-    for (const std::string& p : kPolicies) points_out << "\t" << p;
-    points_out << "\tbound\twaste\n";
-    sum.points_out = &points_out;
-  }
+  std::string header = "point\tload";
+  for (const std::string& p : kPolicies) header += "\t" + p;
+  if (!open_tsv(points_out, points_file, header + "\tbound\twaste")) return 1;
+  if (points_out.is_open()) sum.points_out = &points_out;
   for (const red::grid::SetSpec& spec : red::grid::grid_sets(seeds, duration)) {
     const std::string family = fmt::format("{}, {} lane{}", red::grid::to_string(spec.nodes),
                                            spec.lanes, spec.lanes > 1 ? "s" : "");
