@@ -4,6 +4,8 @@
 
 #include "drivers.hpp"
 
+#include "commands.hpp"
+
 #include <algorithm>
 #include <iostream>
 #include <optional>
