@@ -88,7 +88,7 @@ void judge(OperationAnalysis& oa, double phase_util, double limit) {
 Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto opts = policy_options(s, o.policy);
-  if (!opts) return Error{"", 0, "unknown policy '" + o.policy + "'"};
+  if (!opts) return Error{"", 0, unknown_policy_message(o.policy)};
   Analysis a;
   a.scenario = s.name;
   a.policy = o.policy;

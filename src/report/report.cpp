@@ -2,6 +2,8 @@
 
 #include "red/core/output_file.hpp"
 
+#include "job_columns.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -14,16 +16,7 @@ namespace red {
 
 namespace {
 
-// A CSV field (RFC 4180): quoted when it holds a comma, a quote or a line break.
-std::string csv(std::string_view v) {
-  if (v.find_first_of(",\"\r\n") == std::string_view::npos) return std::string(v);
-  std::string q = "\"";
-  for (char c : v) {
-    if (c == '"') q += '"';
-    q += c;
-  }
-  return q + '"';
-}
+using report_detail::csv;
 
 nlohmann::json opt(const std::optional<double>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
@@ -140,20 +133,23 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
 }
 
 std::string jobs_csv_header() {
-  return "policy,operation,job,release_ms,finish_ms,deadline_ms,outcome,response_ms,qoe,"
-         "frame_age_ms,reason,ended_ms\n";
+  std::string out;
+  for (const auto& c : report_detail::kJobColumns) {
+    if (!out.empty()) out += ',';
+    out += c.name;
+  }
+  return out + "\n";
 }
 
 void append_job_row(std::string& out, const Scenario& s, const std::string& policy,
                     const JobRow& j) {
-  const bool done = j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed;
-  out += fmt::format(
-      "{},{},{},{:.6f},{},{:.6f},{},{},{},{},{},{:.6f}\n", csv(policy),
-      csv(s.operation_name(j.operation)), j.seq, to_ms(j.release),
-      done ? fmt::format("{:.6f}", to_ms(j.finish)) : "", to_ms(j.deadline), to_string(j.outcome),
-      done ? fmt::format("{:.6f}", to_ms(j.finish - j.release)) : "",
-      done ? fmt::format("{:.6f}", j.qoe) : "0",
-      done ? fmt::format("{:.6f}", to_ms(j.frame_age)) : "", csv(j.reason), to_ms(j.finish));
+  bool first = true;
+  for (const auto& c : report_detail::kJobColumns) {
+    if (!first) out += ',';
+    first = false;
+    c.write(out, s, policy, j);
+  }
+  out += '\n';
 }
 
 std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& runs) {

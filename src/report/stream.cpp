@@ -16,6 +16,8 @@
 #include "red/core/output_file.hpp"
 #include "red/report/report.hpp"
 
+#include "job_columns.hpp"
+
 namespace red {
 
 namespace {
@@ -275,29 +277,13 @@ TimePoint at_ms(const std::string& v) {
 Expected<std::vector<std::pair<std::string, std::vector<JobRow>>>> read_job_rows(
     const std::string& path, const Scenario& s) {
   return read_rows<JobRow>(
-      path, "jobs.csv", jobs_csv_header(), 12,
+      path, "jobs.csv", jobs_csv_header(), report_detail::kJobColumns.size(),
       [&](const std::vector<std::string>& f, int n, JobRow& r) -> std::optional<Error> {
-        r.operation = -1;
-        for (int i = 0; i < s.operation_count(); ++i)
-          if (s.operation_name(i) == f[1]) r.operation = i;
-        if (r.operation < 0) return Error{path, n, "unknown operation '" + f[1] + "'"};
-        r.seq = std::stoull(f[2]);
-        r.release = at_ms(f[3]);
-        if (!f[4].empty()) r.finish = at_ms(f[4]);
-        r.deadline = at_ms(f[5]);
-        bool known = false;
-        for (JobOutcome o : {JobOutcome::Met, JobOutcome::Missed, JobOutcome::Dropped,
-                             JobOutcome::Skipped, JobOutcome::Failed, JobOutcome::Unfinished})
-          if (f[6] == to_string(o)) {
-            r.outcome = o;
-            known = true;
-          }
-        if (!known) return Error{path, n, "unknown outcome '" + f[6] + "'"};
-        r.qoe = std::stod(f[8]);
-        if (!f[9].empty()) r.frame_age = from_ms(std::stod(f[9]));
-        r.reason = f[10];
-        // When the job ended: its finish, or when it was dropped, skipped or failed.
-        if (!f[11].empty()) r.finish = at_ms(f[11]);
+        for (std::size_t i = 0; i < f.size(); ++i) {
+          const auto read = report_detail::kJobColumns[i].read;
+          if (read == nullptr) continue;
+          if (auto problem = read(s, f[i], r)) return Error{path, n, *problem};
+        }
         return std::nullopt;
       });
 }

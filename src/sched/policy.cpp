@@ -381,4 +381,10 @@ const std::vector<std::string>& known_policies() {
   return v;
 }
 
+std::string unknown_policy_message(std::string_view name) {
+  std::string known;
+  for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;
+  return "unknown policy '" + std::string(name) + "' (known: " + known + ")";
+}
+
 }  // namespace red

@@ -21,11 +21,7 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
                                     bool keep_units, std::optional<SyncMode> sync,
                                     const Profile* costs) {
   auto pol = make_policy(policy, policy_options(s, policy, sync));
-  if (!pol) {
-    std::string known;
-    for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;
-    return Error{"", 0, "unknown policy '" + policy + "' (known: " + known + ")"};
-  }
+  if (!pol) return Error{"", 0, unknown_policy_message(policy)};
   PolicyRun run;
   MetricsCollector metrics(s, s.scheduler.qoe_lambda, keep_units);
   SimOptions options;

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../support/cli.hpp"
+#include "red/sched/policy.hpp"
 
 namespace red {
 namespace {
@@ -523,14 +524,14 @@ TEST_F(Cli, SweepBreakdownRateIsCensoredWhenNoSweptScaleMissesMore) {
 
 // ---- bad input: exit code 2 and a located message, never a crash -----------------------------
 
+// Every command says the same: the name and every known one (unknown_policy_message).
 TEST_F(Cli, UnknownPolicy) {
-  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --policy bogus",
-                   "unknown policy 'bogus'");
-  expect_bad_input("compare " + quote(data("tiny.yaml")) + " --policies edf,bogus",
-                   "unknown policy 'bogus'");
+  const std::string message = unknown_policy_message("bogus");
+  expect_bad_input("simulate " + quote(data("tiny.yaml")) + " --policy bogus", message);
+  expect_bad_input("compare " + quote(data("tiny.yaml")) + " --policies edf,bogus", message);
   expect_bad_input(
-      "sweep " + quote(data("tiny.yaml")) + " --set deadline_scale=1,2 --policies bogus",
-      "unknown policy 'bogus'");
+      "sweep " + quote(data("tiny.yaml")) + " --set deadline_scale=1,2 --policies bogus", message);
+  expect_bad_input("analyze " + quote(data("tiny.yaml")) + " --policy bogus", message);
 }
 
 TEST_F(Cli, MissingScenarioFile) {

@@ -474,6 +474,19 @@ TEST(Overload, MissGateIsAnOptionOfRedRobustOnly) {
   expect_option_of_red_robust_only("miss_gate", &PolicyOptions::miss_gate);
 }
 
+// Every command's message for a name no preset has: the name, then every preset in table order.
+TEST(Overload, UnknownPolicyMessageNamesTheNameAndEveryPreset) {
+  const std::string m = unknown_policy_message("bogus");
+  EXPECT_EQ(m.rfind("unknown policy 'bogus' (known: ", 0), 0U) << m;
+  std::size_t at = 0;
+  for (const std::string& p : known_policies()) {
+    const std::size_t found = m.find(p, at);
+    ASSERT_NE(found, std::string::npos) << p << " in " << m;
+    at = found + p.size();
+  }
+  EXPECT_EQ(m.substr(at), ")");
+}
+
 // describe() lists every option as apply_options() reads it: each preset's description, applied
 // to the defaults, gives the preset back.
 TEST(Overload, DescribeRoundTripsThroughApplyOptions) {

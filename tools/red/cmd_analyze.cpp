@@ -37,9 +37,7 @@ int run_analyze(const AnalyzeArgs& a) {
   warn_suspect_profile(p, a.scenario.profile.value_or(s.profile));
   const auto opts = policy_options(s, a.policy);
   if (!opts) {
-    std::string known;
-    for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;
-    print_error(Error{"", 0, "--policy: unknown policy '" + a.policy + "' (known: " + known + ")"});
+    print_error(Error{"", 0, "--policy: " + unknown_policy_message(a.policy)});
     return kBadInput;
   }
   if (a.nptest_window_ms && !(*a.nptest_window_ms > 0)) {

@@ -102,9 +102,7 @@ int run_node(const NodeArgs& a) {
   Scenario& s = loaded->scenario;
   const Profile& p = loaded->profile;
   if (!make_policy(a.policy)) {
-    std::string known;
-    for (const std::string& k : known_policies()) known += (known.empty() ? "" : ", ") + k;
-    print_error(Error{"", 0, "unknown policy '" + a.policy + "' (known: " + known + ")"});
+    print_error(Error{"", 0, unknown_policy_message(a.policy)});
     return kBadInput;
   }
   if (!roudi_ok(a.dds)) return kBadInput;

@@ -265,7 +265,7 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
                              a.calibrate_s, rounds)};
   std::vector<std::string> policies = split(a.calibrate_policies);
   for (const std::string& n : policies)
-    if (!make_policy(n)) return Error{"", 0, "--calibrate-policies: unknown policy '" + n + "'"};
+    if (!make_policy(n)) return Error{"", 0, "--calibrate-policies: " + unknown_policy_message(n)};
   if (auto e = check_profile_covers(isolated, *s)) return *e;
   if (!a.calibrate_from.empty()) {
     // Fit from real runs made before: no run here.

@@ -147,7 +147,7 @@ void register_sweep(CLI::App& app, int& exit_code) {
     const auto names = a->policies.empty() ? default_presets() : split_list(a->policies);
     for (const std::string& n : names)
       if (!make_policy(n)) {
-        print_error(Error{"", 0, "unknown policy '" + n + "'"});
+        print_error(Error{"", 0, unknown_policy_message(n)});
         exit_code = kBadInput;
         return;
       }

@@ -157,7 +157,7 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
                              Backend& backend, const RealRunOptions& o,
                              const std::vector<Observer*>& extra, RuntimeReport* out) {
   auto pol = make_policy(policy, policy_options(s, policy, o.sync));
-  if (!pol) return Error{"", 0, "unknown policy '" + policy + "'"};
+  if (!pol) return Error{"", 0, unknown_policy_message(policy)};
   RuntimeOptions ro;
   ro.realtime = o.realtime;
   ro.watchdog_x = o.watchdog_x;

@@ -219,4 +219,8 @@ const std::vector<std::string>& default_presets();
 /// Every name make_policy accepts.
 const std::vector<std::string>& known_policies();
 
+/// The one message for a name make_policy does not accept: "unknown policy 'NAME' (known: fifo,
+/// mono, ...)", every known name in table order. Each command that reads a policy's name says it.
+std::string unknown_policy_message(std::string_view name);
+
 }  // namespace red
