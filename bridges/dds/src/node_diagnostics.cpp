@@ -44,17 +44,17 @@ void Node::Impl::publish_diagnostics() {
     std::lock_guard lock(stats_mu);
     for (std::size_t i = 0; i < stats.size(); ++i) {
       const OpStats& st = stats[i];
-      const double jobs = static_cast<double>(std::max<std::uint64_t>(1, st.jobs));
-      const double miss = static_cast<double>(st.missed) / jobs;
+      const OutcomeTally& t = st.tally;
+      const double miss = t.miss_rate();
       std::vector<double> lat = st.latency_ms;
       std::sort(lat.begin(), lat.end());
       add(miss > 0.05 ? 1 : 0, "red: " + scenario.operation_name(static_cast<int>(i)),
           miss > 0.05 ? "missing deadlines" : "ok",
-          {{"jobs", std::to_string(st.jobs)},
-           {"completed", std::to_string(st.completed)},
+          {{"jobs", std::to_string(t.decided())},  // ended, the unfinished aside
+           {"completed", std::to_string(t.completed())},
            {"miss_rate", fmt_double(miss)},
-           {"drop_rate", fmt_double(static_cast<double>(st.dropped) / jobs)},
-           {"qoe", fmt_double(st.jobs == 0 ? 0.0 : st.qoe_sum / jobs)},
+           {"drop_rate", fmt_double(t.drop_rate())},
+           {"qoe", fmt_double(t.qoe())},
            {"latency_p50_ms", fmt_double(percentile_sorted(lat, 0.5))},
            {"latency_p99_ms", fmt_double(percentile_sorted(lat, 0.99))}});
     }

@@ -18,6 +18,7 @@
 
 #include "red/core/clock.hpp"
 #include "red/dds/node.hpp"
+#include "red/metrics/tally.hpp"
 
 namespace red::dds {
 
@@ -55,9 +56,10 @@ struct SensorState {
   StampGaps gaps;                 // frames missing from its stream (the receiving thread's)
 };
 
+// An operation's ended jobs: what counts as a miss and how QoE is averaged are the metrics
+// module's (OutcomeTally, as in red run's summary); the latencies are the node's own window.
 struct OpStats {
-  std::uint64_t jobs = 0, completed = 0, missed = 0, dropped = 0;
-  double qoe_sum = 0;
+  OutcomeTally tally;
   std::vector<double> latency_ms;  // ring of the last kLatencyWindow
   std::size_t next = 0;
 };

@@ -37,23 +37,17 @@ void Node::Impl::on_job_end(const JobRecord& j) {
   {
     std::lock_guard lock(stats_mu);
     OpStats& st = stats[static_cast<std::size_t>(j.operation)];
-    if (j.outcome != JobOutcome::Unfinished) ++st.jobs;
+    double qoe = 0;
     if (completed) {
-      ++st.completed;
       const Duration r = j.finish - j.release;
-      st.qoe_sum += qoe_score(r, j.deadline - j.release, scenario.scheduler.qoe_lambda);
+      qoe = qoe_score(r, j.deadline - j.release, scenario.scheduler.qoe_lambda);
       const double ms = to_ms(r);
       if (st.latency_ms.size() < kLatencyWindow)
         st.latency_ms.push_back(ms);
       else
         st.latency_ms[st.next++ % kLatencyWindow] = ms;
     }
-    if (j.outcome == JobOutcome::Missed) ++st.missed;
-    if (j.outcome == JobOutcome::Dropped || j.outcome == JobOutcome::Skipped ||
-        j.outcome == JobOutcome::Failed) {
-      ++st.missed;
-      ++st.dropped;
-    }
+    st.tally.add(j.outcome, qoe);
   }
   // A finished job publishes what it computed; a dropped one (strict) nothing (docs/ROS2.md).
   if (!completed) {
