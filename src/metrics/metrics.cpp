@@ -56,39 +56,14 @@ void MetricsCollector::on_job_end(const JobRecord& j) {
 
 void MetricsCollector::count(const JobRow& j) {
   PolicyMetrics& m = counts_;
-  ++m.jobs;
+  tally_.add(j.outcome, j.qoe);
   if (j.outcome == JobOutcome::Dropped || j.outcome == JobOutcome::Skipped ||
       j.outcome == JobOutcome::Failed)
     ++m.drop_reasons[j.reason.empty() ? std::string(to_string(j.outcome)) : j.reason];
-  switch (j.outcome) {
-    case JobOutcome::Met:
-      ++m.completed;
-      ++m.met;
-      break;
-    case JobOutcome::Missed:
-      ++m.completed;
-      ++m.missed;
-      break;
-    case JobOutcome::Dropped:
-      ++m.dropped;
-      break;
-    case JobOutcome::Skipped:
-      ++m.dropped;
-      ++m.skipped;
-      break;
-    case JobOutcome::Failed:
-      ++m.dropped;
-      ++m.failed;
-      ++m.failure_reasons[j.reason];
-      break;
-    case JobOutcome::Unfinished:
-      ++m.unfinished;
-      break;
-  }
+  if (j.outcome == JobOutcome::Failed) ++m.failure_reasons[j.reason];
   if (j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed) {
     latency_.add(to_ms(j.finish - j.release));
     frame_age_.add(to_ms(j.frame_age));
-    qoe_sum_ += j.qoe;
   }
 }
 
@@ -201,16 +176,21 @@ double round6(double x) {
 PolicyMetrics MetricsCollector::summarize(const std::string& name, TimePoint end) const {
   PolicyMetrics m = counts_;
   m.name = name;
-  const double qoe_sum = qoe_sum_;
+  const OutcomeTally& t = tally_;
   const Duration wasted = wasted_;
-  const auto decided = static_cast<double>(m.completed + m.dropped);
+  m.jobs = t.jobs;
+  m.completed = t.completed();
+  m.met = t.met;
+  m.missed = t.missed();  // late or without result (docs/DESIGN.md, "Metrics")
+  m.dropped = t.dropped;
+  m.skipped = t.skipped;
+  m.failed = t.failed;
+  m.unfinished = t.unfinished;
   if (m.jobs > 0) m.on_time = round6(static_cast<double>(m.met) / static_cast<double>(m.jobs));
-  // A job misses if it finishes late or is dropped (docs/DESIGN.md, "Metrics").
-  m.missed += m.dropped;
-  if (decided > 0) {
-    m.miss_rate = round6(static_cast<double>(m.missed) / decided);
-    m.drop_rate = round6(static_cast<double>(m.dropped) / decided);
-    m.qoe = round6(qoe_sum / decided);
+  if (t.decided() > 0) {
+    m.miss_rate = round6(t.miss_rate());
+    m.drop_rate = round6(t.drop_rate());
+    m.qoe = round6(t.qoe());
   }
   if (latency_.count() > 0) {
     const auto n = static_cast<double>(latency_.count());

@@ -17,39 +17,27 @@ bool completed(const JobRow& j) {
   return j.outcome == JobOutcome::Met || j.outcome == JobOutcome::Missed;
 }
 
-bool no_result(const JobRow& j) {
-  return j.outcome == JobOutcome::Dropped || j.outcome == JobOutcome::Skipped ||
-         j.outcome == JobOutcome::Failed;
-}
-
-// Accumulates one set of jobs; the same rules as MetricsCollector::summarize (docs/DESIGN.md,
-// "Metrics").
+// Accumulates one set of jobs; the same rules as MetricsCollector::summarize (OutcomeTally).
 struct Tally {
-  PhaseFigures f;
-  double qoe_sum = 0;
+  OutcomeTally t;
   std::vector<double> latency_ms;
 
   void add(const JobRow& j) {
-    ++f.jobs;
-    if (completed(j)) {
-      ++f.completed;
-      if (j.outcome == JobOutcome::Missed) ++f.missed;
-      qoe_sum += j.qoe;
-      latency_ms.push_back(to_ms(j.finish - j.release));
-    } else if (no_result(j)) {
-      ++f.dropped;
-      ++f.missed;  // a job that produced no result is a miss
-    } else {
-      ++f.unfinished;
-    }
+    t.add(j.outcome, j.qoe);
+    if (completed(j)) latency_ms.push_back(to_ms(j.finish - j.release));
   }
 
   PhaseFigures done() {
-    const auto decided = static_cast<double>(f.completed + f.dropped);
-    if (decided > 0) {
-      f.miss_rate = round6(static_cast<double>(f.missed) / decided);
-      f.drop_rate = round6(static_cast<double>(f.dropped) / decided);
-      f.qoe = round6(qoe_sum / decided);
+    PhaseFigures f;
+    f.jobs = t.jobs;
+    f.completed = t.completed();
+    f.missed = t.missed();  // late or without result
+    f.dropped = t.dropped;
+    f.unfinished = t.unfinished;
+    if (t.decided() > 0) {
+      f.miss_rate = round6(t.miss_rate());
+      f.drop_rate = round6(t.drop_rate());
+      f.qoe = round6(t.qoe());
     }
     std::sort(latency_ms.begin(), latency_ms.end());
     f.latency_p50_ms = round6(percentile_sorted(latency_ms, 0.50));
@@ -102,7 +90,7 @@ std::vector<PhaseMetrics> phase_metrics(const Scenario& s, const std::vector<Job
     m.span = spans[p];
     m.all = all[p].done();
     for (std::size_t o = 0; o < ops; ++o)
-      if (per_op[p][o].f.jobs > 0)
+      if (per_op[p][o].t.jobs > 0)
         m.operations.emplace_back(s.operation_name(static_cast<int>(o)), per_op[p][o].done());
     out.push_back(std::move(m));
   }

@@ -38,7 +38,7 @@ const std::string kRed = RED_CLI;
 const std::string kScenario = RED_SOURCE_DIR "/tests/dds/data/node.yaml";
 
 // The full path of `name` on PATH ("" when absent).
-std::string find_program(const std::string& name) {
+[[maybe_unused]] std::string find_program(const std::string& name) {
   const char* path = std::getenv("PATH");
   std::string dirs = path != nullptr ? path : "/usr/bin:/bin";
   for (std::size_t from = 0; from <= dirs.size();) {
@@ -120,7 +120,7 @@ struct Roudi {
 };
 
 // Removes the IPC sockets iceoryx applications leave in /tmp when killed (named after their pid).
-void remove_app_sockets(const std::vector<pid_t>& pids) {
+[[maybe_unused]] void remove_app_sockets(const std::vector<pid_t>& pids) {
   std::error_code ec;
   for (const auto& e : fs::directory_iterator("/tmp", ec))
     for (pid_t p : pids)
@@ -128,7 +128,8 @@ void remove_app_sockets(const std::vector<pid_t>& pids) {
         fs::remove(e.path(), ec);
 }
 
-std::size_t count_lines_with(const std::string& text, const std::string& a, const std::string& b) {
+[[maybe_unused]] std::size_t count_lines_with(const std::string& text, const std::string& a,
+                                              const std::string& b) {
   std::size_t n = 0;
   std::size_t from = 0;
   while (from < text.size()) {

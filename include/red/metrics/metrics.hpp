@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "red/metrics/distribution.hpp"
+#include "red/metrics/tally.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sched/observer.hpp"
 
@@ -180,9 +181,11 @@ class MetricsCollector final : public Observer {
   };
   std::unordered_map<JobId, Spent> spent_;
   Duration wasted_{0};  // lane time of the jobs dropped, skipped or failed after the warm-up
-  // The summary's figures of the jobs ended after the warm-up, in the order they ended.
+  // The jobs ended after the warm-up, in the order they ended: by outcome (what counts as a
+  // miss, how QoE is averaged), and the reasons of those without result (drop_reasons,
+  // failure_reasons; its other figures are filled by summarize()).
+  OutcomeTally tally_;
   PolicyMetrics counts_;
-  double qoe_sum_ = 0;
   BoundedDistribution latency_{BoundedDistribution::kUnbounded};    // response times (ms)
   BoundedDistribution frame_age_{BoundedDistribution::kUnbounded};  // their frame ages (ms)
 };
