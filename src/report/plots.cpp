@@ -44,16 +44,6 @@ std::string dq(const std::string& s) {
 }
 
 // One color per policy, the same in every plot.
-std::string policy_color(const std::string& policy, std::size_t index) {
-  static const std::map<std::string, std::string> known = {
-      {"fifo", "#7f7f7f"},    {"mono", "#8c564b"}, {"edf", "#1f77b4"}, {"red-fg", "#ff7f0e"},
-      {"red-ida", "#2ca02c"}, {"red", "#d62728"},  {"lst", "#9467bd"}};
-  static const char* const palette[] = {"#17becf", "#bcbd22", "#e377c2", "#393b79",
-                                        "#637939", "#8c6d31", "#843c39", "#7b4173"};
-  if (auto it = known.find(policy); it != known.end()) return it->second;
-  return palette[index % (sizeof(palette) / sizeof(palette[0]))];
-}
-
 // Open markers growing with the policy's index: where the curves of several policies
 // coincide, their markers nest instead of hiding one another.
 std::string marker(std::size_t index) {
@@ -459,6 +449,18 @@ Script miss_over_time(const Scenario& s, const std::vector<PlotRun>& runs) {
 }
 
 }  // namespace
+
+std::string policy_color(const std::string& policy, std::size_t index) {
+  // Every preset has its own colour (known_policies(); tests/report/plots_test.cpp checks it),
+  // the same in every plot and command; other names take the palette by their place in the run.
+  static const std::map<std::string, std::string> known = {
+      {"fifo", "#7f7f7f"},    {"mono", "#8c564b"}, {"edf", "#1f77b4"},        {"red-fg", "#ff7f0e"},
+      {"red-ida", "#2ca02c"}, {"red", "#d62728"},  {"red-robust", "#9e0142"}, {"lst", "#9467bd"}};
+  static const char* const palette[] = {"#17becf", "#bcbd22", "#e377c2", "#393b79",
+                                        "#637939", "#8c6d31", "#843c39", "#7b4173"};
+  if (auto it = known.find(policy); it != known.end()) return it->second;
+  return palette[index % (sizeof(palette) / sizeof(palette[0]))];
+}
 
 std::string gnuplot_png_terminal(const std::string& gnuplot) {
   static std::mutex mu;

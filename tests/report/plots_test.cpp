@@ -9,11 +9,13 @@
 #include <fmt/format.h>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "red/scenario/loader.hpp"
+#include "red/sched/policy.hpp"
 #include "red/sim/run.hpp"
 
 namespace red {
@@ -186,6 +188,20 @@ TEST_F(Plots, SweepCurves) {
   }
   // λ spans four decades: a log axis.
   EXPECT_NE(read_text(dir_ / "plots" / "sweep_qoe.gp").find("set logscale x"), std::string::npos);
+}
+
+TEST(PlotColors, EveryPresetHasItsOwnColorWhereverItRuns) {
+  // red-robust, the default, once took the palette's colour at its place in the run, so its
+  // curves changed colour between commands.
+  std::set<std::string> seen;
+  for (const std::string& p : known_policies()) {
+    const std::string c = policy_color(p, 0);
+    for (std::size_t i = 1; i < 10; ++i) EXPECT_EQ(policy_color(p, i), c) << p;
+    EXPECT_TRUE(seen.insert(c).second) << p << " shares " << c;
+  }
+  EXPECT_EQ(seen.size(), known_policies().size());
+  // Another name takes the palette by its place.
+  EXPECT_NE(policy_color("mine", 0), policy_color("mine", 1));
 }
 
 TEST(PlotLabels, SweepParametersHaveUnits) {

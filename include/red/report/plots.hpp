@@ -80,6 +80,10 @@ PlotReport write_sweep_plots(const std::string& dir, const std::string& scenario
                              const std::vector<SweepSeries>& series,
                              const PlotOptions& options = {});
 
+/// The colour (`#rrggbb`) a policy's curves and bars are drawn in: each preset its own, the
+/// same in every plot; another name the palette's colour at `index` (its place in the run).
+std::string policy_color(const std::string& policy, std::size_t index);
+
 /// A label for a sweep parameter with its unit ("deadline scale (× the scenario's)").
 std::string parameter_label(const std::string& parameter);
 
