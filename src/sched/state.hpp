@@ -4,13 +4,9 @@
 /// their keys, the ready set's groups, operations, sensors and lanes), read by every mechanism
 /// through Scheduler::Impl (scheduler_impl.hpp).
 
-#include <algorithm>
 #include <array>
 #include <compare>
 #include <cstdint>
-#include <limits>
-#include <map>
-#include <memory>
 #include <set>
 #include <string>
 #include <utility>
