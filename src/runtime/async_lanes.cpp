@@ -99,17 +99,7 @@ void Runtime::Impl::async_handler_main(int lane) {
   Duration enqueue_cost{0};            // what an enqueue costs the host, smoothed
   bool answer_due = false;
   for (;;) {
-    if (held.empty()) {
-      h.state.store(HandlerState::Idle, std::memory_order_release);
-      const Duration spin = answer_due ? std::max(options.spin, options.answer_spin) : options.spin;
-      answer_due = false;
-      spin_then_park(h.mu, h.cv, clock, spin, kNever, [&] {
-        return h.assigned.load(std::memory_order_acquire) != seen ||
-               stopping.load(std::memory_order_acquire);
-      });
-      if (h.assigned.load(std::memory_order_acquire) == seen) return;  // stopping
-      if (stopping.load(std::memory_order_acquire)) return;
-    }
+    if (held.empty() && !await_assignment(h, seen, answer_due)) return;
     if (!stopping.load(std::memory_order_acquire)) {
       // What the global synchronizer assigned (it assigns only to an idle lane; once the
       // run stops, what it assigned is reported unfinished, as on a synchronous lane).

@@ -99,6 +99,18 @@ void Runtime::Impl::start_lane(int lane) {
   warmed->count_down();
 }
 
+bool Runtime::Impl::await_assignment(Handler& h, std::uint64_t seen, bool& answer_due) {
+  h.state.store(HandlerState::Idle, std::memory_order_release);
+  const Duration spin = answer_due ? std::max(options.spin, options.answer_spin) : options.spin;
+  answer_due = false;
+  spin_then_park(h.mu, h.cv, clock, spin, kNever, [&] {
+    return h.assigned.load(std::memory_order_acquire) != seen ||
+           stopping.load(std::memory_order_acquire);
+  });
+  return h.assigned.load(std::memory_order_acquire) != seen &&
+         !stopping.load(std::memory_order_acquire);
+}
+
 void Runtime::Impl::handler_main(int lane) {
   Handler& h = *handlers[static_cast<std::size_t>(lane)];
   start_lane(lane);
@@ -108,17 +120,9 @@ void Runtime::Impl::handler_main(int lane) {
   bool answer_due = false;  // a completion was reported to the global synchronizer
   for (;;) {
     if (next == nullptr) {
-      h.state.store(HandlerState::Idle, std::memory_order_release);
-      const Duration spin = answer_due ? std::max(options.spin, options.answer_spin) : options.spin;
-      answer_due = false;
-      spin_then_park(h.mu, h.cv, clock, spin, kNever, [&] {
-        return h.assigned.load(std::memory_order_acquire) != seen ||
-               stopping.load(std::memory_order_acquire);
-      });
-      if (h.assigned.load(std::memory_order_acquire) == seen) return;  // stopping
       // A dispatch that waited behind a timed-out call when the run ended: its jobs are
       // reported unfinished.
-      if (stopping.load(std::memory_order_acquire)) return;
+      if (!await_assignment(h, seen, answer_due)) return;
       seen = h.assigned.load(std::memory_order_acquire);
       std::lock_guard lock(h.mu);
       next = h.work;

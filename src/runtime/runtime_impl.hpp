@@ -217,6 +217,9 @@ struct Runtime::Impl {
 
   // ---- handlers.cpp: a lane's handler thread and the watchdog.
   void start_lane(int lane);
+  // An idle lane's wait for its next assignment (spinning longer right after it reported a
+  // completion, `answer_due`, which it clears). False when the run is stopping.
+  bool await_assignment(Handler& h, std::uint64_t seen, bool& answer_due);
   void handler_main(int lane);
   Duration p99_of(const Dispatch& d) const;
   Duration watchdog_limit(const Dispatch& d) const;
