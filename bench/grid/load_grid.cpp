@@ -9,8 +9,12 @@
 ///
 ///     red_load_grid [--seeds N] [--duration S] [--markdown docs/BENCHMARKS.md] [--points F]
 ///     red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES LOAD [--with K=V,…]
-///     red_load_grid --robots N [--profile F] [--with K=V,…]
-///     red_load_grid --robot SEED [--profile F] --yaml
+///     red_load_grid --robots N [--profile F] [--with K=V,…] [--frames F] [--points FILE]
+///     red_load_grid --robot SEED [--profile F] [--frames F] --yaml
+///
+/// --frames sets the robot workloads' length in frames of their fastest sensor (60, the
+/// tests' length, by default): longer runs give each operation more jobs, so that a 0.5-point
+/// difference is more than one job.
 ///
 /// --point prints one grid point's diagnostics instead: per policy the on-time fraction,
 /// drops by reason and wasted lane time, and the jobs edf or red met that red-robust did
@@ -243,7 +247,7 @@ bool open_tsv(std::ofstream& out, const std::string& path, const std::string& he
 // With points_file, one TSV line per point: seed, load, the three on-time fractions and the
 // number of more critical operations below red.
 int robots(int n, const red::Profile& profile, const std::string& with,
-           const std::string& points_file) {
+           const std::string& points_file, const red::robot::Options& opt) {
   std::ofstream tsv;
   if (!open_tsv(tsv, points_file, "seed\tload\tedf\tred\tred_robust\tcritical_below_red")) return 1;
   const std::vector<double> loads{0.5, 1.0, 1.5, 2.0, 2.5};
@@ -252,7 +256,8 @@ int robots(int n, const red::Profile& profile, const std::string& with,
   int points = 0, below_red = 0, below_edf = 0, crit_below = 0;
   for (int seed = 1; seed <= n; ++seed)
     for (double load : loads) {
-      const red::Scenario s = red::robot::workload(static_cast<std::uint64_t>(seed), profile, load);
+      const red::Scenario s =
+          red::robot::workload(static_cast<std::uint64_t>(seed), profile, load, opt);
       std::map<std::string, std::vector<double>> op_on_time;
       std::map<std::string, double> on_time;
       for (const char* pol : {"edf", "red", "red-robust"}) {
@@ -376,8 +381,9 @@ int main(int argc, char** argv) {
   bool yaml = false;        // --point: print the point's scenario instead
   std::string points_file;  // every point's on-time fractions, bound and waste (TSV)
   std::optional<std::pair<red::grid::SetSpec, double>> point;
-  int robot_count = 0;  // --robots N
-  int robot_seed = 0;   // --robot SEED (with --yaml)
+  int robot_count = 0;            // --robots N
+  int robot_seed = 0;             // --robot SEED (with --yaml)
+  red::robot::Options robot_opt;  // --frames F
   std::string profile_file;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -402,6 +408,8 @@ int main(int argc, char** argv) {
       robot_count = std::atoi(next().c_str());
     } else if (a == "--robot") {
       robot_seed = std::atoi(next().c_str());
+    } else if (a == "--frames") {
+      robot_opt.frames = std::atof(next().c_str());
     } else if (a == "--profile") {
       profile_file = next();
     } else if (a == "--yaml") {
@@ -431,13 +439,18 @@ int main(int argc, char** argv) {
                    "[--points FILE]\n"
                    "       red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES "
                    "LOAD [--duration S] [--with K=V,...] [--yaml]\n"
-                   "       red_load_grid --robots N [--profile F] [--with K=V,...]\n"
-                   "       red_load_grid --robot SEED [--profile F] --yaml\n";
+                   "       red_load_grid --robots N [--profile F] [--with K=V,...] [--frames F] "
+                   "[--points FILE]\n"
+                   "       red_load_grid --robot SEED [--profile F] [--frames F] --yaml\n";
       return 2;
     }
   }
   if (seeds < 1 || !(duration > 1.0)) {
     std::cerr << "red_load_grid: --seeds must be >= 1 and --duration > 1\n";
+    return 2;
+  }
+  if (!(robot_opt.frames >= 1)) {
+    std::cerr << "red_load_grid: --frames must be >= 1\n";
     return 2;
   }
   if (robot_count > 0 || robot_seed > 0) {
@@ -452,10 +465,10 @@ int main(int argc, char** argv) {
     }
     if (robot_seed > 0) {
       // The workload at load 1; `red compare FILE --set rate_scale=LOAD` runs a point.
-      std::cout << red::robot::workload_yaml(static_cast<std::uint64_t>(robot_seed), rp);
+      std::cout << red::robot::workload_yaml(static_cast<std::uint64_t>(robot_seed), rp, robot_opt);
       return 0;
     }
-    return robots(robot_count, rp, with, points_file);
+    return robots(robot_count, rp, with, points_file, robot_opt);
   }
   if (point) {
     point->first.duration_s = duration;
