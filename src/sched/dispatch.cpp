@@ -29,7 +29,7 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
     v.deadline = std::min(v.deadline, unit_deadline(j, height, now));
     v.remaining = std::max(v.remaining, remaining_work(j, now));
     v.release = std::min(v.release, j.release);
-    v.job_deadline = std::min(v.job_deadline, j.deadline);
+    v.job_deadline = std::min(v.job_deadline, j.plan);
     if (rank_by_job) by_job = std::min(by_job, rank_deadline(j, unit));
     if (mixed_criticality)
       v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);

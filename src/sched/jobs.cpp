@@ -66,6 +66,18 @@ void Scheduler::Impl::install(int i, const std::shared_ptr<const OperationSpec>&
   note_tick(i);
 }
 
+void Scheduler::Impl::inherit_plan(Job& d, TimePoint due) {
+  if (due >= d.plan) return;
+  d.plan = due;
+  if (d.grouped > 0) ungroup_job(d);
+  for (std::size_t u = 0; u < d.u.size(); ++u) {
+    const UnitRt& ur = d.u[u];
+    if (ur.state != UState::Queued || ur.task < 0) continue;
+    TaskRank& r = task_rank(ur.task);
+    r.job_deadline = std::min(r.job_deadline, rank_deadline(d, static_cast<int>(u)));
+  }
+}
+
 int Scheduler::Impl::alloc_job() {
   if (!free_jobs.empty()) {
     const int slot = free_jobs.back();
@@ -131,6 +143,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   j.g = &g;
   j.release = now;
   j.deadline = now + g.deadline;
+  j.plan = j.deadline;
   j.counted = now >= s.config_.warmup;
   j.samples_newest = trigger_sensor < 0;
   j.unfinished = static_cast<int>(g.units.size());
@@ -166,6 +179,15 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
       if (d.live && !d.ended && d.id == dep.last_job) {
         d.dependents.push_back(slot);
         d.dependent_ids.push_back(j.id);
+        if (opt.inherit) {
+          // Its units that wait for `d` (the head sources) must start by j's deadline less
+          // the longest path from them.
+          Duration path{0};
+          for (int u : g.head_sources)
+            path =
+                std::max(path, g.units[static_cast<std::size_t>(u)].tail[idx(s.config_.estimate)]);
+          inherit_plan(d, j.deadline - path);
+        }
         for (int u : g.head_sources) ++j.u[static_cast<std::size_t>(u)].pending;
       }
     }

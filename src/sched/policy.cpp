@@ -78,7 +78,7 @@ struct OptionSpec {
 };
 
 // Every option, in documentation order (option_keys(), describe(), the CLI's --with help).
-const std::array<OptionSpec, 17> kOptions{{
+const std::array<OptionSpec, 18> kOptions{{
     {"graph",
      [](PolicyOptions& o, std::string_view k, std::string_view v) {
        return choose(
@@ -194,6 +194,11 @@ const std::array<OptionSpec, 17> kOptions{{
        return choose(o.miss_gate, k, v, kBool);
      },
      [](const PolicyOptions& o) -> std::string { return yes_no(o.miss_gate); }},
+    {"inherit",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.inherit, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.inherit); }},
 }};
 
 // What every preset starts from (docs/DESIGN.md, "Policies").
@@ -286,6 +291,7 @@ const std::array<Preset, 8> kPresets{{
        o.batch_by_job = true;
        o.path_rank = true;
        o.miss_gate = true;
+       o.inherit = true;
        return o;
      }},
     {"lst", PolicyClass::LeastSlack, false, red_options},

@@ -30,7 +30,7 @@ bool Scheduler::Impl::group_key(int t, TimePoint now, GroupKey& gk) {
   const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
                                        opt.deadlines == DeadlineMode::Equal);
   if (shared) {
-    gk.deadline = j.deadline;
+    gk.deadline = j.plan;  // what from_share reads
     gk.share = j.frac[static_cast<std::size_t>(height)];
   } else {
     gk.deadline = unit_deadline(j, height, now);  // fixed in these modes
@@ -39,7 +39,7 @@ bool Scheduler::Impl::group_key(int t, TimePoint now, GroupKey& gk) {
   gk.release = j.release;
   gk.cost = k.cost;
   gk.remaining = j.remaining_base;
-  gk.job_deadline = j.deadline;
+  gk.job_deadline = j.plan;
   gk.by_job = rank_deadline(j, unit);
   gk.criticality = ops[static_cast<std::size_t>(j.op)].criticality;
   return true;

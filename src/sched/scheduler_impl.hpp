@@ -179,8 +179,8 @@ struct Scheduler::Impl {
               std::vector<double>& frac) const;
 
   static TimePoint from_share(const Job& j, double frac, TimePoint now) {
-    const Duration budget = j.deadline - now;
-    if (budget <= Duration{0} || frac == 1.0) return j.deadline;
+    const Duration budget = j.plan - now;
+    if (budget <= Duration{0} || frac == 1.0) return j.plan;
     return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
   }
 
@@ -203,7 +203,7 @@ struct Scheduler::Impl {
       case DeadlineMode::None:
         return j.release;
       case DeadlineMode::EndToEnd:
-        return j.deadline;
+        return j.plan;
       case DeadlineMode::Proportional:
       case DeadlineMode::Equal:
         break;
@@ -342,7 +342,7 @@ struct Scheduler::Impl {
   // after the unit with path_rank (docs/DESIGN.md, "Overload"; docs/BENCHMARKS.md round 9: on mean
   // costs instead, one of the tests' 216 sets lost a job to edf at capacity).
   TimePoint rank_deadline(const Job& j, int unit) const {
-    return opt.path_rank ? j.deadline - path_after(j, unit) : j.deadline;
+    return opt.path_rank ? j.plan - path_after(j, unit) : j.plan;
   }
 
   // True when the offered load exceeds what the lanes can do (docs/DESIGN.md, "Overload" detect
@@ -413,6 +413,9 @@ struct Scheduler::Impl {
   void ungroup_all();
 
   void make_ready(int slot, int unit);
+  // Deadline inheritance (PolicyOptions::inherit): plan `d` to end by `due` when that is
+  // earlier than its plan; its ready tasks leave their groups and their cached rank follows.
+  void inherit_plan(Job& d, TimePoint due);
 
   // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
   Key key(int t, TimePoint now, TaskView& v);

@@ -53,6 +53,9 @@ struct Job {
   const RefinedGraph* g = nullptr;
   TimePoint release{0};
   TimePoint deadline{0};
+  // What its deadlines are planned to: its deadline, or earlier by deadline inheritance
+  // (PolicyOptions::inherit, Impl::inherit_plan). Its outcome is decided by `deadline`.
+  TimePoint plan{0};
   std::uint64_t stamp = 0;     // decision stamp the values below are valid for
   Duration remaining_base{0};  // Σ lvl_base
   Duration remaining{0};       // Σ remaining level costs (critical-path estimate)

@@ -474,6 +474,10 @@ TEST(Overload, MissGateIsAnOptionOfRedRobustOnly) {
   expect_option_of_red_robust_only("miss_gate", &PolicyOptions::miss_gate);
 }
 
+TEST(Overload, InheritIsAnOptionOfRedRobustOnly) {
+  expect_option_of_red_robust_only("inherit", &PolicyOptions::inherit);
+}
+
 // Every command's message for a name no preset has: the name, then every preset in table order.
 TEST(Overload, UnknownPolicyMessageNamesTheNameAndEveryPreset) {
   const std::string m = unknown_policy_message("bogus");

@@ -226,9 +226,9 @@ struct Known {
   int below_red, below_edf, critical_below_red;
 };
 constexpr Known kKnown[] = {
-    {"builtin", 42, 2, 119},
-    {"robot-mnv3s", 31, 0, 171},
-    {"robot-r18", 19, 0, 182},
+    {"builtin", 41, 1, 120},
+    {"robot-mnv3s", 25, 0, 158},
+    {"robot-r18", 15, 0, 169},
 };
 
 TEST(RobotWorkload, RedRobustIsNeverTheWorseChoice) {

@@ -104,6 +104,11 @@ struct PolicyOptions {
   /// did not meet its deadline (missed, dropped or skipped at max_inflight). Admission by the
   /// demand test, hopeless aborts and the criticality order are not gated.
   bool miss_gate = false;
+  /// Deadline inheritance across operations (docs/DESIGN.md, "Overload"): a job that a job of
+  /// another operation waits on (`depends_on`, use: latest) is planned to end by that job's
+  /// deadline less the longest path from its units that wait: its intermediate deadlines and its
+  /// rank are taken from the earlier of the two. Its own deadline still decides its outcome.
+  bool inherit = false;
 
   bool operator==(const PolicyOptions&) const = default;
 };
