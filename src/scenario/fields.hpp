@@ -4,6 +4,7 @@
 /// it throws, the YAML value with its line and path, mappings with a fixed set of keys, and the
 /// typed readers that check each value against its bounds (limits.hpp). Internal to the loader.
 
+#include <algorithm>
 #include <cstdint>
 #include <initializer_list>
 #include <string>
@@ -56,15 +57,13 @@ std::vector<Entry> entries_of(const Val& v, std::string_view kind = "key");
 class Fields {
  public:
   Fields(const Val& v, std::initializer_list<const char*> allowed)
+      : Fields(v, std::vector<std::string>(allowed.begin(), allowed.end())) {}
+  Fields(const Val& v, const std::vector<std::string>& allowed)
       : line_(v.line), what_(v.what), entries_(entries_of(v)) {
-    for (const auto& e : entries_) {
-      bool known = false;
-      for (const char* a : allowed) known = known || e.key == a;
-      if (known) continue;
-      std::vector<std::string> names(allowed.begin(), allowed.end());
-      fail(e.key_line,
-           fmt::format("{}unknown key '{}' (allowed: {})", at(what_), e.key, join(names)));
-    }
+    for (const auto& e : entries_)
+      if (std::find(allowed.begin(), allowed.end(), e.key) == allowed.end())
+        fail(e.key_line,
+             fmt::format("{}unknown key '{}' (allowed: {})", at(what_), e.key, join(allowed)));
   }
 
   [[nodiscard]] const Val* get(std::string_view key) const {

@@ -177,11 +177,10 @@ void Loader::parse_model(const Val& v) {
 }
 
 void Loader::parse_scheduler(const Val& v) {
-  const Fields f(
-      v, {"gamma_ms",      "estimate",     "level_cost", "max_batch",    "qoe_lambda", "graph",
-          "deadlines",     "reassign",     "merge",      "batching",     "sync",       "drop",
-          "drop_estimate", "admission",    "rank",       "admit_margin", "shed_rate",  "lookahead",
-          "shed_lone",     "batch_by_job", "path_rank"});
+  // The tuning keys, then every policy option (option_keys(): one list with --with).
+  std::vector<std::string> allowed{"gamma_ms", "estimate", "level_cost", "max_batch", "qoe_lambda"};
+  for (const std::string& key : option_keys()) allowed.push_back(key);
+  const Fields f(v, allowed);
   auto& sc = s_.scheduler;
   // Policy options (docs/DESIGN.md, "Overload" ablations): checked here so that a bad value names
   // its line.

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "red/scenario/loader.hpp"
+#include "red/sched/policy.hpp"
 
 namespace red {
 namespace {
@@ -305,6 +306,27 @@ TEST(Loader, Defaults) {
   ASSERT_EQ(s->operation_count(), 1);
   EXPECT_EQ(s->initial[0]->max_inflight, 2);
   EXPECT_TRUE(s->initial[0]->edges.empty());
+}
+
+// Every policy option (option_keys(), the keys of --with) may be set in the scheduler section,
+// with the value describe() prints for red-robust: miss_gate was refused there once.
+TEST(Loader, SchedulerSectionTakesEveryPolicyOption) {
+  const PolicyOptions robust = *preset_options("red-robust");
+  for (const std::string& key : option_keys()) {
+    SCOPED_TRACE(key);
+    std::string value = describe(robust);
+    const std::size_t at = value.find(key + "=");
+    ASSERT_NE(at, std::string::npos) << value;
+    value = value.substr(at + key.size() + 1);
+    value = value.substr(0, value.find(','));
+    const Expected<Scenario> s = parse_scenario(
+        "name: o\nduration_s: 1\nscheduler: {" + key + ": \"" + value +
+            "\"}\noperations:\n  - {name: a, rate_hz: 5, deadline_ms: 10, nodes: {X: {cost_ms: "
+            "1}}}\n",
+        "o.yaml");
+    ASSERT_TRUE(s.has_value()) << s.error().to_string();
+    EXPECT_EQ(s->scheduler.policy_with, key + "=" + value);
+  }
 }
 
 TEST(Loader, DependsOnAnOperationDefinedLater) {
