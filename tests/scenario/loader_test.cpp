@@ -311,14 +311,14 @@ TEST(Loader, Defaults) {
 // Every policy option (option_keys(), the keys of --with) may be set in the scheduler section,
 // with the value describe() prints for red-robust: miss_gate was refused there once.
 TEST(Loader, SchedulerSectionTakesEveryPolicyOption) {
-  const PolicyOptions robust = *preset_options("red-robust");
+  // ",key=value,…,": a key is found whole (`rank` is not found in `path_rank`).
+  const std::string all = "," + describe(*preset_options("red-robust")) + ",";
   for (const std::string& key : option_keys()) {
     SCOPED_TRACE(key);
-    std::string value = describe(robust);
-    const std::size_t at = value.find(key + "=");
-    ASSERT_NE(at, std::string::npos) << value;
-    value = value.substr(at + key.size() + 1);
-    value = value.substr(0, value.find(','));
+    const std::size_t at = all.find("," + key + "=");
+    ASSERT_NE(at, std::string::npos) << all;
+    const std::size_t from = at + key.size() + 2;
+    const std::string value = all.substr(from, all.find(',', from) - from);
     const Expected<Scenario> s = parse_scenario(
         "name: o\nduration_s: 1\nscheduler: {" + key + ": \"" + value +
             "\"}\noperations:\n  - {name: a, rate_hz: 5, deadline_ms: 10, nodes: {X: {cost_ms: "

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "red/metrics/tally.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sim/run.hpp"
@@ -53,13 +54,8 @@ operations:
       D: {cost: {mean_ms: 10, p99_ms: 10.2}}
 )";
 
-struct Counts {
-  int jobs = 0;
-  int met = 0;
-};
-
-// Jobs and jobs met of each operation under `policy` with `with` (policy options).
-std::vector<Counts> run(const std::string& policy, const std::string& with) {
+// Each operation's tally of ended jobs under `policy` with `with` (policy options).
+std::vector<OutcomeTally> run(const std::string& policy, const std::string& with) {
   auto s = parse_scenario(kScenario, "inherit.yaml");
   EXPECT_TRUE(s.has_value()) << (s ? "" : s.error().to_string());
   if (!s) return {};
@@ -67,31 +63,26 @@ std::vector<Counts> run(const std::string& policy, const std::string& with) {
   auto r = simulate_policy(*s, default_profile(), policy, s->seed, {}, false);
   EXPECT_TRUE(r.has_value()) << (r ? "" : r.error().to_string());
   if (!r) return {};
-  std::vector<Counts> c(static_cast<std::size_t>(s->operation_count()));
-  for (const JobRow& j : r->jobs) {
-    if (j.outcome == JobOutcome::Unfinished) continue;
-    Counts& x = c[static_cast<std::size_t>(j.operation)];
-    ++x.jobs;
-    x.met += j.outcome == JobOutcome::Met ? 1 : 0;
-  }
+  std::vector<OutcomeTally> c(static_cast<std::size_t>(s->operation_count()));
+  for (const JobRow& j : r->jobs) c[static_cast<std::size_t>(j.operation)].add(j.outcome, j.qoe);
   return c;
 }
 
 TEST(Inherit, AJobWaitedOnIsPlannedToItsDependentsDeadline) {
-  const std::vector<Counts> with = run("red-robust", "");
-  const std::vector<Counts> without = run("red-robust", "inherit=no");
-  const std::vector<Counts> red = run("red", "");
+  const std::vector<OutcomeTally> with = run("red-robust", "");
+  const std::vector<OutcomeTally> without = run("red-robust", "inherit=no");
+  const std::vector<OutcomeTally> red = run("red", "");
   ASSERT_EQ(with.size(), 3u);
   ASSERT_EQ(without.size(), 3u);
   ASSERT_EQ(red.size(), 3u);
   // 30 periods: every job of every operation on time with inheritance.
-  for (const Counts& c : with) {
-    EXPECT_GE(c.jobs, 29);
-    EXPECT_EQ(c.met, c.jobs);
+  for (const OutcomeTally& c : with) {
+    EXPECT_GE(c.decided(), 29);
+    EXPECT_EQ(c.met, c.decided());
   }
   // Without it, `steer` (operation 1) waits behind `log` and misses, under red-robust and red.
-  EXPECT_LT(without[1].met, without[1].jobs / 2);
-  EXPECT_LT(red[1].met, red[1].jobs / 2);
+  EXPECT_LT(without[1].met, without[1].decided() / 2);
+  EXPECT_LT(red[1].met, red[1].decided() / 2);
 }
 
 }  // namespace
