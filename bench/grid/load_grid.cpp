@@ -21,10 +21,15 @@
 /// not (with what became of them); --with sets red-robust's options (ablations); --yaml
 /// prints the point's scenario at load 1 instead (run it with `red compare FILE --set
 /// rate_scale=LOAD`).
+///
+/// A bad argument (an unknown option, a value that is not a number or out of range) exits 2
+/// naming it; a --points or --markdown file that cannot be written exits 1
+/// (bench/grid/cli_test.sh, ctest red_load_grid_cli).
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -35,6 +40,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "load_grid.hpp"
@@ -216,7 +222,11 @@ int rewrite_section(const std::string& file, const std::string& body) {
     return 2;
   }
   text = text.substr(0, b + begin.size()) + "\n" + body + text.substr(e);
-  std::ofstream(file) << text;
+  std::ofstream out(file);
+  if (!(out << text).flush()) {
+    std::cerr << "red_load_grid: cannot write " << file << "\n";
+    return 1;
+  }
   return 0;
 }
 
@@ -373,6 +383,19 @@ int diagnose(const red::grid::SetSpec& spec, double load, const std::string& wit
 
 }  // namespace
 
+// An option's value as a number, the whole of it, or exit 2 naming the option (a bad
+// argument is not read as 0: `--robots x` would otherwise run the overload grid instead).
+template <typename T>
+T number(const std::string& option, const std::string& value) {
+  T x{};
+  const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), x);
+  if (value.empty() || ec != std::errc{} || end != value.data() + value.size()) {
+    std::cerr << "red_load_grid: " << option << ": '" << value << "' is not a number\n";
+    std::exit(2);
+  }
+  return x;
+}
+
 int main(int argc, char** argv) {
   int seeds = 3;
   double duration = 4.0;
@@ -395,9 +418,9 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     if (a == "--seeds") {
-      seeds = std::atoi(next().c_str());
+      seeds = number<int>(a, next());
     } else if (a == "--duration") {
-      duration = std::atof(next().c_str());
+      duration = number<double>(a, next());
     } else if (a == "--markdown") {
       markdown = next();
     } else if (a == "--with") {
@@ -405,11 +428,19 @@ int main(int argc, char** argv) {
     } else if (a == "--points") {
       points_file = next();
     } else if (a == "--robots") {
-      robot_count = std::atoi(next().c_str());
+      robot_count = number<int>(a, next());
+      if (robot_count < 1) {
+        std::cerr << "red_load_grid: --robots must be >= 1\n";
+        return 2;
+      }
     } else if (a == "--robot") {
-      robot_seed = std::atoi(next().c_str());
+      robot_seed = number<int>(a, next());
+      if (robot_seed < 1) {
+        std::cerr << "red_load_grid: --robot needs a SEED >= 1\n";
+        return 2;
+      }
     } else if (a == "--frames") {
-      robot_opt.frames = std::atof(next().c_str());
+      robot_opt.frames = number<double>(a, next());
     } else if (a == "--profile") {
       profile_file = next();
     } else if (a == "--yaml") {
@@ -426,9 +457,9 @@ int main(int argc, char** argv) {
         std::cerr << "red_load_grid: --point plain|mimonet chain|fork-join|wide SEED LANES LOAD\n";
         return 2;
       }
-      spec.seed = std::strtoull(next().c_str(), nullptr, 10);
-      spec.lanes = std::atoi(next().c_str());
-      const double load = std::atof(next().c_str());
+      spec.seed = number<std::uint64_t>(a, next());
+      spec.lanes = number<int>(a, next());
+      const double load = number<double>(a, next());
       if (spec.lanes < 1 || !(load > 0)) {
         std::cerr << "red_load_grid: --point needs LANES >= 1 and LOAD > 0\n";
         return 2;
