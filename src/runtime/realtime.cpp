@@ -21,11 +21,15 @@
 
 namespace red {
 
-// Lane i's share of the cores: [i*k, (i+1)*k), k = cores / lanes, at least one.
-cpu_set_t Runtime::Impl::lane_cores(std::size_t i) const {
+Runtime::Impl::CoreShare Runtime::Impl::core_share() const {
   const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
   const long lanes = std::max(1L, static_cast<long>(scenario.device.lanes));
-  const long share = std::max(1L, cores / lanes);
+  return {cores, std::max(1L, cores / lanes)};
+}
+
+// Lane i's share of the cores: [i*k, (i+1)*k), k = core_share().share.
+cpu_set_t Runtime::Impl::lane_cores(std::size_t i) const {
+  const auto [cores, share] = core_share();
   cpu_set_t set;
   CPU_ZERO(&set);
   const long first = (static_cast<long>(i) * share) % cores;
@@ -132,9 +136,7 @@ void Runtime::Impl::apply_realtime() {
   // Each lane gets its own share of the cores (lane i: cores [i*k, (i+1)*k), k = cores /
   // lanes, at least one), so a backend's worker threads, which inherit the handler's
   // mask, stay on that lane's cores instead of piling onto one.
-  const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
-  const long lanes = static_cast<long>(handlers.size());
-  const long share = std::max(1L, cores / std::max(1L, lanes));
+  const auto [cores, share] = core_share();
   int pinned = 0;
   for (std::size_t i = 0; i < handlers.size(); ++i) {
     const cpu_set_t set = lane_cores(i);

@@ -252,6 +252,12 @@ struct Runtime::Impl {
 
   // ---- realtime.cpp: the real-time knobs and background load.
   void apply_realtime();
+  // The machine's online cores and each lane's share of them: cores / lanes, at least one.
+  struct CoreShare {
+    long cores;
+    long share;
+  };
+  CoreShare core_share() const;
   cpu_set_t lane_cores(std::size_t i) const;
   int control_priority() const;
   void at_handler_priority(std::thread& t) const;

@@ -3,7 +3,9 @@
 // failures, who decided), never about timing.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -248,6 +250,31 @@ TEST(Runtime, BackgroundLoadRunsAtTheHandlersPriority) {
             std::string::npos)
       << load;
   EXPECT_EQ(load.find("mixed"), std::string::npos) << load;
+}
+
+// Each lane's handler is pinned to its own share of the cores (cores / lanes, at least one),
+// pinning needs no privilege, and the report states the share the masks were built from.
+TEST(Runtime, EveryHandlerIsPinnedToItsLanesShareOfTheCores) {
+  auto s = parse_scenario(kScenario, "rt.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  s->duration = std::chrono::milliseconds{100};
+  const Profile p = default_profile();
+  SyntheticBackend::Options o;
+  o.time_scale = 0.3;
+  SyntheticBackend backend(*s, p, 1, o);
+  RuntimeOptions ro;
+  ro.realtime = true;
+  ro.watchdog_x = 0.0;
+  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  const RuntimeReport report = rt.run();
+  const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+  const long share = std::max(1L, cores / s->device.lanes);
+  const std::string want = "CPU affinity: 2 of 2 handler(s) pinned, " + std::to_string(share) +
+                           " core(s) each of " + std::to_string(cores);
+  std::string line;
+  for (const std::string& l : report.realtime)
+    if (l.rfind("CPU affinity: ", 0) == 0) line = l;
+  EXPECT_EQ(line, want);
 }
 
 // stop_now() (SIGINT in the CLI) ends the run without draining: the jobs in flight are
