@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "red/core/assert.hpp"
+#include "red/metrics/newest.hpp"
 #include "red/sched/round.hpp"
 #include "runtime_impl.hpp"
 
@@ -150,12 +151,7 @@ const Dispatch* Runtime::Impl::decide(TimePoint now, int own_lane,
   if (!ds.empty()) {
     std::lock_guard lock(report_mu);
     record(report.decision_us, report.decisions, to_us(t1 - t0));
-    const double us = to_us(t1 - t0);
-    if (recent_decision_us.size() < kRecentDecisions)
-      recent_decision_us.push_back(us);  // within the reserved capacity
-    else
-      recent_decision_us[recent_total % kRecentDecisions] = us;
-    ++recent_total;
+    keep_newest(recent_decision_us, recent_total++, kRecentDecisions, to_us(t1 - t0));
   }
   for (const Dispatch* d : ds) {
     const bool follows =

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <vector>
 
+#include "red/metrics/newest.hpp"
 #include "red/runtime/runtime.hpp"
 #include "runtime_impl.hpp"
 
@@ -72,13 +73,8 @@ std::vector<double> Runtime::decision_us_since(std::uint64_t& cursor) const {
   // is full, so it has no "since". Decisions older than the ring are gone.
   std::lock_guard lock(impl_->report_mu);
   const Impl& m = *impl_;
-  const std::uint64_t total = m.recent_total;
-  const std::uint64_t kept = m.recent_decision_us.size();
-  std::uint64_t first = std::max<std::uint64_t>(cursor, total - kept);
-  cursor = total;
-  std::vector<double> out;
-  for (; first < total; ++first)
-    out.push_back(m.recent_decision_us[static_cast<std::size_t>(first % Impl::kRecentDecisions)]);
+  std::vector<double> out = newest_since(m.recent_decision_us, m.recent_total, cursor);
+  cursor = m.recent_total;
   return out;
 }
 

@@ -277,6 +277,34 @@ TEST(Runtime, EveryHandlerIsPinnedToItsLanesShareOfTheCores) {
   EXPECT_EQ(line, want);
 }
 
+// decision_us_since() (the node's diagnostics read it while a run goes on): from cursor 0 the
+// newest decision times the runtime holds (all of them up to 4096), then nothing new.
+TEST(Runtime, DecisionTimesSinceACursorAreTheNewestAndThenNone) {
+  auto s = parse_scenario(kScenario, "rt.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  s->duration = std::chrono::milliseconds{200};
+  const Profile p = default_profile();
+  SyntheticBackend::Options o;
+  o.time_scale = 0.3;
+  SyntheticBackend backend(*s, p, 1, o);
+  RuntimeOptions ro;
+  ro.realtime = false;
+  ro.watchdog_x = 0.0;
+  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  const RuntimeReport report = rt.run();
+  ASSERT_GT(report.decisions, 0U);
+  std::uint64_t cursor = 0;
+  const std::vector<double> all = rt.decision_us_since(cursor);
+  EXPECT_EQ(all.size(), std::min<std::uint64_t>(report.decisions, 4096));
+  EXPECT_EQ(cursor, report.decisions);
+  for (double us : all) EXPECT_GE(us, 0.0);
+  EXPECT_TRUE(rt.decision_us_since(cursor).empty());
+  std::uint64_t last = report.decisions - 1;  // the newest one alone
+  const std::vector<double> newest = rt.decision_us_since(last);
+  ASSERT_EQ(newest.size(), 1U);
+  EXPECT_EQ(newest.front(), all.back());
+}
+
 // stop_now() (SIGINT in the CLI) ends the run without draining: the jobs in flight are
 // reported unfinished, every released job still ends exactly once.
 TEST(Runtime, StopNowEndsTheRunWithJobsInFlightUnfinished) {

@@ -18,12 +18,8 @@ std::string fmt_double(double v) {
 }  // namespace
 
 void Node::Impl::publish_diagnostics() {
-  for (double v : runtime->decision_us_since(decisions_seen)) {
-    if (decisions_us.size() < kDecisionWindow)
-      decisions_us.push_back(v);
-    else
-      decisions_us[decision_slot++ % kDecisionWindow] = v;
-  }
+  for (double v : runtime->decision_us_since(decisions_seen))
+    keep_newest(decisions_us, decisions_kept++, kDecisionWindow, v);
   std::deque<std::string> text;  // what the message borrows
   const auto s = [&text](std::string v) { return borrow(text.emplace_back(std::move(v))); };
   std::vector<DiagnosticStatus> status;

@@ -18,6 +18,7 @@
 
 #include "red/core/clock.hpp"
 #include "red/dds/node.hpp"
+#include "red/metrics/newest.hpp"
 #include "red/metrics/tally.hpp"
 
 namespace red::dds {
@@ -60,8 +61,8 @@ struct SensorState {
 // module's (OutcomeTally, as in red run's summary); the latencies are the node's own window.
 struct OpStats {
   OutcomeTally tally;
-  std::vector<double> latency_ms;  // ring of the last kLatencyWindow
-  std::size_t next = 0;
+  std::vector<double> latency_ms;  // the newest kLatencyWindow (keep_newest)
+  std::uint64_t completed = 0;     // latencies offered to it
 };
 
 // A wall-clock time as ROS 2 stamps carry it.
@@ -124,7 +125,7 @@ struct Node::Impl final : Observer {
   std::vector<OpStats> stats;
   std::vector<double> decisions_us;
   std::uint64_t decisions_seen = 0;  // cursor into the runtime's decision times
-  std::uint64_t decision_slot = 0;   // next slot of decisions_us to overwrite once full
+  std::uint64_t decisions_kept = 0;  // decision times offered to decisions_us (keep_newest)
 
   std::mutex pub_mu;
   std::condition_variable pub_cv;
@@ -155,10 +156,7 @@ struct Node::Impl final : Observer {
   static void on_sample_rejected(dds_entity_t, const dds_sample_rejected_status_t st, void* arg);
 
   static void record(std::vector<double>& ring, std::uint64_t n, double v) {
-    if (ring.size() < kIntakeWindow)
-      ring.push_back(v);
-    else
-      ring[n % kIntakeWindow] = v;
+    keep_newest(ring, n, kIntakeWindow, v);
   }
 
   void accept(std::size_t sensor, Image& img, TimePoint taken, WallStamp taken_wall);

@@ -42,10 +42,7 @@ void Node::Impl::on_job_end(const JobRecord& j) {
       const Duration r = j.finish - j.release;
       qoe = qoe_score(r, j.deadline - j.release, scenario.scheduler.qoe_lambda);
       const double ms = to_ms(r);
-      if (st.latency_ms.size() < kLatencyWindow)
-        st.latency_ms.push_back(ms);
-      else
-        st.latency_ms[st.next++ % kLatencyWindow] = ms;
+      keep_newest(st.latency_ms, st.completed++, kLatencyWindow, ms);
     }
     st.tally.add(j.outcome, qoe);
   }
