@@ -84,6 +84,26 @@ RunResult run_runtime(const std::string& policy, SyntheticBackend::Options o) {
   return r;
 }
 
+// A short run of `red` on kScenario + `extra` (units at 0.3 x their profiled time, no
+// watchdog), then check(runtime, report, scenario) while the runtime is still there.
+template <typename Check>
+void short_red_run(const std::string& extra, std::chrono::milliseconds duration, bool realtime,
+                   Check check) {
+  auto s = parse_scenario(std::string(kScenario) + extra, "rt.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  s->duration = duration;
+  const Profile p = default_profile();
+  SyntheticBackend::Options o;
+  o.time_scale = 0.3;
+  SyntheticBackend backend(*s, p, 1, o);
+  RuntimeOptions ro;
+  ro.realtime = realtime;
+  ro.watchdog_x = 0.0;
+  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  const RuntimeReport report = rt.run();
+  check(rt, report, *s);
+}
+
 class RuntimeTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(RuntimeTest, EveryReleasedJobEndsExactlyOnce) {
@@ -222,87 +242,61 @@ TEST(Runtime, ExternalFramesAreTheReleasesAndStopEndsThem) {
 // synchronizer's (above the units, the load preempted them for its whole busy share), and
 // at the ordinary priority where they do not (no permission).
 TEST(Runtime, BackgroundLoadRunsAtTheHandlersPriority) {
-  auto s = parse_scenario(std::string(kScenario) + "interference: {kind: cpu, intensity: 0.1}\n",
-                          "rt.yaml");
-  ASSERT_TRUE(s.has_value()) << s.error().to_string();
-  s->duration = std::chrono::milliseconds{200};
-  const Profile p = default_profile();
-  SyntheticBackend::Options o;
-  o.time_scale = 0.3;
-  SyntheticBackend backend(*s, p, 1, o);
-  RuntimeOptions ro;
-  ro.realtime = true;
-  ro.watchdog_x = 0.0;
-  Runtime rt(*s, p, make_policy("red"), backend, ro);
-  const RuntimeReport report = rt.run();
-  const std::string applied = "SCHED_FIFO priority " + std::to_string(ro.rt_priority) + " (";
-  bool realtime = false;
-  std::string load;
-  for (const std::string& line : report.realtime) {
-    if (line.rfind(applied, 0) == 0 && line.find("applied") != std::string::npos &&
-        line.find("not applied") == std::string::npos)
-      realtime = true;
-    if (line.rfind("background load: ", 0) == 0) load = line;
-  }
-  ASSERT_FALSE(load.empty()) << "no background-load line in the report";
-  EXPECT_NE(load.find(realtime ? "SCHED_FIFO priority " + std::to_string(ro.rt_priority)
-                               : std::string("ordinary priority")),
-            std::string::npos)
-      << load;
-  EXPECT_EQ(load.find("mixed"), std::string::npos) << load;
+  short_red_run("interference: {kind: cpu, intensity: 0.1}\n", std::chrono::milliseconds{200}, true,
+                [](const Runtime&, const RuntimeReport& report, const Scenario&) {
+                  const std::string priority =
+                      "SCHED_FIFO priority " + std::to_string(RuntimeOptions{}.rt_priority);
+                  bool realtime = false;
+                  std::string load;
+                  for (const std::string& line : report.realtime) {
+                    if (line.rfind(priority + " (", 0) == 0 &&
+                        line.find("applied") != std::string::npos &&
+                        line.find("not applied") == std::string::npos)
+                      realtime = true;
+                    if (line.rfind("background load: ", 0) == 0) load = line;
+                  }
+                  ASSERT_FALSE(load.empty()) << "no background-load line in the report";
+                  EXPECT_NE(load.find(realtime ? priority : std::string("ordinary priority")),
+                            std::string::npos)
+                      << load;
+                  EXPECT_EQ(load.find("mixed"), std::string::npos) << load;
+                });
 }
 
 // Each lane's handler is pinned to its own share of the cores (cores / lanes, at least one),
 // pinning needs no privilege, and the report states the share the masks were built from.
 TEST(Runtime, EveryHandlerIsPinnedToItsLanesShareOfTheCores) {
-  auto s = parse_scenario(kScenario, "rt.yaml");
-  ASSERT_TRUE(s.has_value()) << s.error().to_string();
-  s->duration = std::chrono::milliseconds{100};
-  const Profile p = default_profile();
-  SyntheticBackend::Options o;
-  o.time_scale = 0.3;
-  SyntheticBackend backend(*s, p, 1, o);
-  RuntimeOptions ro;
-  ro.realtime = true;
-  ro.watchdog_x = 0.0;
-  Runtime rt(*s, p, make_policy("red"), backend, ro);
-  const RuntimeReport report = rt.run();
-  const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
-  const long share = std::max(1L, cores / s->device.lanes);
-  const std::string want = "CPU affinity: 2 of 2 handler(s) pinned, " + std::to_string(share) +
-                           " core(s) each of " + std::to_string(cores);
-  std::string line;
-  for (const std::string& l : report.realtime)
-    if (l.rfind("CPU affinity: ", 0) == 0) line = l;
-  EXPECT_EQ(line, want);
+  short_red_run("", std::chrono::milliseconds{100}, true,
+                [](const Runtime&, const RuntimeReport& report, const Scenario& s) {
+                  const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+                  const long share = std::max(1L, cores / s.device.lanes);
+                  const std::string want = "CPU affinity: 2 of 2 handler(s) pinned, " +
+                                           std::to_string(share) + " core(s) each of " +
+                                           std::to_string(cores);
+                  std::string line;
+                  for (const std::string& l : report.realtime)
+                    if (l.rfind("CPU affinity: ", 0) == 0) line = l;
+                  EXPECT_EQ(line, want);
+                });
 }
 
 // decision_us_since() (the node's diagnostics read it while a run goes on): from cursor 0 the
 // newest decision times the runtime holds (all of them up to 4096), then nothing new.
 TEST(Runtime, DecisionTimesSinceACursorAreTheNewestAndThenNone) {
-  auto s = parse_scenario(kScenario, "rt.yaml");
-  ASSERT_TRUE(s.has_value()) << s.error().to_string();
-  s->duration = std::chrono::milliseconds{200};
-  const Profile p = default_profile();
-  SyntheticBackend::Options o;
-  o.time_scale = 0.3;
-  SyntheticBackend backend(*s, p, 1, o);
-  RuntimeOptions ro;
-  ro.realtime = false;
-  ro.watchdog_x = 0.0;
-  Runtime rt(*s, p, make_policy("red"), backend, ro);
-  const RuntimeReport report = rt.run();
-  ASSERT_GT(report.decisions, 0U);
-  std::uint64_t cursor = 0;
-  const std::vector<double> all = rt.decision_us_since(cursor);
-  EXPECT_EQ(all.size(), std::min<std::uint64_t>(report.decisions, 4096));
-  EXPECT_EQ(cursor, report.decisions);
-  for (double us : all) EXPECT_GE(us, 0.0);
-  EXPECT_TRUE(rt.decision_us_since(cursor).empty());
-  std::uint64_t last = report.decisions - 1;  // the newest one alone
-  const std::vector<double> newest = rt.decision_us_since(last);
-  ASSERT_EQ(newest.size(), 1U);
-  EXPECT_EQ(newest.front(), all.back());
+  short_red_run("", std::chrono::milliseconds{200}, false,
+                [](const Runtime& rt, const RuntimeReport& report, const Scenario&) {
+                  ASSERT_GT(report.decisions, 0U);
+                  std::uint64_t cursor = 0;
+                  const std::vector<double> all = rt.decision_us_since(cursor);
+                  EXPECT_EQ(all.size(), std::min<std::uint64_t>(report.decisions, 4096));
+                  EXPECT_EQ(cursor, report.decisions);
+                  for (double us : all) EXPECT_GE(us, 0.0);
+                  EXPECT_TRUE(rt.decision_us_since(cursor).empty());
+                  std::uint64_t last = report.decisions - 1;  // the newest one alone
+                  const std::vector<double> newest = rt.decision_us_since(last);
+                  ASSERT_EQ(newest.size(), 1U);
+                  EXPECT_EQ(newest.front(), all.back());
+                });
 }
 
 // stop_now() (SIGINT in the CLI) ends the run without draining: the jobs in flight are
