@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -64,44 +65,54 @@ struct RunResult {
   PolicyMetrics metrics;
 };
 
-RunResult run_runtime(const std::string& policy, SyntheticBackend::Options o) {
-  auto s = parse_scenario(kScenario, "rt.yaml");
+// kScenario, and `extra` YAML after it, running for `duration` when one is given.
+Scenario rt_scenario(const std::string& extra = "",
+                     std::optional<std::chrono::milliseconds> duration = std::nullopt) {
+  auto s = parse_scenario(std::string(kScenario) + extra, "rt.yaml");
   EXPECT_TRUE(s.has_value()) << (s ? "" : s.error().to_string());
-  const Profile p = default_profile();
-  SyntheticBackend backend(*s, p, 1, std::move(o));
-  RuntimeOptions ro;
-  ro.realtime = false;
-  // No watchdog: these tests count jobs, and under a sanitizer on a loaded machine a unit
-  // can overrun 10 x its p99 without being hung (the watchdog has its own fault tests).
-  ro.watchdog_x = 0.0;
-  Runtime rt(*s, p, make_policy(policy), backend, ro);
-  RunResult r;
-  MetricsCollector metrics(*s, 1.0);
-  rt.add_observer(&r.acc);
-  rt.add_observer(&metrics);
-  r.report = rt.run();
-  r.metrics = metrics.summarize(policy, r.report.end);
-  return r;
+  if (!s) return Scenario{};
+  if (duration) s->duration = *duration;
+  return std::move(*s);
 }
 
-// A short run of `red` on kScenario + `extra` (units at 0.3 x their profiled time, no
-// watchdog), then check(runtime, report, scenario) while the runtime is still there.
-template <typename Check>
-void short_red_run(const std::string& extra, std::chrono::milliseconds duration, bool realtime,
-                   Check check) {
-  auto s = parse_scenario(std::string(kScenario) + extra, "rt.yaml");
-  ASSERT_TRUE(s.has_value()) << s.error().to_string();
-  s->duration = duration;
-  const Profile p = default_profile();
+// Unit times scaled by `x` on the synthetic backend.
+SyntheticBackend::Options scaled(double x) {
   SyntheticBackend::Options o;
-  o.time_scale = 0.3;
-  SyntheticBackend backend(*s, p, 1, o);
+  o.time_scale = x;
+  return o;
+}
+
+// No watchdog: these tests count jobs, and under a sanitizer on a loaded machine a unit
+// can overrun 10 x its p99 without being hung (the watchdog has its own fault tests).
+RuntimeOptions no_watchdog(bool realtime = false) {
   RuntimeOptions ro;
   ro.realtime = realtime;
   ro.watchdog_x = 0.0;
-  Runtime rt(*s, p, make_policy("red"), backend, ro);
-  const RuntimeReport report = rt.run();
-  check(rt, report, *s);
+  return ro;
+}
+
+// A scenario on the synthetic backend with the default profile, ready to run `policy`.
+struct Rig {
+  Scenario s;
+  Profile p = default_profile();
+  SyntheticBackend backend;
+  Runtime rt;
+  Rig(const std::string& policy, Scenario scenario, SyntheticBackend::Options o,
+      const RuntimeOptions& ro)
+      : s(std::move(scenario)),
+        backend(s, p, 1, std::move(o)),
+        rt(s, p, make_policy(policy), backend, ro) {}
+};
+
+RunResult run_runtime(const std::string& policy, SyntheticBackend::Options o) {
+  Rig rig(policy, rt_scenario(), std::move(o), no_watchdog());
+  RunResult r;
+  MetricsCollector metrics(rig.s, 1.0);
+  rig.rt.add_observer(&r.acc);
+  rig.rt.add_observer(&metrics);
+  r.report = rig.rt.run();
+  r.metrics = metrics.summarize(policy, r.report.end);
+  return r;
 }
 
 class RuntimeTest : public ::testing::TestWithParam<std::string> {};
@@ -198,19 +209,14 @@ operations:
 }
 
 TEST(Runtime, ExternalFramesAreTheReleasesAndStopEndsThem) {
-  auto s = parse_scenario(kScenario, "rt.yaml");
-  ASSERT_TRUE(s.has_value());
-  s->duration = std::chrono::seconds{60};  // stop() ends it long before
-  const Profile p = default_profile();
-  SyntheticBackend::Options o;
-  o.time_scale = 0.05;
-  SyntheticBackend backend(*s, p, 1, o);
   RuntimeOptions ro;
   ro.realtime = false;
   ro.external_frames = true;
-  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  // stop() ends it long before 60 s.
+  Rig rig("red", rt_scenario("", std::chrono::seconds{60}), scaled(0.05), ro);
+  Runtime& rt = rig.rt;
   Accounting acc;
-  MetricsCollector metrics(*s, 1.0);
+  MetricsCollector metrics(rig.s, 1.0);
   rt.add_observer(&acc);
   rt.add_observer(&metrics);
   EXPECT_FALSE(rt.push_frame(0, 0)) << "frames before run() are ignored";
@@ -242,80 +248,71 @@ TEST(Runtime, ExternalFramesAreTheReleasesAndStopEndsThem) {
 // synchronizer's (above the units, the load preempted them for its whole busy share), and
 // at the ordinary priority where they do not (no permission).
 TEST(Runtime, BackgroundLoadRunsAtTheHandlersPriority) {
-  short_red_run("interference: {kind: cpu, intensity: 0.1}\n", std::chrono::milliseconds{200}, true,
-                [](const Runtime&, const RuntimeReport& report, const Scenario&) {
-                  const std::string priority =
-                      "SCHED_FIFO priority " + std::to_string(RuntimeOptions{}.rt_priority);
-                  bool realtime = false;
-                  std::string load;
-                  for (const std::string& line : report.realtime) {
-                    if (line.rfind(priority + " (", 0) == 0 &&
-                        line.find("applied") != std::string::npos &&
-                        line.find("not applied") == std::string::npos)
-                      realtime = true;
-                    if (line.rfind("background load: ", 0) == 0) load = line;
-                  }
-                  ASSERT_FALSE(load.empty()) << "no background-load line in the report";
-                  EXPECT_NE(load.find(realtime ? priority : std::string("ordinary priority")),
-                            std::string::npos)
-                      << load;
-                  EXPECT_EQ(load.find("mixed"), std::string::npos) << load;
-                });
+  Rig rig(
+      "red",
+      rt_scenario("interference: {kind: cpu, intensity: 0.1}\n", std::chrono::milliseconds{200}),
+      scaled(0.3), no_watchdog(true));
+  const RuntimeReport report = rig.rt.run();
+  const std::string priority =
+      "SCHED_FIFO priority " + std::to_string(RuntimeOptions{}.rt_priority);
+  bool realtime = false;
+  std::string load;
+  for (const std::string& line : report.realtime) {
+    if (line.rfind(priority + " (", 0) == 0 && line.find("applied") != std::string::npos &&
+        line.find("not applied") == std::string::npos)
+      realtime = true;
+    if (line.rfind("background load: ", 0) == 0) load = line;
+  }
+  ASSERT_FALSE(load.empty()) << "no background-load line in the report";
+  EXPECT_NE(load.find(realtime ? priority : std::string("ordinary priority")), std::string::npos)
+      << load;
+  EXPECT_EQ(load.find("mixed"), std::string::npos) << load;
 }
 
 // Each lane's handler is pinned to its own share of the cores (cores / lanes, at least one),
 // pinning needs no privilege, and the report states the share the masks were built from.
 TEST(Runtime, EveryHandlerIsPinnedToItsLanesShareOfTheCores) {
-  short_red_run("", std::chrono::milliseconds{100}, true,
-                [](const Runtime&, const RuntimeReport& report, const Scenario& s) {
-                  const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
-                  const long share = std::max(1L, cores / s.device.lanes);
-                  const std::string want = "CPU affinity: 2 of 2 handler(s) pinned, " +
-                                           std::to_string(share) + " core(s) each of " +
-                                           std::to_string(cores);
-                  std::string line;
-                  for (const std::string& l : report.realtime)
-                    if (l.rfind("CPU affinity: ", 0) == 0) line = l;
-                  EXPECT_EQ(line, want);
-                });
+  Rig rig("red", rt_scenario("", std::chrono::milliseconds{100}), scaled(0.3), no_watchdog(true));
+  const RuntimeReport report = rig.rt.run();
+  const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+  const long share = std::max(1L, cores / rig.s.device.lanes);
+  const std::string want = "CPU affinity: 2 of 2 handler(s) pinned, " + std::to_string(share) +
+                           " core(s) each of " + std::to_string(cores);
+  std::string line;
+  for (const std::string& l : report.realtime)
+    if (l.rfind("CPU affinity: ", 0) == 0) line = l;
+  EXPECT_EQ(line, want);
 }
 
 // decision_us_since() (the node's diagnostics read it while a run goes on): from cursor 0 the
 // newest decision times the runtime holds (all of them up to 4096), then nothing new.
 TEST(Runtime, DecisionTimesSinceACursorAreTheNewestAndThenNone) {
-  short_red_run("", std::chrono::milliseconds{200}, false,
-                [](const Runtime& rt, const RuntimeReport& report, const Scenario&) {
-                  ASSERT_GT(report.decisions, 0U);
-                  std::uint64_t cursor = 0;
-                  const std::vector<double> all = rt.decision_us_since(cursor);
-                  EXPECT_EQ(all.size(), std::min<std::uint64_t>(report.decisions, 4096));
-                  EXPECT_EQ(cursor, report.decisions);
-                  for (double us : all) EXPECT_GE(us, 0.0);
-                  EXPECT_TRUE(rt.decision_us_since(cursor).empty());
-                  std::uint64_t last = report.decisions - 1;  // the newest one alone
-                  const std::vector<double> newest = rt.decision_us_since(last);
-                  ASSERT_EQ(newest.size(), 1U);
-                  EXPECT_EQ(newest.front(), all.back());
-                });
+  Rig rig("red", rt_scenario("", std::chrono::milliseconds{200}), scaled(0.3), no_watchdog());
+  const RuntimeReport report = rig.rt.run();
+  ASSERT_GT(report.decisions, 0U);
+  std::uint64_t cursor = 0;
+  const std::vector<double> all = rig.rt.decision_us_since(cursor);
+  EXPECT_EQ(all.size(), std::min<std::uint64_t>(report.decisions, 4096));
+  EXPECT_EQ(cursor, report.decisions);
+  for (double us : all) EXPECT_GE(us, 0.0);
+  EXPECT_TRUE(rig.rt.decision_us_since(cursor).empty());
+  std::uint64_t last = report.decisions - 1;  // the newest one alone
+  const std::vector<double> newest = rig.rt.decision_us_since(last);
+  ASSERT_EQ(newest.size(), 1U);
+  EXPECT_EQ(newest.front(), all.back());
 }
 
 // stop_now() (SIGINT in the CLI) ends the run without draining: the jobs in flight are
 // reported unfinished, every released job still ends exactly once.
 TEST(Runtime, StopNowEndsTheRunWithJobsInFlightUnfinished) {
-  auto s = parse_scenario(kScenario, "rt.yaml");
-  ASSERT_TRUE(s.has_value());
-  s->duration = std::chrono::seconds{60};  // stop_now() ends it long before
-  const Profile p = default_profile();
   // Units at their profiled times (a cruise job is a ~20 ms chain): at 0.05 × a job took
   // ~1 ms, and on a loaded machine (CI's sanitizer suite, two tests at once) the
   // synchronizer could be descheduled that long after stop_now(), so every job in flight
-  // had ended by the time it acted.
-  SyntheticBackend::Options o;
-  o.time_scale = 1.0;
-  SyntheticBackend backend(*s, p, 1, o);
+  // had ended by the time it acted. stop_now() ends it long before 60 s.
   RuntimeOptions ro;
   ro.realtime = false;
-  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  Rig rig("red", rt_scenario("", std::chrono::seconds{60}), scaled(1.0), ro);
+  Runtime& rt = rig.rt;
   // Stops at the 10th release of `cruise`, from the scheduler's thread (stop_now() only sets
   // a flag and wakes the synchronizer): that job has three nodes in a chain to run, and at
   // most the units already running finish, so it is still in flight when the run ends.
@@ -328,7 +325,7 @@ TEST(Runtime, StopNowEndsTheRunWithJobsInFlightUnfinished) {
   } stop_at;
   stop_at.rt = &rt;
   Accounting acc;
-  MetricsCollector metrics(*s, 1.0);
+  MetricsCollector metrics(rig.s, 1.0);
   rt.add_observer(&acc);
   rt.add_observer(&metrics);
   rt.add_observer(&stop_at);
