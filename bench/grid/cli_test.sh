@@ -24,6 +24,7 @@ expect 2 "--robots: 'x' is not a number" --robots x
 expect 2 "--robots must be >= 1" --robots 0
 expect 2 "--frames must be >= 1" --robots 1 --frames 0
 expect 2 "--frames: '2x' is not a number" --robots 1 --frames 2x
+expect 2 "--frames: 'inf' is not a number" --robots 1 --frames inf
 expect 2 "--robot needs a SEED >= 1" --robot -1 --yaml
 expect 2 "--seeds: '1.5' is not a number" --seeds 1.5
 expect 2 "--point: 'x' is not a number" --point plain chain 1 x 1.0

@@ -31,6 +31,7 @@
 #include <algorithm>
 #include <charconv>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -41,6 +42,7 @@
 #include <sstream>
 #include <string>
 #include <system_error>
+#include <type_traits>
 #include <vector>
 
 #include "load_grid.hpp"
@@ -389,7 +391,9 @@ template <typename T>
 T number(const std::string& option, const std::string& value) {
   T x{};
   const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), x);
-  if (value.empty() || ec != std::errc{} || end != value.data() + value.size()) {
+  bool finite = true;
+  if constexpr (std::is_floating_point_v<T>) finite = std::isfinite(x);  // not inf or nan
+  if (value.empty() || ec != std::errc{} || end != value.data() + value.size() || !finite) {
     std::cerr << "red_load_grid: " << option << ": '" << value << "' is not a number\n";
     std::exit(2);
   }
