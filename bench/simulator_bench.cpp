@@ -46,10 +46,11 @@ std::string robot4_yaml(int duration_s) {
          "    edges: [[L, C], [S, C], [O, C]]\n";
 }
 
-/// The project's scenarios/ directory: $RED_SCENARIOS, else next to this source file.
+/// The project's scenarios/ directory: $RED_SCENARIOS, else the source tree's (RED_SOURCE_DIR:
+/// not __FILE__, which a compiler cache with a base directory makes relative).
 std::filesystem::path scenarios_dir() {
   if (const char* env = std::getenv("RED_SCENARIOS")) return env;
-  return std::filesystem::path(__FILE__).parent_path().parent_path() / "scenarios";
+  return std::filesystem::path(RED_SOURCE_DIR) / "scenarios";
 }
 
 [[noreturn]] void die(const Error& e) {

@@ -1,19 +1,26 @@
 #!/usr/bin/env bash
 # Checks RED as an installed library (docs/EMBEDDING.md): builds the core configuration
-# (no LibTorch, no tests, no benchmarks) in build-stage/build, installs it into the staging
-# prefix build-stage/prefix, checks the installed files, builds both examples/ against the
-# INSTALLED package (find_package(red) via CMAKE_PREFIX_PATH) and runs them, compiles a
-# program with `pkg-config --cflags --libs red`, and builds the .deb and inspects it. A
-# missing install rule fails here. Called by scripts/test.sh; takes about a minute.
+# (no LibTorch, no tests, no benchmarks) in build-install/ ($RED_STAGE/build when RED_STAGE is
+# set), installs it into the staging prefix build-stage/prefix, checks the installed files,
+# builds both examples/ against the INSTALLED package (find_package(red) via
+# CMAKE_PREFIX_PATH) and runs them, compiles a program with `pkg-config --cflags --libs red`,
+# and builds the .deb and inspects it. A missing install rule fails here. Called by
+# scripts/test.sh; takes about a minute.
 #
 #     scripts/check-install.sh                     # as in CI (static red_core)
 #     RED_STAGE=/tmp/stage scripts/check-install.sh   # elsewhere
 #     RED_SHARED=ON scripts/check-install.sh          # with BUILD_SHARED_LIBS=ON
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. scripts/ccache-env.sh
 ROOT=$PWD
 STAGE=${RED_STAGE:-$ROOT/build-stage}
 PREFIX=$STAGE/prefix
+# The core's build directory sits beside build/ by default, at the same depth, so that
+# ccache (scripts/ccache-env.sh) finds the objects scripts/build.sh compiled with the same
+# flags: the core and most of the CLI are not compiled again.
+BUILD=${RED_STAGE:+$STAGE/build}
+BUILD=${BUILD:-$ROOT/build-install}
 SHARED=${RED_SHARED:-OFF}
 [[ $SHARED =~ ^(ON|OFF)$ ]] || { echo "check-install: RED_SHARED must be ON or OFF" >&2; exit 2; }
 JOBS=$(nproc)
@@ -21,16 +28,16 @@ fail() { echo "check-install: $*" >&2; exit 1; }
 
 echo "== install: configure and build the core into $PREFIX"
 rm -rf "$PREFIX" "$STAGE/examples" "$STAGE/pc"
-cmake -S . -B "$STAGE/build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRED_TORCH=OFF \
+cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DRED_TORCH=OFF \
   -DRED_BUILD_TESTS=OFF -DRED_BUILD_BENCH=OFF -DBUILD_SHARED_LIBS="$SHARED" \
   -DCMAKE_INSTALL_PREFIX="$PREFIX" -DRED_WERROR=ON >/dev/null
-cmake --build "$STAGE/build" -j"$JOBS"
-cmake --install "$STAGE/build" >/dev/null
+cmake --build "$BUILD" -j"$JOBS"
+cmake --install "$BUILD" >/dev/null
 
 echo "== install: installed files"
 VERSION=$(sed -n 's/^project(red VERSION \([0-9.]*\).*/\1/p' CMakeLists.txt)
 [ -n "$VERSION" ] || fail "cannot read the version from CMakeLists.txt"
-LIBDIR=$(cmake -L -N "$STAGE/build" 2>/dev/null | sed -n 's/^CMAKE_INSTALL_LIBDIR:PATH=//p')
+LIBDIR=$(cmake -L -N "$BUILD" 2>/dev/null | sed -n 's/^CMAKE_INSTALL_LIBDIR:PATH=//p')
 LIBDIR=${LIBDIR:-lib}
 if [ "$SHARED" = ON ]; then
   CORE_LIB=$LIBDIR/libred_core.so.$VERSION
@@ -61,10 +68,10 @@ got=$("$PREFIX/bin/red" --version)
 "$PREFIX/bin/red" validate "$PREFIX/share/red/scenarios/minibench-tight.yaml" >/dev/null
 # With DDS (or LibTorch), red links neither and runs libexec/red/red-full for the commands
 # that need them (tools/red/full.hpp).
-LIBEXECDIR=$(cmake -L -N "$STAGE/build" 2>/dev/null | sed -n 's/^CMAKE_INSTALL_LIBEXECDIR:PATH=//p')
+LIBEXECDIR=$(cmake -L -N "$BUILD" 2>/dev/null | sed -n 's/^CMAKE_INSTALL_LIBEXECDIR:PATH=//p')
 LIBEXECDIR=${LIBEXECDIR:-libexec}
 FULL=""
-if [ -e "$STAGE/build/tools/red/red-full" ]; then
+if [ -e "$BUILD/tools/red/red-full" ]; then
   FULL=$LIBEXECDIR/red/red-full
   [ -x "$PREFIX/$FULL" ] || fail "not installed: $FULL"
   if ldd "$PREFIX/bin/red" | grep -E 'libddsc|libtorch|libc10'; then
@@ -132,8 +139,8 @@ g++ -std=c++20 -o "$STAGE/pc/pc_check" "$STAGE/pc/main.cpp" $FLAGS
 LD_LIBRARY_PATH="$PREFIX/$LIBDIR" "$STAGE/pc/pc_check"  # a shared red_core is not on the loader path
 
 echo "== install: .deb (cpack -G DEB)"
-(cd "$STAGE/build" && cpack -G DEB >/dev/null)
-DEB=$(ls "$STAGE"/build/red_"$VERSION"_*.deb)
+(cd "$BUILD" && cpack -G DEB >/dev/null)
+DEB=$(ls "$BUILD"/red_"$VERSION"_*.deb)
 INFO=$(dpkg-deb -I "$DEB")
 echo "$INFO" | grep -q "^ Package: red$" || fail "$DEB: no Package: red"
 echo "$INFO" | grep -q "^ Version: $VERSION$" || fail "$DEB: version is not $VERSION"
@@ -151,8 +158,8 @@ if [ -n "$FULL" ]; then
 fi
 
 echo "== install: API documentation (Doxygen, target red_docs)"
-cmake --build "$STAGE/build" --target red_docs
-[ -s "$STAGE/build/docs/api/html/index.html" ] || fail "red_docs wrote no index.html"
-[ -e "$STAGE/build/docs/api/html/examples.html" ] || fail "red_docs did not link the examples"
-echo "doxygen warnings (undocumented members): $(wc -l <"$STAGE/build/docs/doxygen-warnings.log")"
+cmake --build "$BUILD" --target red_docs
+[ -s "$BUILD/docs/api/html/index.html" ] || fail "red_docs wrote no index.html"
+[ -e "$BUILD/docs/api/html/examples.html" ] || fail "red_docs did not link the examples"
+echo "doxygen warnings (undocumented members): $(wc -l <"$BUILD/docs/doxygen-warnings.log")"
 echo "check-install: ok ($DEB)"

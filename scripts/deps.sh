@@ -4,7 +4,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential g++ cmake ninja-build pkg-config clang-format
+  build-essential g++ cmake ninja-build pkg-config clang-format ccache
   libyaml-cpp-dev libyaml-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   gnuplot-nox doxygen
@@ -16,6 +16,8 @@ PACKAGES=(
   libfastrtps-dev fastddsgen
   libpng-dev libjpeg-dev
 )
+# ccache: a second build of the same sources (the test command run again, another clone
+# of the same commit) compiles only what changed (scripts/ccache-env.sh).
 # iceoryx: RouDi (iox-roudi), the daemon of the shared memory that Debian's Cyclone DDS is
 # built with (libddsc0debian depends on libiceoryx-binding-c2), for `red node --shm` and its
 # test (docs/ROS2.md, "Shared memory (iceoryx)").
