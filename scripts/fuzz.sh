@@ -6,11 +6,15 @@
 # tests/fuzz/corpus: add an input there by hand when it is worth keeping.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. scripts/ccache-env.sh
 SECONDS_EACH=${1:-15}
 BUILD=${2:-build-fuzz}
+# RED_STDLIB_FIRST: the standard library precompiled (11 % less build time here), and the
+# newer-toolchain check of cmake/Precompile.cmake with clang as well.
 if [ ! -x "$BUILD/tests/fuzz/fuzz_scenario" ]; then
   CC=clang CXX=clang++ cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF -DRED_BUILD_TESTS=OFF -DRED_FUZZ=ON -DRED_WERROR=ON >/dev/null
+    -DRED_TORCH=OFF -DRED_BUILD_BENCH=OFF -DRED_BUILD_TESTS=OFF -DRED_FUZZ=ON -DRED_WERROR=ON \
+    -DRED_STDLIB_FIRST=ON >/dev/null
 fi
 cmake --build "$BUILD" -j"$(nproc)" --target fuzz
 WORK=$(mktemp -d /tmp/red-fuzz.XXXXXX)
