@@ -12,6 +12,7 @@
 
 #include "../support/load_grid.hpp"
 #include "../support/random_scenario.hpp"
+#include "../support/size.hpp"
 #include "red/analysis/nptest.hpp"
 #include "red/analysis/workload.hpp"
 #include "red/scenario/builder.hpp"
@@ -277,7 +278,7 @@ TEST(AnalyzeAgreement, RandomScenariosWithEveryFeature) {
   // Events, depends_on, own rates, jitter, plain nodes, several lanes: the analysis and the
   // export run through without error, and the verdicts agree with the simulator.
   const Profile p = default_profile();
-  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+  for (std::uint64_t seed = 1; seed <= test::sized(40, 8); ++seed) {  // size.hpp
     test::RandomScenarioOptions ro;
     ro.duration_s = 1.5;
     ro.events = true;

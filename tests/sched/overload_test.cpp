@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "../support/load_grid.hpp"
+#include "../support/size.hpp"
 #include "red/scenario/builder.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sched/policy.hpp"
@@ -21,9 +22,11 @@
 namespace red {
 namespace {
 
-// 18 cells (1, 2, 4 lanes × chain, fork-join, wide × plain, MIMONet) × 12 seeds, 2 s each.
+// 18 cells (1, 2, 4 lanes × chain, fork-join, wide × plain, MIMONet) × 12 seeds, 2 s each; 2
+// seeds a cell under a sanitizer (tests/support/size.hpp).
+constexpr int kPerCell = test::sized(12, 2);
 const std::vector<grid::SetSpec>& sets() {
-  static const std::vector<grid::SetSpec> v = grid::grid_sets(12, 2.0);
+  static const std::vector<grid::SetSpec> v = grid::grid_sets(kPerCell, 2.0);
   return v;
 }
 
@@ -96,7 +99,7 @@ TEST(Overload, BelowCapacityRedRobustMatchesRedOnAverage) {
       ++compared;
     }
   }
-  ASSERT_GT(compared, 200);
+  ASSERT_GT(compared, 200 * kPerCell / 12);  // of 2 loads x 216 sets (x 36 under a sanitizer)
   RecordProperty("largest_difference", std::to_string(-low.diff) + " at " + low.where);
   RecordProperty("mean_difference", std::to_string(sum / compared));
   EXPECT_LE(sum / compared, 0.005);
@@ -757,7 +760,7 @@ Starts starts(const Scenario& s, const Profile& p, std::unique_ptr<Policy> polic
 TEST(Overload, RankingByJobDeadlineFromTheTasksChangesNoDecision) {
   const Profile p = default_profile();
   std::vector<Scenario> cases;
-  for (const grid::SetSpec& spec : grid::grid_sets(2, 1.0))
+  for (const grid::SetSpec& spec : grid::grid_sets(test::sized(2, 1), 1.0))
     for (double load : {1.5, 2.5}) cases.push_back(grid::set_scenario(spec, p, load));
   for (const char* name : {"minibench-tight", "case-dynamic"}) {
     auto s = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/" + name + ".yaml");

@@ -15,6 +15,7 @@
 
 #include "../support/load_grid.hpp"
 #include "../support/robot_workload.hpp"
+#include "../support/size.hpp"
 #include "red/profile/profile.hpp"
 #include "red/sched/observer.hpp"
 #include "red/sched/policy.hpp"
@@ -89,7 +90,8 @@ void expect_same(const Scenario& s, const Profile& p, const std::string& what) {
 
 TEST(ReadyGroups, DecideAsTheFullScanOnTheLoadGrid) {
   const Profile p = default_profile();
-  for (const grid::SetSpec& spec : grid::grid_sets(1, 1.5))
+  // Under a sanitizer, one set of each lane count, shape and kind of node (size.hpp).
+  for (const grid::SetSpec& spec : test::sized_subset(grid::grid_sets(1, 1.5), 5))
     for (double load : {0.8, 1.5, 2.5})
       expect_same(grid::set_scenario(spec, p, load), p,
                   fmt::format("grid set {} at {}", spec.seed, load));
@@ -97,7 +99,7 @@ TEST(ReadyGroups, DecideAsTheFullScanOnTheLoadGrid) {
 
 TEST(ReadyGroups, DecideAsTheFullScanOnRobotWorkloads) {
   const Profile p = default_profile();
-  for (std::uint64_t seed = 1; seed <= 12; ++seed)
+  for (std::uint64_t seed = 1; seed <= test::sized(12, 3); ++seed)
     for (double load : {1.0, 2.0})
       expect_same(robot::workload(seed, p, load), p, fmt::format("robot {} at {}", seed, load));
 }
@@ -119,7 +121,7 @@ std::string copies_yaml(int n) {
 
 TEST(ReadyGroups, DecideAsTheFullScanOnCopiesReleasedTogether) {
   const Profile p = default_profile();
-  for (int n : {60, 300}) {
+  for (int n : {60, test::sized(300, 120)}) {  // size.hpp
     auto s = parse_scenario(copies_yaml(n), "copies.yaml");
     ASSERT_TRUE(s) << s.error().to_string();
     expect_same(*s, p, fmt::format("{} copies", n));
