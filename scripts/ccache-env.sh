@@ -5,7 +5,8 @@
 # (base_dir), so another clone of the same commit hits too. RED_CCACHE=0 turns it off.
 # Takes effect when a build directory is configured for the first time (CMake reads
 # CMAKE_<LANG>_COMPILER_LAUNCHER from the environment then).
-if [ "${RED_CCACHE:-1}" != 0 ] && command -v ccache >/dev/null; then
+# A ccache that cannot open its cache (no HOME, a read-only directory) is not used.
+if [ "${RED_CCACHE:-1}" != 0 ] && command -v ccache >/dev/null && ccache --show-stats >/dev/null 2>&1; then
   export CMAKE_CXX_COMPILER_LAUNCHER=ccache CMAKE_C_COMPILER_LAUNCHER=ccache
   export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$PWD}
   # The build directory's path is not hashed (it only changes the debug info's working
