@@ -14,6 +14,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -307,6 +308,55 @@ TEST(RobotWorkload, RedRobustIsNeverTheWorseChoice) {
   }
   EXPECT_EQ(points,
             static_cast<int>(std::size(kKnown)) * kCompared * static_cast<int>(std::size(kLoads)));
+}
+
+// Issue 52: the shared-encoder workloads (robot::Options::shared_encoder).
+TEST(RobotWorkload, SharedEncoderModeHoldsWhatItPromises) {
+  // Deterministic, parses, and each workload shares the front sensor between triggered and
+  // own-rate operations, runs one head in two operations, and adds then removes the one
+  // most critical operation.
+  const Profile p = default_profile();
+  robot::Options opt;
+  opt.shared_encoder = true;
+  EXPECT_NE(robot::workload_yaml(1, p, opt), robot::workload_yaml(1, p));
+  for (std::uint64_t seed = 1; seed <= 50; ++seed) {
+    ASSERT_EQ(robot::workload_yaml(seed, p, opt), robot::workload_yaml(seed, p, opt));
+    const Scenario s = robot::workload(seed, p, 1.0, opt);
+    const std::string y = robot::workload_yaml(seed, p, opt);
+    int triggered = 0, own_rate = 0, critical = -1;
+    std::map<int, int> heads;  // head on the front sensor (sensor 0) -> operations running it
+    for (int i = 0; i < s.operation_count(); ++i) {
+      if (criticality_of(s, i) == 2) {
+        EXPECT_EQ(critical, -1) << y;
+        critical = i;
+      } else {
+        EXPECT_LT(criticality_of(s, i), 2) << y;
+      }
+      const auto& o = s.initial[static_cast<std::size_t>(i)];
+      if (!o) continue;
+      (o->trigger_sensor >= 0 ? triggered : own_rate) += 1;
+      std::set<int> mine;
+      for (const NodeSpec& n : o->nodes)
+        if (n.head >= 0 && n.sensor == 0) mine.insert(n.head);
+      for (int h : mine) ++heads[h];
+    }
+    EXPECT_GE(triggered, 1) << y;
+    EXPECT_GE(own_rate, 1) << y;
+    int shared = 0;
+    for (const auto& [h, n] : heads) shared = std::max(shared, n);
+    EXPECT_GE(shared, 2) << y;  // a head of two operations
+    ASSERT_GE(critical, 0) << y;
+    EXPECT_EQ(s.initial[static_cast<std::size_t>(critical)], nullptr) << y;  // joins by an event
+    bool batches = false;  // the critical operation runs a head some other operation runs
+    for (const EventSpec& e : s.events)
+      for (const auto& [i, snap] : e.changes)
+        if (i == critical && snap)
+          for (const NodeSpec& n : snap->nodes) batches = batches || heads.contains(n.head);
+    EXPECT_TRUE(batches) << y;
+    std::vector<std::string> kinds;
+    for (const EventSpec& e : s.events) kinds.push_back(e.kind);
+    EXPECT_EQ(kinds, (std::vector<std::string>{"add_operation", "remove_operation"})) << y;
+  }
 }
 
 }  // namespace

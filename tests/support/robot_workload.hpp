@@ -8,7 +8,9 @@
 /// rates are sized on a profile's mean costs so that the necessary work fills the lanes at
 /// rate_scale 1; rate_scale then sets the load. Deterministic for a seed (std::mt19937_64,
 /// integer and real draws in a fixed order). Shared by tests/sched/robot_workload_test.cpp
-/// and bench/grid/load_grid.cpp (--robots).
+/// and bench/grid/load_grid.cpp (--robots). Options::shared_encoder (issue 52) draws another
+/// family instead: several operations sharing one sensor's encoder and its heads, and a
+/// critical operation that joins and leaves (shared_workload_yaml).
 
 #include <fmt/format.h>
 
@@ -31,6 +33,14 @@ struct Options {
   /// first tenth is warm-up.
   double frames = 60;
   int max_lanes = 2;  ///< 1 .. max_lanes lanes
+  /// Shared-encoder mode (issue 52; off by default, so a seed's workload stays as it was):
+  /// several operations read one sensor ("front") at different rates and phases, some
+  /// triggered by its frames, some sampling the newest frame at their own rate, with their
+  /// own deadlines; their heads are drawn from a common pool (so a head batches across
+  /// jobs of different operations); a critical operation (criticality 2, above every other)
+  /// joins by an event and leaves by a later one. Now and then a second sensor ("rear")
+  /// with an operation of its own. See shared_workload_yaml.
+  bool shared_encoder = false;
 };
 
 namespace detail {
@@ -46,10 +56,196 @@ inline std::string num(double x) {
 
 }  // namespace detail
 
+/// The YAML of shared-encoder robot workload `seed` (Options::shared_encoder) at rate_scale 1,
+/// sized like workload_yaml: the necessary work (one encoder run per frame of a sensor that
+/// a triggered operation reads, one per job of an own-rate operation, heads and plain nodes
+/// per job; the critical operation weighted by the share of the run it is present) fills
+/// the lanes at rate_scale 1.
+inline std::string shared_workload_yaml(std::uint64_t seed, const Profile& profile,
+                                        const Options& opt) {
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ULL + 52);
+  auto pick = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
+  auto real = [&](double lo, double hi) { return std::uniform_real_distribution<>(lo, hi)(rng); };
+  auto chance = [&](int percent) { return pick(0, 99) < percent; };
+  static const char* const kHeads[] = {"lane", "seg", "steer", "det"};
+  static const double kRates[] = {10, 12.5, 15, 20, 25, 30};
+  // Own rates as fractions of the sensor's: sampling the newest frame every frame, every
+  // other one, or slower, never faster than frames arrive.
+  static const double kFractions[] = {0.25, 1.0 / 3, 0.5, 2.0 / 3, 0.75, 1.0};
+  const double enc = detail::mean_ms(profile, "encoder");
+  auto head_ms = [&](int h) { return detail::mean_ms(profile, std::string("head/") + kHeads[h]); };
+
+  const int lanes = pick(1, std::max(1, opt.max_lanes));
+  double front_hz = kRates[pick(0, 5)];
+  const bool rear = chance(35);
+  double rear_hz = rear ? kRates[pick(0, 5)] * real(0.4, 0.8) : 0;
+
+  struct Node {
+    int head = -1;       // an inference node
+    double cost_ms = 0;  // a plain node
+  };
+  struct Op {
+    std::string name, sensor = "front";
+    bool triggered = true;  // else its own rate, sampling the newest frame
+    double rate = 0;        // own rate (relative, scaled below)
+    double deadline_periods = 1;
+    std::vector<Node> nodes;
+    std::vector<std::pair<int, int>> edges;
+    int criticality = 0, max_inflight = 0;
+    double cp_ms = 0, heads_ms = 0, plain_ms = 0;
+  };
+  // The pool every operation on the front sensor draws its heads from: a common head that
+  // most operations run (so that head batches across jobs of different operations), and
+  // the others now and then.
+  const int common = pick(0, 3);
+  auto make_op = [&](const std::string& name, bool force_common, double d_lo, double d_hi) {
+    Op op;
+    op.name = name;
+    std::vector<int> heads;
+    if (force_common || chance(65)) heads.push_back(common);
+    const int more = pick(heads.empty() ? 1 : 0, 2);
+    for (int i = 0; i < more; ++i) {
+      const int h = pick(0, 3);
+      if (std::find(heads.begin(), heads.end(), h) == heads.end()) heads.push_back(h);
+    }
+    for (int h : heads) {
+      op.nodes.push_back(Node{h, 0});
+      op.heads_ms += head_ms(h);
+    }
+    const int infer = static_cast<int>(heads.size());
+    // A head refining another's output now and then; a plain node (tracking, planning)
+    // after the heads half the time.
+    if (infer > 1 && chance(30)) op.edges.emplace_back(0, 1);
+    if (chance(50)) {
+      Node n;
+      n.cost_ms = real(0.3, 0.1 * enc + 0.5);
+      op.nodes.push_back(n);
+      op.plain_ms += n.cost_ms;
+      for (int v = 0; v < infer; ++v)
+        if (v == 0 || chance(50)) op.edges.emplace_back(v, infer);
+    }
+    std::vector<double> finish(op.nodes.size(), 0.0);
+    for (std::size_t v = 0; v < op.nodes.size(); ++v) {
+      double start = 0;
+      for (auto [a, b] : op.edges)
+        if (b == static_cast<int>(v)) start = std::max(start, finish[static_cast<std::size_t>(a)]);
+      const Node& n = op.nodes[v];
+      finish[v] = start + (n.head >= 0 ? enc + head_ms(n.head) : n.cost_ms);
+      op.cp_ms = std::max(op.cp_ms, finish[v]);
+    }
+    op.deadline_periods = real(d_lo, d_hi);
+    if (chance(20)) op.max_inflight = pick(1, 3);
+    return op;
+  };
+
+  // 3–5 operations on the front sensor: the first triggered by it, the second at its own
+  // rate (so both kinds always share the encoder), the rest either; the first two run the
+  // common head.
+  const int nops = pick(3, 5);
+  std::vector<Op> ops;
+  for (int k = 0; k < nops; ++k) {
+    Op op = make_op(fmt::format("op{}", k), k < 2, 0.7, 2.0);
+    op.triggered = k == 0 || (k > 1 && chance(50));
+    if (!op.triggered) op.rate = front_hz * kFractions[pick(0, 5)];
+    op.criticality = chance(35) ? 1 : 0;
+    ops.push_back(std::move(op));
+  }
+  if (rear) {
+    Op op = make_op("rear_watch", false, 0.8, 2.0);
+    op.sensor = "rear";
+    op.criticality = chance(35) ? 1 : 0;
+    ops.push_back(std::move(op));
+  }
+  // The critical operation (an obstacle ahead): on the front sensor, triggered or at its own
+  // rate, with the common head, a tight deadline; present from `from` to `to` of the run.
+  Op crit = make_op("critical", true, 0.6, 1.2);
+  crit.triggered = chance(50);
+  if (!crit.triggered) crit.rate = front_hz * kFractions[pick(2, 5)];
+  crit.criticality = 2;
+  crit.max_inflight = 0;
+  const double from = real(0.15, 0.4), to = real(0.6, 0.9);
+
+  auto op_rate = [&](const Op& op) {
+    if (!op.triggered) return op.rate;
+    return op.sensor == "rear" ? rear_hz : front_hz;
+  };
+  double work = 0;  // ms per second
+  bool front_encoded = false;
+  auto add_work = [&](const Op& op, double weight) {
+    const double hz = op_rate(op);
+    work += weight * hz * (op.heads_ms + op.plain_ms);
+    if (op.heads_ms <= 0) return;
+    if (!op.triggered) {
+      work += weight * hz * enc;
+    } else if (op.sensor == "rear") {
+      work += weight * rear_hz * enc;
+    } else if (!front_encoded) {
+      work += front_hz * enc;  // the frames are encoded while any triggered operation runs
+      front_encoded = true;
+    }
+  };
+  for (const Op& op : ops) add_work(op, 1.0);
+  add_work(crit, to - from);
+  const double scale = lanes * 1000.0 / std::max(work, 1e-3);
+  front_hz = std::clamp(front_hz * scale, 0.01, 1000.0);
+  rear_hz = std::clamp(rear_hz * scale, 0.01, 1000.0);
+  for (Op& op : ops)
+    if (!op.triggered) op.rate = std::clamp(op.rate * scale, 0.01, 1000.0);
+  if (!crit.triggered) crit.rate = std::clamp(crit.rate * scale, 0.01, 1000.0);
+
+  const double duration_s = opt.frames / front_hz;
+  std::string y = fmt::format(
+      "name: robot-shared-{}\nduration_s: {}\nwarmup_s: {}\nseed: {}\ndevice: {{lanes: {}}}\n"
+      "model: {{builtin: mimonet, heads: [lane, seg, steer, det]}}\nsensors:\n",
+      seed, detail::num(duration_s), detail::num(duration_s / 10), seed % 1000 + 1, lanes);
+  y += fmt::format("  front: {{rate_hz: {:.5g}, phase_ms: {:.2f}}}\n", front_hz, real(0, 30));
+  if (rear)
+    y += fmt::format("  rear: {{rate_hz: {:.5g}, phase_ms: {:.2f}}}\n", rear_hz, real(0, 30));
+  // Deadline: its periods (drawn above), never below 1.3 × the coarse critical path.
+  auto op_yaml = [&](const Op& op, const std::string& indent) {
+    std::string o = indent + "name: " + op.name + "\n";
+    const std::string in(indent.size(), ' ');
+    if (op.triggered)
+      o += fmt::format("{}trigger: {}\n", in, op.sensor);
+    else
+      o += fmt::format("{}rate_hz: {:.5g}\n{}phase_ms: {:.2f}\n", in, op.rate, in,
+                       real(0, 1000.0 / op.rate));
+    o += fmt::format("{}deadline_ms: {:.2f}\n", in,
+                     std::max(1000.0 / op_rate(op) * op.deadline_periods, 1.3 * op.cp_ms));
+    if (op.criticality > 0) o += fmt::format("{}criticality: {}\n", in, op.criticality);
+    if (op.max_inflight > 0) o += fmt::format("{}max_inflight: {}\n", in, op.max_inflight);
+    o += in + "nodes:\n";
+    for (std::size_t v = 0; v < op.nodes.size(); ++v) {
+      const Node& n = op.nodes[v];
+      if (n.head >= 0)
+        o += fmt::format("{}  N{}: {{head: {}, sensor: {}}}\n", in, v, kHeads[n.head], op.sensor);
+      else
+        o += fmt::format("{}  N{}: {{cost: {{mean_ms: {:.3f}, p99_ms: {:.3f}}}}}\n", in, v,
+                         n.cost_ms, n.cost_ms * 1.3);
+    }
+    if (!op.edges.empty()) {
+      o += in + "edges: [";
+      for (std::size_t e = 0; e < op.edges.size(); ++e)
+        o += fmt::format("{}[N{}, N{}]", e ? ", " : "", op.edges[e].first, op.edges[e].second);
+      o += "]\n";
+    }
+    return o;
+  };
+  y += "operations:\n";
+  for (const Op& op : ops) y += op_yaml(op, "  - ");
+  y += fmt::format("events:\n  - at_s: {:.3f}\n    add_operation:\n{}", duration_s * from,
+                   op_yaml(crit, "      "));
+  y += fmt::format("  - at_s: {:.3f}\n    remove_operation: {{operation: critical}}\n",
+                   duration_s * to);
+  return y;
+}
+
 /// The YAML of robot workload `seed` at rate_scale 1, sized on `profile`'s mean costs (its
-/// `encoder` and `head/<name>` units; the heads are lane, seg, steer and det).
+/// `encoder` and `head/<name>` units; the heads are lane, seg, steer and det). With
+/// Options::shared_encoder, shared_workload_yaml's workload instead.
 inline std::string workload_yaml(std::uint64_t seed, const Profile& profile,
                                  const Options& opt = {}) {
+  if (opt.shared_encoder) return shared_workload_yaml(seed, profile, opt);
   std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ULL + 37);
   auto pick = [&](int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng); };
   auto real = [&](double lo, double hi) { return std::uniform_real_distribution<>(lo, hi)(rng); };
