@@ -35,4 +35,6 @@ blocker=$(mktemp)
 trap 'rm -f "$blocker"' EXIT
 expect 1 "cannot write $blocker/points.tsv" --robots 1 --frames 3 --points "$blocker/points.tsv"
 expect 0 "5 points (1 robot workloads x 5 loads)" --robots 1 --frames 3
+expect 0 "5 points (1 robot workloads x 5 loads)" --robots 1 --frames 3 --shared
+expect 0 "remove_operation: {operation: critical}" --robot 1 --shared --yaml
 exit $((fails > 0))

@@ -9,8 +9,17 @@
 ///
 ///     red_load_grid [--seeds N] [--duration S] [--markdown docs/BENCHMARKS.md] [--points F]
 ///     red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES LOAD [--with K=V,…]
-///     red_load_grid --robots N [--profile F] [--with K=V,…] [--frames F] [--points FILE]
-///     red_load_grid --robot SEED [--profile F] [--frames F] --yaml
+///     red_load_grid --robots N [--profile F] [--shared] [--with K=V,…] [--frames F]
+///                   [--points FILE]
+///     red_load_grid --robot SEED [--profile F] [--shared] [--frames F] --yaml
+///
+/// --shared uses the shared-encoder robot workloads (robot_workload.hpp,
+/// Options::shared_encoder; issue 52): several operations on one sensor's encoder at their
+/// own rates and deadlines, heads shared across operations, a critical operation that joins
+/// and leaves. After its worst points, --robots prints per load each policy's mean on-time
+/// fraction, the worst red-robust - red, the points within 2 points of red, and the most
+/// critical operation's mean on-time fraction under red and red-robust (with --shared, the
+/// figures of RobotWorkload.RedRobustGeneralizes for one profile).
 ///
 /// --frames sets the robot workloads' length in frames of their fastest sensor (60, the
 /// tests' length, by default): longer runs give each operation more jobs, so that a 0.5-point
@@ -257,7 +266,10 @@ bool open_tsv(std::ofstream& out, const std::string& path, const std::string& he
 // 0.5 to 2.5x load; the worst point of red-robust against each, and of every operation more
 // critical than the workload's least against red (on-time fractions, after warm-up).
 // With points_file, one TSV line per point: seed, load, the three on-time fractions and the
-// number of more critical operations below red.
+// number of more critical operations below red. Then per load: the mean on-time fractions,
+// the worst red-robust - red, the points within 2 points of red, and the mean on-time
+// fraction of the most critical operation (the first of the highest criticality) under red
+// and red-robust over the points where it released jobs.
 int robots(int n, const red::Profile& profile, const std::string& with,
            const std::string& points_file, const red::robot::Options& opt) {
   std::ofstream tsv;
@@ -266,6 +278,11 @@ int robots(int n, const red::Profile& profile, const std::string& with,
   double worst_red = 1, worst_edf = 1, worst_crit = 1;
   std::string at_red, at_edf, at_crit;
   int points = 0, below_red = 0, below_edf = 0, crit_below = 0;
+  struct PerLoad {
+    double edf = 0, red = 0, robust = 0, worst = 1, crit_red = 0, crit_robust = 0;
+    int points = 0, within2 = 0, crit_points = 0;
+  };
+  std::map<double, PerLoad> per_load;
   for (int seed = 1; seed <= n; ++seed)
     for (double load : loads) {
       const red::Scenario s =
@@ -309,8 +326,24 @@ int robots(int n, const red::Profile& profile, const std::string& with,
             if (k == i && snap) return snap->criticality;
         return 0;
       };
-      int least = 1 << 30;
-      for (int i = 0; i < s.operation_count(); ++i) least = std::min(least, crit(i));
+      int least = 1 << 30, most = 0;
+      for (int i = 0; i < s.operation_count(); ++i) {
+        least = std::min(least, crit(i));
+        if (crit(i) > crit(most)) most = i;
+      }
+      PerLoad& pl = per_load[load];
+      ++pl.points;
+      pl.edf += on_time["edf"];
+      pl.red += on_time["red"];
+      pl.robust += on_time["red-robust"];
+      pl.worst = std::min(pl.worst, dr);
+      pl.within2 += dr >= -0.02 ? 1 : 0;
+      if (const auto mi = static_cast<std::size_t>(most);
+          op_on_time["red"][mi] >= 0 && op_on_time["red-robust"][mi] >= 0) {
+        ++pl.crit_points;
+        pl.crit_red += op_on_time["red"][mi];
+        pl.crit_robust += op_on_time["red-robust"][mi];
+      }
       int point_crit_below = 0;
       for (int i = 0; i < s.operation_count(); ++i) {
         const auto ii = static_cast<std::size_t>(i);
@@ -334,6 +367,15 @@ int robots(int n, const red::Profile& profile, const std::string& with,
       "more critical operations, red-robust - red: worst {:+.4f} ({}), {} below -0.005\n",
       points, n, loads.size(), worst_red, at_red, below_red, worst_edf, at_edf, below_edf,
       worst_crit, at_crit, crit_below);
+  std::cout
+      << "load  edf     red     robust  worst gap  within 2  most critical: red  robust (n)\n";
+  for (const auto& [load, pl] : per_load) {
+    const int cn = std::max(pl.crit_points, 1);
+    std::cout << fmt::format(
+        "{:.1f}   {:.4f}  {:.4f}  {:.4f}  {:+.4f}    {:>4}/{:<4}            {:.4f}  {:.4f} ({})\n",
+        load, pl.edf / pl.points, pl.red / pl.points, pl.robust / pl.points, pl.worst, pl.within2,
+        pl.points, pl.crit_red / cn, pl.crit_robust / cn, pl.crit_points);
+  }
   return 0;
 }
 
@@ -410,7 +452,7 @@ int main(int argc, char** argv) {
   std::optional<std::pair<red::grid::SetSpec, double>> point;
   int robot_count = 0;            // --robots N
   int robot_seed = 0;             // --robot SEED (with --yaml)
-  red::robot::Options robot_opt;  // --frames F
+  red::robot::Options robot_opt;  // --frames F, --shared
   std::string profile_file;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -445,6 +487,8 @@ int main(int argc, char** argv) {
       }
     } else if (a == "--frames") {
       robot_opt.frames = number<double>(a, next());
+    } else if (a == "--shared") {
+      robot_opt.shared_encoder = true;
     } else if (a == "--profile") {
       profile_file = next();
     } else if (a == "--yaml") {
@@ -474,9 +518,10 @@ int main(int argc, char** argv) {
                    "[--points FILE]\n"
                    "       red_load_grid --point plain|mimonet chain|fork-join|wide SEED LANES "
                    "LOAD [--duration S] [--with K=V,...] [--yaml]\n"
-                   "       red_load_grid --robots N [--profile F] [--with K=V,...] [--frames F] "
-                   "[--points FILE]\n"
-                   "       red_load_grid --robot SEED [--profile F] [--frames F] --yaml\n";
+                   "       red_load_grid --robots N [--profile F] [--shared] [--with K=V,...] "
+                   "[--frames F] [--points FILE]\n"
+                   "       red_load_grid --robot SEED [--profile F] [--shared] [--frames F] "
+                   "--yaml\n";
       return 2;
     }
   }
