@@ -38,7 +38,10 @@ const PhaseFigures* figures_of(const PhaseMetrics& pm, const std::string& name) 
 }
 
 // The verdict of one operation in one phase, and its reason (docs/ANALYSIS.md, "Verdicts").
-void judge(OperationAnalysis& oa, double phase_util, double limit) {
+// `span_s` is the phase's length and `deadline_s` its latest deadline: a load past capacity by more
+// than the jobs released at its end can run on after it is overloaded (WorkModel::overloaded).
+void judge(OperationAnalysis& oa, double phase_util, double limit, double span_s,
+           double deadline_s) {
   const double d = to_ms(oa.deadline);
   if (oa.deadline < oa.alone_min) {
     oa.verdict = Verdict::Infeasible;
@@ -52,19 +55,24 @@ void judge(OperationAnalysis& oa, double phase_util, double limit) {
         "deadline {:.3f} ms is below {:.3f} ms, the shortest response alone on the device on "
         "mean costs (critical path, own work over the lanes): most jobs miss even alone",
         d, to_ms(oa.alone_mean));
-  } else if (oa.utilization > 1.0) {
-    oa.verdict = Verdict::Overloaded;
-    oa.reason =
-        fmt::format("its own demand is {:.1f} % of the lanes' capacity", 100 * oa.utilization);
-  } else if (phase_util > 1.0) {
-    oa.verdict = Verdict::Overloaded;
-    oa.reason = fmt::format("the device's demand in this phase is {:.1f} % of its capacity",
-                            100 * phase_util);
-  } else if (oa.jobs_profiled > 0 && oa.miss_profiled > limit) {
+  } else if (WorkModel::overloaded(oa.utilization, span_s, deadline_s)) {
     oa.verdict = Verdict::Overloaded;
     oa.reason = fmt::format(
-        "misses {:.1f} % of its jobs in simulation on profiled costs although the demand is "
-        "{:.1f} % of capacity: the policy does not fit the work by the deadlines",
+        "its own necessary work is {:.1f} % of the lanes' capacity (encoder runs shared, runs "
+        "batched as its deadlines allow): no policy meets every deadline",
+        100 * oa.utilization);
+  } else if (WorkModel::overloaded(phase_util, span_s, deadline_s)) {
+    oa.verdict = Verdict::Overloaded;
+    oa.reason = fmt::format(
+        "the device's necessary work in this phase is {:.1f} % of its capacity (encoder runs "
+        "shared, runs batched as the deadlines allow): no policy meets every deadline",
+        100 * phase_util);
+  } else if (oa.jobs_profiled > 0 && oa.miss_profiled > limit) {
+    oa.verdict = Verdict::AtRisk;
+    oa.reason = fmt::format(
+        "misses {:.1f} % of its jobs in simulation on profiled costs although the necessary "
+        "work is {:.1f} % of capacity: this policy does not fit the work by the deadlines "
+        "(another may; see the headroom and `red compare`)",
         100 * oa.miss_profiled, 100 * phase_util);
   } else if (oa.jobs_worst > 0 && oa.miss_worst > limit) {
     oa.verdict = Verdict::AtRisk;
@@ -115,12 +123,16 @@ Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOp
       cest(s, p, CostPoint::Estimate);
   const CostModel est{&p, &s.model, s.scheduler.estimate};
   const auto phases = phase_workloads(s, end);
+  const WorkModel model = work_model(s, p);
   for (std::size_t k = 0; k < phases.size(); ++k) {
     const PhaseWorkload& pw = phases[k];
     PhaseAnalysis pa;
     pa.span = pw.span;
     pa.label = pw.label;
     const std::vector<double> merged = merged_encoder_runs(s, pw);
+    const WorkEstimate need = model.estimate(work_input(s, pw));
+    pa.utilization = need.load;
+    Duration latest{0};
     for (std::size_t i = 0; i < pw.ops.size(); ++i) {
       if (!pw.ops[i]) continue;
       const OperationSpec& op = *pw.ops[i];
@@ -152,8 +164,8 @@ Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOp
       oa.work_policy = opts->graph == GraphMode::Mono                  ? oa.work_fine
                        : opts->graph == GraphMode::Fine && opts->merge ? oa.work_merged
                                                                        : oa.work_coarse;
-      oa.utilization = to_s(oa.work_policy) * oa.rate_hz / s.device.lanes;
-      pa.utilization += oa.utilization;
+      oa.utilization = need.op_load[i];
+      latest = std::max(latest, oa.deadline);
       if (k < pm_prof.size())
         if (const PhaseFigures* f = figures_of(pm_prof[k], oa.name)) {
           oa.jobs_profiled = f->jobs;
@@ -167,7 +179,7 @@ Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOp
       pa.operations.push_back(std::move(oa));
     }
     for (OperationAnalysis& oa : pa.operations) {
-      judge(oa, pa.utilization, o.search.miss_limit);
+      judge(oa, pa.utilization, o.search.miss_limit, to_s(pw.span.to - pw.span.from), to_s(latest));
       pa.verdict = std::max(pa.verdict, oa.verdict);
     }
     a.peak_utilization = std::max(a.peak_utilization, pa.utilization);

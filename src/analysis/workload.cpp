@@ -172,36 +172,101 @@ Duration work_merged(const OperationSpec& op, const UnitCosts& c, double encoder
                                                     static_cast<double>(c.encoder().count()))};
 }
 
-double NecessaryLoad::limit_scale() const noexcept {
-  if (fixed >= 1.0) return 0.0;
-  if (scaled <= 0.0) return std::numeric_limits<double>::infinity();
-  return (1.0 - fixed) / scaled;
+WorkModel work_model(const Scenario& s, const Profile& p) {
+  return WorkModel(p, s.model, s.scheduler.estimate, s.scheduler.max_batch, s.device.lanes,
+                   s.scheduler.gamma, s.interference ? 1.0 + s.interference->intensity : 1.0);
 }
 
-NecessaryLoad necessary_load(const Scenario& s, const Profile& p) {
-  const UnitCosts mean(s, p, CostPoint::Mean);
-  const TimePoint from{s.warmup}, to{s.duration};
-  const double lanes = static_cast<double>(std::max(1, s.device.lanes));
-  NecessaryLoad load;
-  double weight = 0;
-  for (const PhaseWorkload& ph : phase_workloads(s, to)) {
-    const double w = to_s(std::min(ph.span.to, to) - std::max(ph.span.from, from));
-    if (w <= 0) continue;
-    weight += w;
-    const std::vector<double> runs = merged_encoder_runs(s, ph);
-    for (std::size_t i = 0; i < ph.ops.size(); ++i) {
-      if (!ph.ops[i]) continue;
-      const OperationSpec& op = *ph.ops[i];
-      const double share =
-          to_s(work_merged(op, mean, runs[i])) * release_rate(op, ph, s) / lanes * w;
-      (op.trigger_sensor >= 0 || op.rate_hz > 0 ? load.scaled : load.fixed) += share;
+WorkInput work_input(const Scenario& s, const PhaseWorkload& ph, double scale) {
+  WorkInput in;
+  for (double r : ph.sensor_rate) in.sensor_hz.push_back(r * scale);
+  for (const auto& op : ph.ops) {
+    WorkInput::Stream st;
+    if (op) {
+      st.op = op.get();
+      const bool scaled = op->trigger_sensor >= 0 || op->rate_hz > 0;
+      st.rate_hz = release_rate(*op, ph, s) * (scaled ? scale : 1.0);
     }
+    in.ops.push_back(st);
   }
-  if (weight > 0) {
-    load.scaled /= weight;
-    load.fixed /= weight;
+  return in;
+}
+
+namespace {
+
+// The phases of the measured window with their spans clipped to it.
+std::vector<PhaseWorkload> measured_phases(const Scenario& s) {
+  const TimePoint from{s.warmup}, to{s.duration};
+  std::vector<PhaseWorkload> out;
+  for (PhaseWorkload& ph : phase_workloads(s, to)) {
+    ph.span.from = std::max(ph.span.from, from);
+    ph.span.to = std::min(ph.span.to, to);
+    if (ph.span.to > ph.span.from) out.push_back(std::move(ph));
   }
-  return load;
+  return out;
+}
+
+}  // namespace
+
+NecessaryLoad necessary_load(const Scenario& s, const Profile& p) {
+  const WorkModel model = work_model(s, p);
+  const CostModel resolve{&p, &s.model, s.scheduler.estimate};
+  const std::vector<PhaseWorkload> phases = measured_phases(s);
+  NecessaryLoad out;
+  double weight = 0;
+  std::vector<double> deadline(phases.size(), 0.0);
+  for (std::size_t k = 0; k < phases.size(); ++k) {
+    const PhaseWorkload& ph = phases[k];
+    for (const auto& op : ph.ops)
+      if (op) deadline[k] = std::max(deadline[k], to_s(resolve_deadline(*op, resolve)));
+    const double len = to_s(ph.span.to - ph.span.from);
+    const double load = model.estimate(work_input(s, ph)).load;
+    out.phases.push_back({ph.span, load, deadline[k]});
+    out.mean += load * len;
+    weight += len;
+  }
+  if (weight > 0) out.mean /= weight;
+
+  // The limit: the largest rate_scale at which no phase is overloaded. A run costs at least the
+  // least of C(b) / b over batch sizes, so a phase's load is at least linear in the scale, and
+  // past the scale where that line overloads it every scale does: search down from there.
+  auto feasible = [&](double x) {
+    for (std::size_t k = 0; k < phases.size(); ++k) {
+      const double len = to_s(phases[k].span.to - phases[k].span.from);
+      if (WorkModel::overloaded(model.estimate(work_input(s, phases[k], x)).load, len, deadline[k]))
+        return false;
+    }
+    return true;
+  };
+  double top = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < phases.size(); ++k) {
+    const double len = to_s(phases[k].span.to - phases[k].span.from);
+    const double at0 = model.floor_load(work_input(s, phases[k], 0.0));
+    const double at1 = model.floor_load(work_input(s, phases[k], 1.0));
+    if (at1 - at0 <= 1e-12) continue;
+    top = std::min(top, std::max(0.0, (1.0 + deadline[k] / len - at0) / (at1 - at0)));
+  }
+  if (!std::isfinite(top)) {
+    out.limit = feasible(1.0) ? std::numeric_limits<double>::infinity() : 0.0;
+    return out;
+  }
+  // Past `top` the least load overloads a phase; just above it the model does too (or the search
+  // widens until it does, where a rate does not scale linearly).
+  double hi = top * 1.0001 + 1e-9;
+  for (int i = 0; i < 60 && feasible(hi); ++i) hi *= 2;
+  double lo = hi;
+  while (lo > 1e-6 && !feasible(lo)) lo *= 0.995;
+  if (lo <= 1e-6) {
+    out.limit = 0.0;
+    return out;
+  }
+  hi = std::min(hi, lo / 0.995);
+  for (int i = 0; i < 40 && hi - lo > 1e-6 * hi; ++i) {
+    const double mid = (lo + hi) / 2;
+    (feasible(mid) ? lo : hi) = mid;
+  }
+  out.limit = lo;
+  return out;
 }
 
 Profile worst_case_profile(const Profile& p) {

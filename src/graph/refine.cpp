@@ -63,6 +63,26 @@ Duration CostModel::head(int h) const {
   return u != nullptr ? u->at(1).estimate(estimate) : Duration{0};
 }
 
+namespace {
+
+Duration least_mean(const UnitProfile* u) {
+  if (u == nullptr || u->by_batch.empty()) return Duration{0};
+  Duration d = u->by_batch.front().mean;
+  for (const LatencyStats& l : u->by_batch) d = std::min(d, l.mean);
+  return d;
+}
+
+}  // namespace
+
+Duration CostModel::least_encoder() const {
+  return profile == nullptr ? Duration{0} : least_mean(profile->find("encoder"));
+}
+
+Duration CostModel::least_head(int h) const {
+  if (profile == nullptr || model == nullptr || h < 0) return Duration{0};
+  return least_mean(profile->find("head/" + model->heads[static_cast<std::size_t>(h)]));
+}
+
 Duration CostModel::plain(const PlainCost& c, EstimateKind k) {
   // A plain cost is given by its mean and p99; p95 is read between them, max as p99.
   switch (k) {
@@ -260,8 +280,23 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
       u.costs[static_cast<std::size_t>(k)] = c;
     }
   }
-  // c(x) under the scheduler's own estimate kind.
-  for (RefinedUnit& u : g->units) u.estimate = u.costs[static_cast<std::size_t>(costs.estimate)];
+  // c(x) under the scheduler's own estimate kind; the least mean over batch sizes.
+  for (RefinedUnit& u : g->units) {
+    u.estimate = u.costs[static_cast<std::size_t>(costs.estimate)];
+    for_each_part(*g, u, [&](const UnitPart& p) {
+      switch (p.kind) {
+        case UnitPart::Kind::Encoder:
+          u.least += costs.least_encoder();
+          break;
+        case UnitPart::Kind::Head:
+          u.least += costs.least_head(p.head);
+          break;
+        case UnitPart::Kind::Plain:
+          u.least += CostModel::plain(*p.cost, EstimateKind::Mean);
+          break;
+      }
+    });
+  }
 
   // Heights and critical path; units are in topological order by construction.
   std::vector<Duration> finish(g->units.size(), Duration{0});
@@ -293,6 +328,10 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
         after = std::max(after, g->units[static_cast<std::size_t>(sx)].tail[k]);
       u.tail[k] = u.costs[k] + after;
     }
+    Duration after{0};
+    for (int sx : u.succs)
+      after = std::max(after, g->units[static_cast<std::size_t>(sx)].least_tail);
+    u.least_tail = u.least + after;
   }
 
   g->level_cost.assign(static_cast<std::size_t>(g->levels), Duration{0});

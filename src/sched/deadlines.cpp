@@ -23,6 +23,7 @@ void Scheduler::Impl::rebuild(Job& j) {
   j.work_base.fill(Duration{0});
   j.work_most.fill(Duration{0});
   j.cp_base.fill(Duration{0});
+  j.cp_least = Duration{0};
   j.started = false;
   for (std::size_t i = 0; i < g.units.size(); ++i) {
     const UnitRt& u = j.u[i];
@@ -40,17 +41,18 @@ void Scheduler::Impl::rebuild(Job& j) {
     const Duration c = ru.estimate;
     j.lvl_base[h] = sum ? j.lvl_base[h] + c : std::max(j.lvl_base[h], c);
     for (std::size_t k = 0; k < kEstimates; ++k) j.cp_base[k] = std::max(j.cp_base[k], ru.tail[k]);
+    j.cp_least = std::max(j.cp_least, ru.least_tail);
     if (ru.kind == UnitKind::Encoder && u.state == UState::Queued) {
       j.enc_queued.push_back(static_cast<int>(i));
       // Shared by the task's members now; more may join (less each), and a member that
       // leaves marks the others dirty (remove_member).
       const auto members =
           static_cast<std::int64_t>(std::max<std::size_t>(1, task(u.task).members.size()));
-      for (std::size_t k = 0; k < kEstimates; ++k) j.work_most[k] += ru.costs[k] / members;
+      for (std::size_t k = 0; k < kEstimates; ++k) j.work_most[k] += unit_cost(ru, k) / members;
     } else {
       for (std::size_t k = 0; k < kEstimates; ++k) {
-        j.work_base[k] += ru.costs[k];
-        j.work_most[k] += ru.costs[k];
+        j.work_base[k] += unit_cost(ru, k);
+        j.work_most[k] += unit_cost(ru, k);
       }
     }
   }

@@ -103,7 +103,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   if (!inputs_ready(*o.g, trigger_sensor)) return;
   if (o.remaining > 0 && --o.remaining == 0) {
     rates_changed = true;
-    expected_stale = true;
+    plan_work();
   }
   const std::uint64_t seq = o.released++;
   ++s.stats_.releases;

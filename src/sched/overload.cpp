@@ -12,6 +12,41 @@
 
 namespace red {
 
+void Scheduler::Impl::plan_work() {
+  const Scenario& sc = s.scenario_;
+  const WorkModel model(profile, sc.model, s.config_.estimate,
+                        opt.batching ? s.config_.max_batch : 1, s.config_.lanes,
+                        opt.merge ? s.config_.gamma : Duration{0});
+  WorkInput in;
+  for (const SensorState& sn : sensors) in.sensor_hz.push_back(sn.rate_hz);
+  for (const OpState& o : ops) {
+    WorkInput::Stream st;
+    if (o.g != nullptr && o.remaining != 0 && !o.all_at_once) {
+      st.op = o.g->spec.get();
+      st.rate_hz = o.own_rate       ? o.rate_hz
+                   : o.trigger >= 0 ? sensors[static_cast<std::size_t>(o.trigger)].rate_hz
+                                    : 0.0;
+    }
+    in.ops.push_back(st);
+  }
+  const WorkEstimate w = model.estimate(in);
+  // The encoder at the model's cost per run (frames shared and batched as the deadlines let them
+  // gather); a head at its cost alone. Counting heads batched too let admission take work that was
+  // then dropped: on the overload grid at twice capacity 43 of 216 points wasted over 20 % of the
+  // lanes, where at most 1 in 20 may (docs/BENCHMARKS.md, "One model of necessary work").
+  run_cost.assign(w.units.size(), {});
+  for (std::size_t k = 0; k < kEstimates; ++k) {
+    run_cost[WorkModel::kEncoder][k] = w.units[WorkModel::kEncoder].per_run[k];
+    for (std::size_t h = 0; h < sc.model.heads.size(); ++h)
+      run_cost[WorkModel::head_slot(static_cast<int>(h))][k] =
+          costs.with(static_cast<EstimateKind>(k)).head(static_cast<int>(h));
+  }
+  // The jobs' cached work figures were counted at the costs before.
+  for (Job& j : jobs)
+    if (j.live) j.dirty = true;
+  expected_stale = true;
+}
+
 bool Scheduler::Impl::earlier(int a, int b) const {
   const Job& x = jobs[static_cast<std::size_t>(a)];
   const Job& y = jobs[static_cast<std::size_t>(b)];
@@ -19,7 +54,21 @@ bool Scheduler::Impl::earlier(int a, int b) const {
 }
 
 Duration Scheduler::Impl::remaining_for_drop(Job& j, TimePoint now) {
-  return critical_path(j, now, idx(opt.drop_estimate));
+  // The remaining critical path on the drop estimate, no longer than with every unit not started
+  // at its least time in any batch (a batch may cost less than a run alone: docs/DESIGN.md,
+  // "Overload"; red/graph/necessary_work.hpp).
+  const std::size_t k = idx(opt.drop_estimate);
+  const Duration cp = critical_path(j, now, k);
+  Duration least = j.cp_least;
+  const RefinedGraph& g = *j.g;
+  for (int r : j.running_units) {
+    const auto ur = static_cast<std::size_t>(r);
+    Duration after{0};
+    for (int sx : g.units[ur].succs)
+      after = std::max(after, g.units[static_cast<std::size_t>(sx)].least_tail);
+    least = std::max(least, residual(j, ur, now, k) + after);
+  }
+  return std::min(cp, least);
 }
 
 Duration Scheduler::Impl::critical_path(Job& j, TimePoint now, std::size_t k) {
@@ -42,7 +91,7 @@ Duration Scheduler::Impl::work_left(Job& j, TimePoint now, std::size_t k) {
   for (int u : j.enc_queued) {
     const UnitRt& ur = j.u[static_cast<std::size_t>(u)];
     const auto members = std::max<std::size_t>(1, task(ur.task).members.size());
-    w += j.g->units[static_cast<std::size_t>(u)].costs[k] / static_cast<std::int64_t>(members);
+    w += unit_cost(j.g->units[static_cast<std::size_t>(u)], k) / static_cast<std::int64_t>(members);
   }
   for (int u : j.running_units) {
     const auto ui = static_cast<std::size_t>(u);
@@ -72,8 +121,8 @@ Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k
         for (std::size_t e = 0; e < kEstimates; ++e)
           expected_work[i][e] +=
               ru.kind == UnitKind::Encoder && o.trigger >= 0
-                  ? ru.costs[e] / std::max(1, sharing[static_cast<std::size_t>(o.trigger)])
-                  : ru.costs[e];
+                  ? unit_cost(ru, e) / std::max(1, sharing[static_cast<std::size_t>(o.trigger)])
+                  : unit_cost(ru, e);
     }
   }
   Duration due{0};
@@ -236,7 +285,7 @@ int Scheduler::Impl::first_overrun_lanes(TimePoint now, std::size_t k, int margi
       TimePoint ready_at = now;
       for (int p : g.units[u].preds)
         ready_at = std::max(ready_at, unit_end[static_cast<std::size_t>(p)]);
-      Duration c = padded(g.units[u].costs[k], margin);
+      Duration c = padded(unit_cost(g.units[u], k), margin);
       if (ur.state == UState::Queued && ur.task >= 0)  // a merged encoder run is shared
         c /= static_cast<std::int64_t>(std::max<std::size_t>(1, task(ur.task).members.size()));
       // An idle gap left on a lane by a unit that waited for its predecessors takes the

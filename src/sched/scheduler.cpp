@@ -77,6 +77,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   mixed_criticality = lo < hi;
   uniform_criticality = lo <= hi ? lo : 0;
   edf_rank = s.policy_->ranks_by_deadline_only();
+  plan_work();
 }
 
 Scheduler::Scheduler(const Scenario& scenario, const Profile& profile,
@@ -104,7 +105,7 @@ void Scheduler::apply_events(TimePoint now) {
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
     m.rates_changed = true;
-    m.expected_stale = true;
+    m.plan_work();
     for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
     ++m.next_event;
   }

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "red/graph/necessary_work.hpp"
 #include "red/sched/scheduler.hpp"
 #include "state.hpp"
 
@@ -260,6 +261,28 @@ struct Scheduler::Impl {
   static constexpr int kAnyCriticality = std::numeric_limits<int>::min();
   std::vector<std::array<Duration, kEstimates>> expected_work;  // per operation: a job's work
   bool expected_stale = true;  // graphs or rates changed since expected_work was computed
+
+  // The necessary work of the workload in effect (red/graph/necessary_work.hpp): the lane time one
+  // run of each unit takes as RED runs it (encoder runs shared, runs batched as the deadlines
+  // allow), by WorkModel slot and estimate kind. Every work figure of the overload mechanisms
+  // (work_left, the demand test, admission, the jobs to come) counts a unit at it, so that they
+  // agree with `red analyze` and the sweep's limit. Recomputed by plan_work() when the workload
+  // changes (an event, an operation's last release).
+  std::vector<std::array<Duration, kEstimates>> run_cost;
+  void plan_work();
+  // What unit `ru` counts for in the work figures under estimate kind k.
+  [[nodiscard]] Duration unit_cost(const RefinedUnit& ru, std::size_t k) const {
+    switch (ru.kind) {
+      case UnitKind::Encoder:
+        return run_cost[WorkModel::kEncoder][k];
+      case UnitKind::Head:
+        return run_cost[WorkModel::head_slot(ru.head)][k];
+      case UnitKind::Coarse:
+        return run_cost[WorkModel::kEncoder][k] + run_cost[WorkModel::head_slot(ru.head)][k];
+      default:
+        return ru.costs[k];
+    }
+  }
 
   // The demand test (docs/DESIGN.md, "Overload"): taking live jobs by deadline, the first that the
   // lanes cannot finish by its deadline under estimate kind k; -1 when all of it fits. A position

@@ -74,6 +74,7 @@ struct Job {
   std::array<Duration, kEstimates> work_most{};
   std::vector<int> enc_queued;
   std::array<Duration, kEstimates> cp_base{};  // longest tail among units not started
+  Duration cp_least{0};                        // longest least_tail among units not started
   std::vector<UnitRt> u;
   int unfinished = 0;
   int running = 0;

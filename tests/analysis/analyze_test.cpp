@@ -140,27 +140,22 @@ TEST(AnalyzeVerdict, EachPhaseThatEventsCreateIsJudged) {
   EXPECT_GE(nav.cp_coarse_mean, nav.cp_fine_mean);
 }
 
-// The physical limit (docs/DESIGN.md, "Performance targets"): the necessary work over the lanes,
-// phases weighted by their length in the measured window, a camera frame's encoder run counted once
-// however many operations it triggers, fixed release counts apart from what rate_scale scales.
+// The physical limit (docs/DESIGN.md, "Performance targets"): the necessary work of each phase of
+// the measured window (red/graph/necessary_work.hpp) over the lanes; the largest rate_scale at
+// which no phase is overloaded, a phase being overloaded past capacity by more than the latest
+// deadline over its length.
 TEST(NecessaryLoad, PlainWorkAtItsRateOverTheLanes) {
   const NecessaryLoad one = necessary_load(
       single(20, milliseconds{40}, milliseconds{10}, milliseconds{12}), default_profile());
-  EXPECT_NEAR(one.scaled, 0.2, 1e-9);  // 10 ms × 20 Hz on one lane
-  EXPECT_DOUBLE_EQ(one.fixed, 0.0);
-  EXPECT_NEAR(one.limit_scale(), 5.0, 1e-9);
+  EXPECT_NEAR(one.total(), 0.2, 1e-9);  // 10 ms × 20 Hz on one lane
+  ASSERT_EQ(one.phases.size(), 1u);
+  EXPECT_NEAR(one.phases[0].deadline_s, 0.04, 1e-12);
+  // Measured from 0.5 s to 10 s: the jobs may run 40 ms past it.
+  EXPECT_NEAR(one.limit_scale(), (1 + 0.04 / 9.5) / 0.2, 1e-5);
   const NecessaryLoad two = necessary_load(
       single(20, milliseconds{40}, milliseconds{10}, milliseconds{12}, 2), default_profile());
-  EXPECT_NEAR(two.scaled, 0.1, 1e-9);
-  EXPECT_NEAR(two.limit_scale(), 10.0, 1e-9);
-}
-
-TEST(NecessaryLoad, LimitScaleAtItsEdges) {
-  EXPECT_TRUE(std::isinf(NecessaryLoad{}.limit_scale()));  // nothing scales with the rates
-  EXPECT_TRUE(std::isinf(NecessaryLoad{0.0, 0.5}.limit_scale()));
-  EXPECT_DOUBLE_EQ((NecessaryLoad{0.2, 1.0}.limit_scale()), 0.0);  // fixed work fills the lanes
-  EXPECT_DOUBLE_EQ((NecessaryLoad{0.25, 0.5}.limit_scale()), 2.0);
-  EXPECT_DOUBLE_EQ((NecessaryLoad{0.25, 0.5}.total()), 0.75);
+  EXPECT_NEAR(two.total(), 0.1, 1e-9);
+  EXPECT_NEAR(two.limit_scale(), 2 * one.limit_scale(), 1e-4);
 }
 
 TEST(NecessaryLoad, OneEncoderRunPerFrameForEveryOperationItTriggers) {
@@ -169,6 +164,7 @@ name: shared
 duration_s: 4
 warmup_s: 1
 model: {builtin: mimonet, heads: [lane, seg, steer, det]}
+scheduler: {max_batch: 1}
 sensors:
   cam: {rate_hz: 10}
 operations:
@@ -191,25 +187,39 @@ operations:
   const UnitCosts mean(*s, p, CostPoint::Mean);
   const NecessaryLoad n = necessary_load(*s, p);
   const auto head = [&](const char* name) { return to_s(mean.head(s->model.head_index(name))); };
-  EXPECT_NEAR(n.scaled, (to_s(mean.encoder()) + head("lane") + head("seg")) * 10, 1e-9);
-  EXPECT_NEAR(n.fixed, 0.005 * 8 / 4.0, 1e-9);  // 8 jobs of 5 ms over the 4 s run
-  EXPECT_NEAR(n.limit_scale(), (1 - n.fixed) / n.scaled, 1e-12);
+  // No batching (max_batch 1): one encoder run per frame, each head per job, 8 plain jobs of 5 ms.
+  const double scaled = (to_s(mean.encoder()) + head("lane") + head("seg")) * 10;
+  const double fixed = 0.005 * 8 / 4.0;
+  EXPECT_NEAR(n.total(), scaled + fixed, 1e-9);
+  EXPECT_NEAR(n.limit_scale(), (1 + 0.5 / 3 - fixed) / scaled, 1e-4);
 }
 
 TEST(NecessaryLoad, PhasesWeighByTheirLengthInTheMeasuredWindow) {
   auto s = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/minibench-tight.yaml");
   ASSERT_TRUE(s) << s.error().to_string();
   const Profile p = default_profile();
-  const UnitCosts mean(*s, p, CostPoint::Mean);
-  const auto head = [&](const char* name) { return to_s(mean.head(s->model.head_index(name))); };
-  // Measured from 1 s to 20 s: detection runs in [1, 2), [3, 4), ..., [19, 20): 10 of 19 s.
-  const double cruise = to_s(mean.encoder()) + head("lane") + head("seg") + head("steer");
-  const double with_det = cruise + head("det");
-  const double expected = (10 * with_det + 9 * cruise) * 20 / 19;
   const NecessaryLoad n = necessary_load(*s, p);
-  EXPECT_NEAR(n.scaled, expected, 1e-9);
-  EXPECT_GT(n.limit_scale(), 1 / (with_det * 20));
-  EXPECT_LT(n.limit_scale(), 1 / (cruise * 20));
+  // Measured from 1 s to 20 s: detection runs in [1, 2), [3, 4), ..., [19, 20): 10 of 19 s.
+  double weighted = 0, length = 0, peak = 0;
+  for (const NecessaryLoad::Phase& ph : n.phases) {
+    const double len = to_s(ph.span.to - ph.span.from);
+    weighted += ph.load * len;
+    length += len;
+    peak = std::max(peak, ph.load);
+  }
+  EXPECT_NEAR(length, 19.0, 1e-9);
+  EXPECT_NEAR(n.total(), weighted / length, 1e-12);
+  EXPECT_LT(n.total(), peak);  // the detection phases need more
+  // The limit is where the phases with detection overload: between the scale at which their
+  // load reaches capacity and a little past it.
+  EXPECT_GT(n.limit_scale(), 0);
+  Scenario at = *s;
+  ASSERT_FALSE(apply_override(at, "rate_scale", n.limit_scale() * 1.02).has_value());
+  const NecessaryLoad past = necessary_load(at, p);
+  double past_peak = 0;
+  for (const NecessaryLoad::Phase& ph : past.phases) past_peak = std::max(past_peak, ph.load);
+  EXPECT_GT(past_peak, 1.0);
+  EXPECT_NEAR(past.limit_scale() * n.limit_scale() * 1.02, n.limit_scale(), 1e-3 * n.limit_scale());
 }
 
 // The verdicts agree with the simulator: an `ok` operation shows <= 1 % misses at the
@@ -221,9 +231,13 @@ void expect_consistent(const Analysis& a, const std::string& what) {
       if (op.verdict == Verdict::Ok) {
         EXPECT_LE(op.miss_profiled, a.miss_limit);
       }
-      if (op.verdict == Verdict::AtRisk) {
-        EXPECT_LE(op.miss_profiled, a.miss_limit);
+      // At risk: meets on profiled costs but not on worst-case ones, or this policy misses
+      // although the necessary work fits (another policy may meet it).
+      if (op.verdict == Verdict::AtRisk && op.miss_profiled <= a.miss_limit) {
         EXPECT_GT(op.miss_worst, a.miss_limit);
+      }
+      if (op.verdict == Verdict::AtRisk && op.miss_profiled > a.miss_limit) {
+        EXPECT_NE(op.reason.find("does not fit the work"), std::string::npos);
       }
       if (op.verdict == Verdict::Infeasible && op.deadline < op.alone_min && op.jobs_profiled > 0) {
         EXPECT_DOUBLE_EQ(op.miss_profiled, 1.0);

@@ -236,8 +236,10 @@ void register_sweep(CLI::App& app, int& exit_code) {
       limit = need.limit_scale();
       has_limit = std::isfinite(limit) && limit > 0;
       limit_text = fmt::format(
-          "{} (the necessary work, one encoder run per frame shared by the operations it "
-          "triggers plus every head, at mean costs, takes {:.1f} % of the lanes at rate_scale 1)",
+          "{} (above it no policy meets every deadline: the necessary work, one encoder run per "
+          "frame shared by the operations reading it, runs batched as the deadlines let them "
+          "gather at the profile's cost per batch size, plain nodes, at mean costs, overloads a "
+          "phase; it takes {:.1f} % of the lanes at rate_scale 1)",
           has_limit ? fmt::format("rate_scale {:.3f}", limit) : "none", 100 * need.total());
       for (std::size_t i = 0; i < names.size(); ++i) {
         const Breakdown b = breakdown_of(values, results[i]);

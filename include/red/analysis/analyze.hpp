@@ -52,7 +52,10 @@ struct OperationAnalysis {
   /// Work per job on mean costs: coarse; fine with a job's encoder runs shared; with
   /// DynamicMerge across operations (estimate, merged_encoder_runs); the policy's.
   Duration work_coarse{0}, work_fine{0}, work_merged{0}, work_policy{0};
-  double utilization = 0;  ///< work_policy × rate / lanes
+  /// Its share of the phase's necessary work (red/graph/necessary_work.hpp) over the lanes:
+  /// encoder runs per frame shared by the operations reading it, runs batched as the deadlines
+  /// allow, whatever the policy.
+  double utilization = 0;
   /// Simulation of the policy: jobs of this operation released in the phase and miss rate,
   /// on profiled costs and on worst-case costs.
   std::int64_t jobs_profiled = 0, jobs_worst = 0;
@@ -66,7 +69,9 @@ struct PhaseAnalysis {
   PhaseSpan span;
   std::string label;
   std::vector<OperationAnalysis> operations;
-  double utilization = 0;  ///< Σ work_policy × rate / lanes: the device's demand
+  /// The necessary work of the phase over the lanes (WorkModel): above 1 by more than its latest
+  /// deadline over its length, no policy meets every deadline.
+  double utilization = 0;
   Verdict verdict = Verdict::Ok;
 };
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "red/core/time.hpp"
+#include "red/graph/necessary_work.hpp"
 #include "red/graph/refine.hpp"
 #include "red/metrics/phases.hpp"
 #include "red/profile/profile.hpp"
@@ -97,17 +98,32 @@ std::vector<double> merged_encoder_runs(const Scenario& s, const PhaseWorkload& 
 /// the fine graph plus `encoder_runs` (merged_encoder_runs) encoder runs.
 Duration work_merged(const OperationSpec& op, const UnitCosts& c, double encoder_runs);
 
-/// The necessary work of docs/DESIGN.md, "Performance targets" as a share of the lanes' time: per
-/// job of each operation its work_merged at mean costs, over the lanes; averaged over the phases of
-/// the measured window (warm-up to the end), weighted by their length.
+/// The model of necessary work (red/graph/necessary_work.hpp) for scenario `s` on profile `p`: its
+/// batching limit, lanes and interference slowdown. `s` and `p` must outlive it.
+WorkModel work_model(const Scenario& s, const Profile& p);
+
+/// The workload of phase `ph` as the model reads it, every rate that rate_scale scales (sensor
+/// rates, own rates) times `scale`; operations with a fixed release count keep their rate.
+WorkInput work_input(const Scenario& s, const PhaseWorkload& ph, double scale = 1.0);
+
+/// The necessary work (red/graph/necessary_work.hpp) of each phase of the measured window (warm-up
+/// to the end), and the physical limit of the breakdown rate.
 struct NecessaryLoad {
-  double scaled = 0;  ///< the share that grows with rate_scale (sensor and own rates)
-  double fixed = 0;   ///< operations with a fixed release count (rate_scale leaves them)
-  /// The share at the scenario's own rates.
-  [[nodiscard]] double total() const noexcept { return scaled + fixed; }
-  /// The rate_scale at which the necessary work fills every lane (the physical limit of the
-  /// breakdown rate); +inf when nothing scales, 0 when the fixed work alone fills them.
-  [[nodiscard]] double limit_scale() const noexcept;
+  struct Phase {
+    PhaseSpan span;         ///< clipped to the measured window
+    double load = 0;        ///< the share of the lanes' time its jobs need at the scenario's rates
+    double deadline_s = 0;  ///< the latest deadline of its operations: how long its jobs may run on
+  };
+  std::vector<Phase> phases;
+  double mean = 0;  ///< the phases' loads weighted by their length
+  /// The largest rate_scale at which no phase is overloaded (WorkModel::overloaded): above it no
+  /// policy can meet every deadline. +inf when nothing scales with the rates, 0 when the work
+  /// that does not scale alone overloads a phase.
+  double limit = 0;
+  /// The share at the scenario's own rates (mean over the measured window).
+  [[nodiscard]] double total() const noexcept { return mean; }
+  /// The physical limit of the breakdown rate.
+  [[nodiscard]] double limit_scale() const noexcept { return limit; }
 };
 NecessaryLoad necessary_load(const Scenario& s, const Profile& p);
 

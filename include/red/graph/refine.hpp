@@ -57,6 +57,11 @@ struct RefinedUnit {
   std::array<Duration, 4> costs{};
   /// Longest path from this unit (included) to a sink, under every EstimateKind.
   std::array<Duration, 4> tail{};
+  /// The least mean time a run of it takes in any batch (CostModel::least_encoder/least_head: a
+  /// batch of b may cost less than a run alone), and the longest path from it to a sink at those
+  /// times: the optimistic remaining path that hopeless aborts judge by.
+  Duration least{0};
+  Duration least_tail{0};
   std::vector<int> produces;  ///< nodes whose output this unit produces (empty: Encoder)
 };
 
@@ -150,6 +155,9 @@ struct CostModel {
 
   [[nodiscard]] Duration encoder() const;
   [[nodiscard]] Duration head(int h) const;
+  /// The least mean cost over the profile's batch sizes of one encoder run, or of head h.
+  [[nodiscard]] Duration least_encoder() const;
+  [[nodiscard]] Duration least_head(int h) const;
   /// The same model with another estimate kind.
   [[nodiscard]] CostModel with(EstimateKind k) const {
     CostModel c = *this;

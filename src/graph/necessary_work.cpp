@@ -1,0 +1,211 @@
+// The necessary work of a workload (red/graph/necessary_work.hpp; docs/DESIGN.md, "Overload").
+
+#include "red/graph/necessary_work.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <string>
+
+#include "red/graph/refine.hpp"
+
+namespace red {
+
+WorkModel::WorkModel(const Profile& p, const ModelSpec& m, EstimateKind resolve, int max_batch,
+                     int lanes, Duration gamma, double slowdown)
+    : profile_(&p),
+      model_(&m),
+      resolve_(resolve),
+      max_batch_(std::max(1, max_batch)),
+      lanes_(std::max(1, lanes)),
+      gamma_s_(std::max(0.0, to_s(gamma))),
+      slowdown_(slowdown) {
+  units_.push_back(p.find("encoder"));
+  for (const std::string& h : m.heads) units_.push_back(p.find("head/" + h));
+}
+
+Duration WorkModel::cost(std::size_t slot, int batch, EstimateKind k) const {
+  const UnitProfile* u = units_[slot];
+  if (u == nullptr || u->by_batch.empty()) return Duration{0};
+  const Duration d = u->at(batch).estimate(k);
+  if (slowdown_ == 1.0) return d;
+  return Duration{
+      static_cast<std::int64_t>(std::llround(static_cast<double>(d.count()) * slowdown_))};
+}
+
+int WorkModel::top_batch(std::size_t slot) const {
+  const UnitProfile* u = units_[slot];
+  return u == nullptr ? 1 : std::clamp(u->max_batch(), 1, max_batch_);
+}
+
+Duration WorkModel::least(std::size_t slot) const {
+  Duration d = cost(slot, 1, EstimateKind::Mean);
+  for (int b = 2; b <= top_batch(slot); ++b) d = std::min(d, cost(slot, b, EstimateKind::Mean));
+  return d;
+}
+
+bool WorkModel::overloaded(double load, double span_s, double deadline_s) noexcept {
+  return span_s > 0 && load > 1.0 + std::max(0.0, deadline_s) / span_s;
+}
+
+namespace {
+
+// Runs of one unit that one operation (or, for the encoder, one sensor) offers to a batch: `hz`
+// per second, each with `window_s` between its release and its deadline less the rest of its
+// path, at most `cap` at once.
+struct Offer {
+  double hz = 0;
+  double window_s = 0;
+  int cap = 1;
+};
+
+// The most runs of these offers a batch whose run takes `run_s` can hold with every one on time.
+int on_time_members(const std::vector<Offer>& offers, double run_s) {
+  int n = 0;
+  for (const Offer& o : offers) {
+    const double w = o.window_s - run_s;
+    if (w < 0 || o.hz <= 0) continue;
+    n += static_cast<int>(std::min<double>(o.cap, std::floor(w * o.hz + 1e-9) + 1));
+  }
+  return n;
+}
+
+// Per sensor: who reads its frames.
+struct Readers {
+  bool triggered = false;  // an operation released on its frames reads them
+  double sampled_hz = 0;   // the fastest operation sampling its newest frame, at most its rate
+  double window_s = -std::numeric_limits<double>::infinity();
+  int cap = 0;
+  double rate_sum = 0;  // of the operations reading it (the encoder's work is shared by rate)
+};
+
+}  // namespace
+
+double WorkModel::floor_load(const WorkInput& in) const {
+  return estimate(in, true).load;
+}
+
+WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
+  const std::size_t slots = units_.size();
+  const CostModel resolve{profile_, model_, resolve_};
+  WorkEstimate w;
+  w.units.resize(slots);
+  w.op_load.assign(in.ops.size(), 0.0);
+  std::vector<std::vector<Offer>> offers(slots);
+  std::map<int, Readers> readers;
+  std::vector<double> plain(in.ops.size(), 0.0);
+  const double enc_least = to_s(least(kEncoder));
+
+  for (std::size_t i = 0; i < in.ops.size(); ++i) {
+    const OperationSpec* op = in.ops[i].op;
+    const double hz = in.ops[i].rate_hz;
+    if (op == nullptr || hz <= 0) continue;
+    const double deadline = to_s(resolve_deadline(*op, resolve));
+    // The least time before and after each node on the fine graph: an inference node starts
+    // after its frame's encoder run and its predecessors; every unit at its cheapest batch.
+    const std::size_t n = op->nodes.size();
+    std::vector<double> own(n), start(n), post(n, 0.0);
+    for (std::size_t k = 0; k < n; ++k) {
+      const NodeSpec& nd = op->nodes[k];
+      own[k] = nd.is_plain() ? to_s(CostModel::plain(*nd.cost, EstimateKind::Mean)) * slowdown_
+                             : to_s(least(head_slot(nd.head)));
+      start[k] = nd.is_plain() ? 0.0 : enc_least;
+    }
+    for (std::size_t round = 0; round < n; ++round) {
+      bool changed = false;
+      for (const EdgeSpec& e : op->edges) {
+        const auto f = static_cast<std::size_t>(e.from), t = static_cast<std::size_t>(e.to);
+        if (start[f] + own[f] > start[t] + 1e-15) {
+          start[t] = start[f] + own[f];
+          changed = true;
+        }
+        if (own[t] + post[t] > post[f] + 1e-15) {
+          post[f] = own[t] + post[t];
+          changed = true;
+        }
+      }
+      if (!changed) break;
+    }
+    std::map<int, double> tail;  // per sensor read: the least time after its encoder run
+    for (std::size_t k = 0; k < n; ++k) {
+      const NodeSpec& nd = op->nodes[k];
+      if (nd.is_plain()) {
+        plain[i] += hz * own[k];
+        continue;
+      }
+      const std::size_t slot = head_slot(nd.head);
+      offers[slot].push_back({hz, deadline - start[k] - post[k], op->max_inflight});
+      w.units[slot].runs_hz += hz;
+      double& t = tail[nd.sensor];
+      t = std::max(t, own[k] + post[k]);
+    }
+    for (const auto& [sensor, after] : tail) {
+      Readers& r = readers[sensor];
+      const double frames = in.sensor_hz[static_cast<std::size_t>(sensor)];
+      if (op->trigger_sensor == sensor)
+        r.triggered = true;
+      else {
+        // Its releases within γ of each other may share one run (at most max_inflight jobs).
+        const double sharing =
+            std::min<double>(std::max(1, op->max_inflight), std::floor(gamma_s_ * hz + 1e-9) + 1);
+        r.sampled_hz = std::max(r.sampled_hz, std::min(hz / sharing, frames));
+      }
+      r.window_s = std::max(r.window_s, deadline - after);
+      r.cap += op->max_inflight;
+      r.rate_sum += hz;
+    }
+  }
+  // Frames to encode: every frame of a sensor that triggers an operation reading it, else one
+  // per release of the fastest operation sampling it.
+  std::map<int, double> frames_hz;
+  for (const auto& [sensor, r] : readers) {
+    const double f = r.triggered ? in.sensor_hz[static_cast<std::size_t>(sensor)] : r.sampled_hz;
+    frames_hz[sensor] = f;
+    offers[kEncoder].push_back({f, r.window_s, r.cap});
+    w.units[kEncoder].runs_hz += f;
+  }
+
+  for (std::size_t slot = 0; slot < slots; ++slot) {
+    UnitWork& u = w.units[slot];
+    double best = to_s(cost(slot, 1, EstimateKind::Mean));
+    for (int b = 1; b <= top_batch(slot); ++b) {
+      const double c = to_s(cost(slot, b, EstimateKind::Mean));
+      const int held = unbounded ? b : std::min(b, on_time_members(offers[slot], c));
+      if (held < 1) continue;
+      if (c / held < best - 1e-12) {
+        best = c / held;
+        u.batch = b;
+        u.serves = held;
+      }
+    }
+    for (std::size_t k = 0; k < u.per_run.size(); ++k) {
+      const auto kind = static_cast<EstimateKind>(k);
+      u.per_run[k] = std::min(cost(slot, u.batch, kind) / u.serves, cost(slot, 1, kind));
+    }
+  }
+
+  const double lanes = lanes_;
+  for (std::size_t i = 0; i < in.ops.size(); ++i) {
+    const OperationSpec* op = in.ops[i].op;
+    const double hz = in.ops[i].rate_hz;
+    if (op == nullptr || hz <= 0) continue;
+    double s = plain[i];
+    std::map<int, bool> sensors;
+    for (const NodeSpec& nd : op->nodes) {
+      if (nd.is_plain()) continue;
+      s += hz * to_s(w.units[head_slot(nd.head)].per_run[0]);
+      sensors[nd.sensor] = true;
+    }
+    const double enc = to_s(w.units[kEncoder].per_run[0]);
+    for (const auto& [sensor, _] : sensors) {
+      const Readers& r = readers[sensor];
+      if (r.rate_sum > 0) s += frames_hz[sensor] * enc * hz / r.rate_sum;
+    }
+    w.op_load[i] = s / lanes;
+    w.load += w.op_load[i];
+  }
+  return w;
+}
+
+}  // namespace red
