@@ -71,12 +71,18 @@ int on_time_members(const std::vector<Offer>& offers, double run_s) {
   return n;
 }
 
-// Per sensor: who reads its frames.
+// Per sensor: who reads its frames. A frame that triggers operations must be encoded in time for
+// every one of them, and each keeps a job in flight per frame: the window and the cap of its runs
+// are the least over those operations. Where only operations sampling the newest frame read it,
+// a run helps one of them in time: the largest (their deadlines run from their own releases,
+// after the frame's).
 struct Readers {
   bool triggered = false;  // an operation released on its frames reads them
   double sampled_hz = 0;   // the fastest operation sampling its newest frame, at most its rate
-  double window_s = -std::numeric_limits<double>::infinity();
-  int cap = 0;
+  double trigger_window_s = std::numeric_limits<double>::infinity();
+  int trigger_cap = std::numeric_limits<int>::max();
+  double sample_window_s = -std::numeric_limits<double>::infinity();
+  int sample_cap = 0;
   double rate_sum = 0;  // of the operations reading it (the encoder's work is shared by rate)
 };
 
@@ -92,6 +98,7 @@ WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
   WorkEstimate w;
   w.units.resize(slots);
   w.op_load.assign(in.ops.size(), 0.0);
+  w.encoder_runs_per_job.assign(in.ops.size(), 0.0);
   std::vector<std::vector<Offer>> offers(slots);
   std::map<int, Readers> readers;
   std::vector<double> plain(in.ops.size(), 0.0);
@@ -143,16 +150,18 @@ WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
     for (const auto& [sensor, after] : tail) {
       Readers& r = readers[sensor];
       const double frames = in.sensor_hz[static_cast<std::size_t>(sensor)];
-      if (op->trigger_sensor == sensor)
+      if (op->trigger_sensor == sensor) {
         r.triggered = true;
-      else {
+        r.trigger_window_s = std::min(r.trigger_window_s, deadline - after);
+        r.trigger_cap = std::min(r.trigger_cap, std::max(1, op->max_inflight));
+      } else {
         // Its releases within γ of each other may share one run (at most max_inflight jobs).
         const double sharing =
             std::min<double>(std::max(1, op->max_inflight), std::floor(gamma_s_ * hz + 1e-9) + 1);
         r.sampled_hz = std::max(r.sampled_hz, std::min(hz / sharing, frames));
+        r.sample_window_s = std::max(r.sample_window_s, deadline - after);
+        r.sample_cap += op->max_inflight;
       }
-      r.window_s = std::max(r.window_s, deadline - after);
-      r.cap += op->max_inflight;
       r.rate_sum += hz;
     }
   }
@@ -162,7 +171,10 @@ WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
   for (const auto& [sensor, r] : readers) {
     const double f = r.triggered ? in.sensor_hz[static_cast<std::size_t>(sensor)] : r.sampled_hz;
     frames_hz[sensor] = f;
-    offers[kEncoder].push_back({f, r.window_s, r.cap});
+    if (r.triggered)
+      offers[kEncoder].push_back({f, r.trigger_window_s, r.trigger_cap});
+    else
+      offers[kEncoder].push_back({f, r.sample_window_s, r.sample_cap});
     w.units[kEncoder].runs_hz += f;
   }
 
@@ -200,7 +212,9 @@ WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
     const double enc = to_s(w.units[kEncoder].per_run[0]);
     for (const auto& [sensor, _] : sensors) {
       const Readers& r = readers[sensor];
-      if (r.rate_sum > 0) s += frames_hz[sensor] * enc * hz / r.rate_sum;
+      if (r.rate_sum <= 0) continue;
+      s += frames_hz[sensor] * enc * hz / r.rate_sum;
+      w.encoder_runs_per_job[i] += frames_hz[sensor] / r.rate_sum;
     }
     w.op_load[i] = s / lanes;
     w.load += w.op_load[i];

@@ -30,6 +30,7 @@ void Scheduler::Impl::plan_work() {
     in.ops.push_back(st);
   }
   const WorkEstimate w = model.estimate(in);
+  encoder_runs_per_job = w.encoder_runs_per_job;
   // The encoder at the model's cost per run (frames shared and batched as the deadlines let them
   // gather); a head at its cost alone. Counting heads batched too let admission take work that was
   // then dropped: on the overload grid at twice capacity 43 of 216 points wasted over 20 % of the
@@ -109,20 +110,23 @@ Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k
                                        int criticality, int min_crit) {
   if (expected_stale) {
     expected_stale = false;
-    std::vector<int> sharing(sensors.size(), 0);
-    for (const OpState& o : ops)
-      if (o.g != nullptr && o.remaining != 0 && o.trigger >= 0)
-        ++sharing[static_cast<std::size_t>(o.trigger)];
+    // A job to come: its heads and plain nodes, and its share of its cameras' encoder runs as
+    // the model of necessary work counts them (plan_work).
     expected_work.assign(ops.size(), {});
     for (std::size_t i = 0; i < ops.size(); ++i) {
       const OpState& o = ops[i];
       if (o.g == nullptr) continue;
-      for (const RefinedUnit& ru : o.g->units)
-        for (std::size_t e = 0; e < kEstimates; ++e)
-          expected_work[i][e] +=
-              ru.kind == UnitKind::Encoder && o.trigger >= 0
-                  ? unit_cost(ru, e) / std::max(1, sharing[static_cast<std::size_t>(o.trigger)])
-                  : unit_cost(ru, e);
+      bool encoders = false;
+      for (const RefinedUnit& ru : o.g->units) {
+        encoders = encoders || ru.kind == UnitKind::Encoder;
+        if (ru.kind == UnitKind::Encoder) continue;
+        for (std::size_t e = 0; e < kEstimates; ++e) expected_work[i][e] += unit_cost(ru, e);
+      }
+      if (!encoders || i >= encoder_runs_per_job.size()) continue;
+      for (std::size_t e = 0; e < kEstimates; ++e)
+        expected_work[i][e] += Duration{static_cast<std::int64_t>(
+            std::llround(encoder_runs_per_job[i] *
+                         static_cast<double>(run_cost[WorkModel::kEncoder][e].count())))};
     }
   }
   Duration due{0};

@@ -75,6 +75,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   for (const EventSpec& e : sc.events)
     for (const auto& [i, op] : e.changes) see(op);
   mixed_criticality = lo < hi;
+  top_criticality = hi;
   uniform_criticality = lo <= hi ? lo : 0;
   edf_rank = s.policy_->ranks_by_deadline_only();
   plan_work();

@@ -112,6 +112,7 @@ struct Scheduler::Impl {
   bool edf_rank = false;
   bool mixed_criticality = false;
   int uniform_criticality = 0;       // every operation's, when not mixed
+  int top_criticality = 0;           // the highest of any operation's
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
   std::vector<TimePoint> unit_end;
   std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
@@ -269,6 +270,7 @@ struct Scheduler::Impl {
   // agree with `red analyze` and the sweep's limit. Recomputed by plan_work() when the workload
   // changes (an event, an operation's last release).
   std::vector<std::array<Duration, kEstimates>> run_cost;
+  std::vector<double> encoder_runs_per_job;  // by operation (WorkEstimate)
   void plan_work();
   // What unit `ru` counts for in the work figures under estimate kind k.
   [[nodiscard]] Duration unit_cost(const RefinedUnit& ru, std::size_t k) const {

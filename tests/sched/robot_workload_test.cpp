@@ -233,14 +233,15 @@ struct Known {
   const char* profile;
   int below_red, below_edf, critical_below_red;
 };
-// Since the demand test counts encoder runs as the model of necessary work does (issue 52): fewer
-// points below red (41 -> 33, 25 -> 20, 15 -> 16), one point 0.008 below edf on robot-mnv3s
-// (seed 55 at 2.5x), and more critical operations below their on-time under red (120 -> 130,
-// 158 -> 152, 169 -> 173): `red`, too, detects overload (for criticality) with that demand test.
+// Since the demand test counts encoder runs as the model of necessary work does and the most
+// critical operations' jobs are judged hopeless on 0.9 x their path at every load (issue 52):
+// fewer points below red (41 -> 37, 25 -> 19, 15 -> 14), one point 0.017 below edf on robot-mnv3s
+// (seed 55 at 2.5x), and more critical operations below their on-time under red 120 -> 123,
+// 158 -> 147, 169 -> 160. `red`, too, detects overload (for criticality) with that demand test.
 constexpr Known kKnown[] = {
-    {"builtin", 33, 1, 130},
-    {"robot-mnv3s", 20, 1, 152},
-    {"robot-r18", 16, 0, 173},
+    {"builtin", 37, 1, 123},
+    {"robot-mnv3s", 19, 1, 147},
+    {"robot-r18", 14, 0, 160},
 };
 
 TEST(RobotWorkload, RedRobustIsNeverTheWorseChoice) {
@@ -389,21 +390,21 @@ TEST(RobotWorkload, SharedEncoderModeHoldsWhatItPromises) {
 // and load, within 2 points of red at 95 % of the points, within 5 at every point, and the critical
 // operation's mean >= its mean under red. Not all of them hold yet (docs/BENCHMARKS.md, "One model
 // of necessary work"): what holds is asserted exactly, and each gap is held where it stands so that
-// it does not grow: red-robust's mean may fall below red's by at most kMeanSlack (0.06 points at
-// 0.5x on two profiles), the critical operation's by kCriticalSlack, and per profile these shares
-// and counts are the floor and ceiling.
+// it does not grow: red-robust's mean may fall below red's by at most kMeanSlack (0.05 and 0.03
+// points at 0.5x on robot-mnv3s and robot-r18), the critical operation's by kCriticalSlack (up to
+// 0.5 points at 1.0 and 1.5x), and per profile these shares and counts are the floor and ceiling.
 constexpr double kMeanSlack = 0.001;
-constexpr double kCriticalSlack = 0.015;
+constexpr double kCriticalSlack = 0.006;
 struct GeneralizeKnown {
   const char* profile;
   double within2;  // the least share of points within 2 points of red
   int beyond5;     // the most points more than 5 points below red
 };
 constexpr GeneralizeKnown kGeneralizeKnown[] = {
-    {"builtin", 0.95, 9},
-    {"robot-mnv3s", 0.94, 16},
-    {"robot-r18", 0.95, 7},
-    {"mnv3-delivery", 0.92, 17},
+    {"builtin", 0.96, 8},
+    {"robot-mnv3s", 0.96, 9},
+    {"robot-r18", 0.97, 2},
+    {"mnv3-delivery", 0.94, 13},
 };
 
 TEST(RobotWorkload, RedRobustGeneralizes) {
@@ -479,8 +480,11 @@ TEST(RobotWorkload, RedRobustGeneralizes) {
         failures += fmt::format("{}: critical operation's mean {:.4f} < red {:.4f} ({} points)\n",
                                 here, c_robust, c_red, n_crit);
     }
-    std::printf("  %s: %d points, %d within 2 points of red (%.1f %%), worst %+.4f (%s)\n",
-                name.c_str(), points, within2, 100.0 * within2 / points, worst, worst_at.c_str());
+    std::printf(
+        "  %s: %d points, %d within 2 points of red (%.1f %%), %zu more than 5 below, worst %+.4f "
+        "(%s)\n",
+        name.c_str(), points, within2, 100.0 * within2 / points, beyond5.size(), worst,
+        worst_at.c_str());
     const GeneralizeKnown* known = nullptr;
     for (const GeneralizeKnown& k : kGeneralizeKnown)
       if (name == k.profile) known = &k;

@@ -57,7 +57,11 @@ struct UnitWork {
 struct WorkEstimate {
   std::vector<UnitWork> units;  ///< by slot: WorkModel::kEncoder, WorkModel::head_slot(h)
   std::vector<double> op_load;  ///< by operation: its share of the lanes' time
-  double load = 0;              ///< the device's: Σ runs × lane time per run over the lanes
+  /// By operation: the encoder runs one of its jobs accounts for, its cameras' runs shared among
+  /// the operations reading them by rate (an operation sampling a camera that triggers another
+  /// one adds no run of its own).
+  std::vector<double> encoder_runs_per_job;
+  double load = 0;  ///< the device's: Σ runs × lane time per run over the lanes
 };
 
 /// The model: a profile, the model's heads, and the scheduler's batching limits.
