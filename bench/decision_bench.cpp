@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "red/core/assert.hpp"
+#include "red/graph/necessary_work.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sched/round.hpp"
@@ -250,6 +251,24 @@ void BM_Decision64(benchmark::State& state, const char* policy) {
   state.counters["ready"] = st.ready;
 }
 
+// The model of necessary work (red/graph/necessary_work.hpp) on the same 32 operations: what
+// red-robust's demand test pays when the workload changes (Scheduler::Impl::plan_work); a decision
+// in between reads its per-run costs from a table.
+void BM_NecessaryWork32(benchmark::State& state) {
+  const Scenario s = must_parse(decision_scenario_yaml());
+  const Profile p = default_profile();
+  const WorkModel model(p, s.model, s.scheduler.estimate, s.scheduler.max_batch, s.device.lanes,
+                        s.scheduler.gamma);
+  WorkInput in;
+  for (const SensorSpec& sn : s.sensors) in.sensor_hz.push_back(sn.rate_hz);
+  for (const auto& op : s.initial) in.ops.push_back({op.get(), op->rate_hz});
+  for (auto _ : state) {
+    WorkEstimate w = model.estimate(in);
+    benchmark::DoNotOptimize(w);
+  }
+  state.counters["load"] = model.estimate(in).load;  // over the lanes: releases outpace them
+}
+
 }  // namespace
 
 /// `red_bench --decision-stats[=N]`: N timed decisions per policy (default 200000) with
@@ -302,5 +321,6 @@ BENCHMARK_CAPTURE(BM_Decision64, red_robust, "red-robust")
     ->UseManualTime()
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_Decision64, edf, "edf")->UseManualTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_NecessaryWork32)->Unit(benchmark::kMicrosecond);
 
 }  // namespace red::bench
