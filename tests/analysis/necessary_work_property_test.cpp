@@ -1,8 +1,9 @@
 // The model of necessary work (red/graph/necessary_work.hpp) is sound, as properties over the load
-// grid, the robot generator, the delivery robot and every bundled scenario, at the profile's costs:
-// above the physical limit no policy meets every deadline; `red analyze` says `overloaded` only
-// where no policy meets every deadline of that phase; `red-robust` rejects no job at release while
-// the model says the work fits with room to spare.
+// grid, the robot generator (both kinds), the delivery and warehouse robots and every bundled
+// scenario, at the profile's costs: above the physical limit no policy meets every deadline;
+// `red analyze` says `overloaded` only where no policy meets every deadline of that phase;
+// `red-robust` rejects no job at release where the model says the work fits with room to spare
+// and `red` meets every deadline.
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -61,9 +62,16 @@ std::vector<Workload> workloads() {
     profiles.emplace_back(
         name, profile_file(fs::path(RED_TEST_DATA) / "profiles" / (std::string(name) + ".json")));
   const int seeds = test::sized(4, 2);
+  profiles.emplace_back("mnv3-delivery",
+                        profile_file(fs::path(RED_TEST_DATA) / "profiles/mnv3-delivery.json"));
+  robot::Options shared;
+  shared.shared_encoder = true;
   for (const auto& [name, p] : profiles)
-    for (int seed = 1; seed <= seeds; ++seed)
+    for (int seed = 1; seed <= seeds; ++seed) {
       v.push_back({fmt::format("robot {} on {}", seed, name), robot::workload(seed, p, 1.0), p});
+      v.push_back({fmt::format("shared-encoder robot {} on {}", seed, name),
+                   robot::workload(seed, p, 1.0, shared), p});
+    }
   for (const grid::SetSpec& spec : grid::grid_sets(1))
     if (spec.seed % static_cast<std::uint64_t>(test::sized(2, 4)) == 1)
       v.push_back({fmt::format("grid set {}", spec.seed),
@@ -139,13 +147,12 @@ TEST(NecessaryWorkSoundness, AnalyzeSaysOverloadedOnlyWhereNoPolicyMeetsEveryDea
   EXPECT_GT(overloaded, 0);
 }
 
-// (c) While the necessary work of every phase is at most 70 % of the lanes, red-robust rejects
-// (almost) no job at release. The slack, at most 5 % of a workload's jobs and 1 in 500 of all of
-// them (measured: 9 of 7,514, at most 5 in one load-grid set): the demand test counts
-// the jobs in flight, and releases that fall together (sensors in phase, a DAG's fork) fill the
-// lanes for a moment although the phase's work fits; and it counts a head at its cost alone
-// (scheduler_impl.hpp, run_cost), above the model's batched cost.
-TEST(NecessaryWorkSoundness, RedRobustRejectsAlmostNothingWhereTheWorkFitsWithRoomToSpare) {
+// (c) Where the necessary work of every phase is at most 70 % of the lanes and `red` meets every
+// deadline, red-robust rejects (almost) no job at release: it does not shed work the lanes carry.
+// (Where `red` misses there, the workload is bound by latency, not lane time — an encoder run
+// nearly as long as a deadline — and rejecting is what saves the rest.) No slack: none is
+// rejected (measured: 0 of 8,365 jobs of 35 workloads).
+TEST(NecessaryWorkSoundness, RedRobustRejectsAlmostNothingThatRedFinishes) {
   int checked = 0;
   std::int64_t jobs = 0, rejected = 0;
   for (const Workload& w : workloads()) {
@@ -154,19 +161,23 @@ TEST(NecessaryWorkSoundness, RedRobustRejectsAlmostNothingWhereTheWorkFitsWithRo
     for (const NecessaryLoad::Phase& ph : need.phases) peak = std::max(peak, ph.load);
     if (peak <= 0) continue;
     const Scenario s = scaled(w.s, std::min(1.0, 0.7 / peak));
+    auto red = simulate_policy(s, w.p, "red", s.seed, {}, false);
+    ASSERT_TRUE(red) << red.error().to_string();
+    if (red->metrics.on_time < 1.0) continue;
     auto r = simulate_policy(s, w.p, "red-robust", s.seed, {}, false);
     ASSERT_TRUE(r) << r.error().to_string();
     std::int64_t n = 0;
     for (const JobRow& j : r->jobs)
       if (j.reason == "rejected at release") ++n;
-    EXPECT_LE(n * 20, static_cast<std::int64_t>(r->jobs.size())) << w.name;
     jobs += static_cast<std::int64_t>(r->jobs.size());
     rejected += n;
     ++checked;
   }
-  std::printf("red-robust at <= 70 %% necessary work: %lld of %lld jobs rejected at release\n",
-              static_cast<long long>(rejected), static_cast<long long>(jobs));
-  EXPECT_LE(rejected * 500, jobs);  // at most 1 in 500 over all of them
+  std::printf(
+      "red-robust at <= 70 %% necessary work where red meets every deadline: %lld of %lld jobs "
+      "rejected at release, %d workloads\n",
+      static_cast<long long>(rejected), static_cast<long long>(jobs), checked);
+  EXPECT_EQ(rejected, 0);
   EXPECT_GT(checked, 10);
 }
 
