@@ -45,6 +45,11 @@ Duration WorkModel::least(std::size_t slot) const {
   return d;
 }
 
+int WorkModel::on_time_runs(double slack_ms, double period_ms, int cap) noexcept {
+  if (slack_ms < 0) return 0;
+  return static_cast<int>(std::min<double>(cap, std::floor(slack_ms / period_ms) + 1));
+}
+
 bool WorkModel::overloaded(double load, double span_s, double deadline_s) noexcept {
   return span_s > 0 && load > 1.0 + std::max(0.0, deadline_s) / span_s;
 }
@@ -63,11 +68,8 @@ struct Offer {
 // The most runs of these offers a batch whose run takes `run_s` can hold with every one on time.
 int on_time_members(const std::vector<Offer>& offers, double run_s) {
   int n = 0;
-  for (const Offer& o : offers) {
-    const double w = o.window_s - run_s;
-    if (w < 0 || o.hz <= 0) continue;
-    n += static_cast<int>(std::min<double>(o.cap, std::floor(w * o.hz + 1e-9) + 1));
-  }
+  for (const Offer& o : offers)
+    if (o.hz > 0) n += WorkModel::on_time_runs(1e3 * (o.window_s - run_s), 1e3 / o.hz, o.cap);
   return n;
 }
 

@@ -159,6 +159,22 @@ Duration coarse_critical_path(const OperationSpec& op, const CostModel& costs) {
   return best;
 }
 
+Duration least_critical_path(const OperationSpec& op, const CostModel& costs) {
+  std::vector<Duration> finish(op.nodes.size(), Duration{0});
+  Duration best{0};
+  for (int v : topo_nodes(op)) {
+    const NodeSpec& n = op.nodes[static_cast<std::size_t>(v)];
+    Duration start = n.is_plain() ? Duration{0} : costs.least_encoder();
+    for (const EdgeSpec& e : op.edges)
+      if (e.to == v) start = std::max(start, finish[static_cast<std::size_t>(e.from)]);
+    finish[static_cast<std::size_t>(v)] =
+        start +
+        (n.is_plain() ? CostModel::plain(*n.cost, EstimateKind::Mean) : costs.least_head(n.head));
+    best = std::max(best, finish[static_cast<std::size_t>(v)]);
+  }
+  return best;
+}
+
 Duration resolve_deadline(const OperationSpec& op, const CostModel& costs) {
   if (op.deadline.critical_path_x) {
     const double cp = static_cast<double>(coarse_critical_path(op, costs).count());

@@ -18,6 +18,7 @@
 #include "../support/robot_workload.hpp"
 #include "../support/size.hpp"
 #include "red/analysis/analyze.hpp"
+#include "red/analysis/bound.hpp"
 #include "red/analysis/workload.hpp"
 #include "red/metrics/phases.hpp"
 #include "red/scenario/loader.hpp"
@@ -104,6 +105,36 @@ TEST(NecessaryWorkSoundness, NoPolicyMeetsEveryDeadlineAboveThePhysicalLimit) {
     }
   }
   EXPECT_GT(checked, 40);
+}
+
+// (a) No policy's on-time fraction exceeds the work bound (red/analysis/bound.hpp), below and past
+// the limit.
+TEST(NecessaryWorkSoundness, NoPolicyBeatsTheWorkBound) {
+  int checked = 0;
+  double closest = 1;
+  std::string closest_at;
+  for (const Workload& w : workloads()) {
+    const double limit = necessary_load(w.s, w.p).limit_scale();
+    if (!std::isfinite(limit) || limit <= 0) continue;
+    for (const double factor : {0.9, 1.3}) {
+      const Scenario s = scaled(w.s, limit * factor);
+      const double bound = work_bound(s, w.p);
+      for (const std::string& policy : kPolicies) {
+        auto r = simulate_policy(s, w.p, policy, s.seed, {}, false);
+        ASSERT_TRUE(r) << w.name << ": " << r.error().to_string();
+        EXPECT_LE(r->metrics.on_time, bound + 1e-9)
+            << w.name << " at " << factor << " x the limit: " << policy;
+        if (bound - r->metrics.on_time < closest) {
+          closest = bound - r->metrics.on_time;
+          closest_at = fmt::format("{} at {} x the limit, {}", w.name, factor, policy);
+        }
+        ++checked;
+      }
+    }
+  }
+  std::printf("work bound: %d runs, the closest %.4f below it (%s)\n", checked, closest,
+              closest_at.c_str());
+  EXPECT_GT(checked, 80);
 }
 
 // (b) `red analyze` says `overloaded` of a phase only where every policy misses in that phase.

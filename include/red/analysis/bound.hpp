@@ -12,10 +12,10 @@ namespace red {
 
 /// The work bound (docs/DESIGN.md, "Overload"): of the jobs released after warm-up in a run of `s`,
 /// the largest share that fits the lanes' time when the cheapest are admitted first, jobs whose
-/// coarse critical path exceeds their deadline excluded. A job's cost is the least lane time any
-/// policy can spend on it when it is on time, on mean costs: its plain costs; per head, and
-/// per sensor it reads an encoder run, the least over batch sizes b of C(b) divided by the
-/// most on-time jobs a batch of b can serve. A batch is at most `max_batch`; it serves at
+/// least critical path (least_critical_path) exceeds their deadline excluded. A job's cost is the
+/// least lane time any policy can spend on it when it is on time, on mean costs: its plain costs;
+/// per head, and per sensor it reads an encoder run, the least over batch sizes b of C(b) divided
+/// by the most on-time jobs a batch of b can serve. A batch is at most `max_batch`; it serves at
 /// most the jobs of each operation released within D − P_b(u) of each other (P_b(u) the
 /// time a job needs through the unit with the unit at C(b): before and after it, the longer
 /// of the longest path and the lane time over the lanes; none if that exceeds D), at most

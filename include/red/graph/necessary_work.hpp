@@ -86,6 +86,12 @@ class WorkModel {
   /// sizes, deadlines aside. At most estimate(in).load, and linear in the rates.
   [[nodiscard]] double floor_load(const WorkInput& in) const;
 
+  /// The most runs of one operation a batch of one unit can hold with every one on time (the
+  /// rule the model and the work bound share): its releases every `period_ms` within `slack_ms` of
+  /// the first, `slack_ms` being its deadline less the time its job needs through the unit with
+  /// the batch in it; at most `cap` (its max_inflight); 0 when `slack_ms` < 0.
+  [[nodiscard]] static int on_time_runs(double slack_ms, double period_ms, int cap) noexcept;
+
   /// Whether a load over a span of `span_s` seconds is more than the lanes can do for the jobs
   /// released in it: those jobs may still run until the latest deadline `deadline_s` after it.
   [[nodiscard]] static bool overloaded(double load, double span_s, double deadline_s) noexcept;

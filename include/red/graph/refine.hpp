@@ -178,6 +178,11 @@ struct RefineOptions {
 /// `deadline_ms: {critical_path_x: k}`).
 Duration coarse_critical_path(const OperationSpec& op, const CostModel& costs);
 
+/// The shortest time a job of `op` can take alone, on any graph: on the fine graph (a node starts
+/// after its frame's encoder run and its predecessors), every unit at its least mean cost over the
+/// profile's batch sizes (least_encoder, least_head), plain nodes at their mean.
+Duration least_critical_path(const OperationSpec& op, const CostModel& costs);
+
 /// Resolves an operation's relative end-to-end deadline.
 Duration resolve_deadline(const OperationSpec& op, const CostModel& costs);
 
