@@ -54,6 +54,25 @@ inline std::string num(double x) {
   return fmt::format("{:.4g}", x);
 }
 
+// Node `v` of an operation, at indent `in`: an inference node (a head on a sensor) or a plain one.
+inline std::string node_yaml(const std::string& in, std::size_t v, const char* head,
+                             const char* sensor, double cost_ms) {
+  if (head != nullptr)
+    return fmt::format("{}  N{}: {{head: {}, sensor: {}}}\n", in, v, head, sensor);
+  return fmt::format("{}  N{}: {{cost: {{mean_ms: {:.3f}, p99_ms: {:.3f}}}}}\n", in, v, cost_ms,
+                     cost_ms * 1.3);
+}
+
+// An operation's `edges:` line at indent `in`, empty when it has none.
+inline std::string edges_yaml(const std::string& in,
+                              const std::vector<std::pair<int, int>>& edges) {
+  if (edges.empty()) return {};
+  std::string o = in + "edges: [";
+  for (std::size_t e = 0; e < edges.size(); ++e)
+    o += fmt::format("{}[N{}, N{}]", e ? ", " : "", edges[e].first, edges[e].second);
+  return o + "]\n";
+}
+
 }  // namespace detail
 
 /// The YAML of shared-encoder robot workload `seed` (Options::shared_encoder) at rate_scale 1,
@@ -217,19 +236,10 @@ inline std::string shared_workload_yaml(std::uint64_t seed, const Profile& profi
     o += in + "nodes:\n";
     for (std::size_t v = 0; v < op.nodes.size(); ++v) {
       const Node& n = op.nodes[v];
-      if (n.head >= 0)
-        o += fmt::format("{}  N{}: {{head: {}, sensor: {}}}\n", in, v, kHeads[n.head], op.sensor);
-      else
-        o += fmt::format("{}  N{}: {{cost: {{mean_ms: {:.3f}, p99_ms: {:.3f}}}}}\n", in, v,
-                         n.cost_ms, n.cost_ms * 1.3);
+      o += detail::node_yaml(in, v, n.head >= 0 ? kHeads[n.head] : nullptr, op.sensor.c_str(),
+                             n.cost_ms);
     }
-    if (!op.edges.empty()) {
-      o += in + "edges: [";
-      for (std::size_t e = 0; e < op.edges.size(); ++e)
-        o += fmt::format("{}[N{}, N{}]", e ? ", " : "", op.edges[e].first, op.edges[e].second);
-      o += "]\n";
-    }
-    return o;
+    return o + detail::edges_yaml(in, op.edges);
   };
   y += "operations:\n";
   for (const Op& op : ops) y += op_yaml(op, "  - ");
@@ -396,20 +406,10 @@ inline std::string workload_yaml(std::uint64_t seed, const Profile& profile,
     o += in + "nodes:\n";
     for (std::size_t v = 0; v < op.nodes.size(); ++v) {
       const Node& n = op.nodes[v];
-      if (n.head >= 0)
-        o += fmt::format("{}  N{}: {{head: {}, sensor: {}}}\n", in, v, kHeads[n.head],
-                         kSensors[n.sensor]);
-      else
-        o += fmt::format("{}  N{}: {{cost: {{mean_ms: {:.3f}, p99_ms: {:.3f}}}}}\n", in, v,
-                         n.cost_ms, n.cost_ms * 1.3);
+      o += detail::node_yaml(in, v, n.head >= 0 ? kHeads[n.head] : nullptr,
+                             n.head >= 0 ? kSensors[n.sensor] : nullptr, n.cost_ms);
     }
-    if (!op.edges.empty()) {
-      o += in + "edges: [";
-      for (std::size_t e = 0; e < op.edges.size(); ++e)
-        o += fmt::format("{}[N{}, N{}]", e ? ", " : "", op.edges[e].first, op.edges[e].second);
-      o += "]\n";
-    }
-    return o;
+    return o + detail::edges_yaml(in, op.edges);
   };
   y += "operations:\n";
   for (const Op& op : ops) y += op_yaml(op, "  - ", true);
