@@ -176,9 +176,10 @@ bool Scheduler::Impl::pick(TimePoint now) {
           // So is a job of the most critical operations at any load: it runs first under
           // overload (docs/DESIGN.md, "Criticality"), so keeping it costs only less critical work.
           const Duration cp = remaining_for_drop(j, now);
-          const bool top = mixed_criticality &&
-                           ops[static_cast<std::size_t>(j.op)].criticality >= top_criticality;
-          if (now + rt + (past_capacity() && !top ? cp : cp * 9 / 10) > j.deadline) {
+          const bool most_critical =
+              mixed_criticality &&
+              ops[static_cast<std::size_t>(j.op)].criticality >= top_criticality;
+          if (now + rt + (past_capacity() && !most_critical ? cp : cp * 9 / 10) > j.deadline) {
             j.reason = "hopeless";
             ++s.stats_.hopeless;
             end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again
