@@ -36,10 +36,8 @@ Duration UnitCosts::pick(const LatencyStats& l) const {
       d = l.max;
       break;
   }
-  if (slowdown_ == 1.0) return d;
   // The simulator rounds each scaled draw to the nanosecond; so does this.
-  return Duration{
-      static_cast<std::int64_t>(std::llround(static_cast<double>(d.count()) * slowdown_))};
+  return slowdown_ == 1.0 ? d : scaled_by(d, slowdown_);
 }
 
 Duration UnitCosts::plain(const PlainCost& c) const {

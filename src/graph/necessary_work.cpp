@@ -29,9 +29,7 @@ Duration WorkModel::cost(std::size_t slot, int batch, EstimateKind k) const {
   const UnitProfile* u = units_[slot];
   if (u == nullptr || u->by_batch.empty()) return Duration{0};
   const Duration d = u->at(batch).estimate(k);
-  if (slowdown_ == 1.0) return d;
-  return Duration{
-      static_cast<std::int64_t>(std::llround(static_cast<double>(d.count()) * slowdown_))};
+  return slowdown_ == 1.0 ? d : scaled_by(d, slowdown_);
 }
 
 int WorkModel::top_batch(std::size_t slot) const {

@@ -124,9 +124,7 @@ Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k
       }
       if (!encoders || i >= encoder_runs_per_job.size()) continue;
       for (std::size_t e = 0; e < kEstimates; ++e)
-        expected_work[i][e] += Duration{static_cast<std::int64_t>(
-            std::llround(encoder_runs_per_job[i] *
-                         static_cast<double>(run_cost[WorkModel::kEncoder][e].count())))};
+        expected_work[i][e] += scaled_by(run_cost[WorkModel::kEncoder][e], encoder_runs_per_job[i]);
     }
   }
   Duration due{0};

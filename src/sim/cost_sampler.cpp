@@ -73,8 +73,7 @@ Duration CostSampler::draw(const UnitProfile& u, const Tables* t, int batch, dou
 
 Duration CostSampler::scaled(Duration d) const {
   if (slowdown_ == 1.0 || cal_ != nullptr) return d;  // calibrated: slowed in sample()
-  return Duration{
-      static_cast<std::int64_t>(std::llround(static_cast<double>(d.count()) * slowdown_))};
+  return scaled_by(d, slowdown_);
 }
 
 Duration CostSampler::encoder(int sensor, std::uint64_t frame, int batch) const {
@@ -122,7 +121,7 @@ Duration CostSampler::sample(const Dispatch& d, TimePoint start, int busy_others
   const std::size_t k =
       std::min(static_cast<std::size_t>(std::max(0, busy_others)), cal_->lane_factors.size() - 1);
   const double f = cal_->factor_at(start, seed_) * cal_->lane_factors[k] * cal_slowdown_;
-  return Duration{static_cast<std::int64_t>(std::llround(static_cast<double>(base.count()) * f))};
+  return scaled_by(base, f);
 }
 
 Duration profiled_cost(const Dispatch& d, const UnitProfile* encoder,

@@ -67,6 +67,13 @@ OnTime on_time(const Scenario& s, const PolicyRun& r) {
   return t;
 }
 
+// `policy` simulated on `s` (its own seed), as on_time() counts it.
+OnTime run_on_time(const Scenario& s, const Profile& p, const char* policy) {
+  auto r = simulate_policy(s, p, policy, s.seed, {}, false);
+  if (!r) throw std::runtime_error(r.error().to_string());
+  return on_time(s, *r);
+}
+
 std::vector<std::pair<std::string, Profile>> profiles() {
   std::vector<std::pair<std::string, Profile>> v{{"builtin", default_profile()}};
   const std::filesystem::path dir = std::filesystem::path(RED_TEST_DATA) / "profiles";
@@ -254,12 +261,8 @@ TEST(RobotWorkload, RedRobustIsNeverTheWorseChoice) {
       for (const double load : kLoads) {
         const Scenario s = robot::workload(seed, p, load);
         const std::string at = fmt::format("seed {} at {}x", seed, load);
-        auto run = [&](const char* policy) {
-          auto r = simulate_policy(s, p, policy, s.seed, {}, false);
-          if (!r) throw std::runtime_error(r.error().to_string());
-          return on_time(s, *r);
-        };
-        const OnTime edf = run("edf"), red = run("red"), robust = run("red-robust");
+        const OnTime edf = run_on_time(s, p, "edf"), red = run_on_time(s, p, "red"),
+                     robust = run_on_time(s, p, "red-robust");
         ++points;
         if (robust.all - red.all < worst_red) {
           worst_red = robust.all - red.all;
@@ -428,12 +431,8 @@ TEST(RobotWorkload, RedRobustGeneralizes) {
       for (std::uint64_t seed = 1; seed <= kGeneralizeSeeds; ++seed) {
         const Scenario s = robot::workload(seed, p, load, opt);
         const std::string at = fmt::format("seed {} at {}x", seed, load);
-        auto run = [&](const char* policy) {
-          auto r = simulate_policy(s, p, policy, s.seed, {}, false);
-          if (!r) throw std::runtime_error(r.error().to_string());
-          return on_time(s, *r);
-        };
-        const OnTime edf = run("edf"), red = run("red"), robust = run("red-robust");
+        const OnTime edf = run_on_time(s, p, "edf"), red = run_on_time(s, p, "red"),
+                     robust = run_on_time(s, p, "red-robust");
         m_edf += edf.all;
         m_red += red.all;
         m_robust += robust.all;

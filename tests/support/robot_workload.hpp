@@ -63,6 +63,24 @@ inline std::string node_yaml(const std::string& in, std::size_t v, const char* h
                      cost_ms * 1.3);
 }
 
+// The coarse critical path (ms) of an operation's nodes (`head` >= 0: an inference node, which runs
+// its sensor's encoder, `enc` ms, and its head; else `cost_ms`), nodes in topological order.
+template <class NodeT, class HeadMs>
+double coarse_cp_ms(const std::vector<NodeT>& nodes, const std::vector<std::pair<int, int>>& edges,
+                    double enc, const HeadMs& head_ms) {
+  std::vector<double> finish(nodes.size(), 0.0);
+  double cp = 0;
+  for (std::size_t v = 0; v < nodes.size(); ++v) {
+    double start = 0;
+    for (auto [a, b] : edges)
+      if (b == static_cast<int>(v)) start = std::max(start, finish[static_cast<std::size_t>(a)]);
+    const NodeT& n = nodes[v];
+    finish[v] = start + (n.head >= 0 ? enc + head_ms(n.head) : n.cost_ms);
+    cp = std::max(cp, finish[v]);
+  }
+  return cp;
+}
+
 // An operation's `edges:` line at indent `in`, empty when it has none.
 inline std::string edges_yaml(const std::string& in,
                               const std::vector<std::pair<int, int>>& edges) {
@@ -143,15 +161,7 @@ inline std::string shared_workload_yaml(std::uint64_t seed, const Profile& profi
       for (int v = 0; v < infer; ++v)
         if (v == 0 || chance(50)) op.edges.emplace_back(v, infer);
     }
-    std::vector<double> finish(op.nodes.size(), 0.0);
-    for (std::size_t v = 0; v < op.nodes.size(); ++v) {
-      double start = 0;
-      for (auto [a, b] : op.edges)
-        if (b == static_cast<int>(v)) start = std::max(start, finish[static_cast<std::size_t>(a)]);
-      const Node& n = op.nodes[v];
-      finish[v] = start + (n.head >= 0 ? enc + head_ms(n.head) : n.cost_ms);
-      op.cp_ms = std::max(op.cp_ms, finish[v]);
-    }
+    op.cp_ms = detail::coarse_cp_ms(op.nodes, op.edges, enc, head_ms);
     op.deadline_periods = real(d_lo, d_hi);
     if (chance(20)) op.max_inflight = pick(1, 3);
     return op;
@@ -324,15 +334,7 @@ inline std::string workload_yaml(std::uint64_t seed, const Profile& profile,
     }
     if (infer > 1 && chance(25)) op.edges.emplace_back(0, 1);
     // Coarse critical path: an inference node runs its sensor's encoder and its head.
-    std::vector<double> finish(op.nodes.size(), 0.0);
-    for (std::size_t v = 0; v < op.nodes.size(); ++v) {
-      double start = 0;
-      for (auto [a, b] : op.edges)
-        if (b == static_cast<int>(v)) start = std::max(start, finish[static_cast<std::size_t>(a)]);
-      const Node& n = op.nodes[v];
-      finish[v] = start + (n.head >= 0 ? enc + head_ms(n.head) : n.cost_ms);
-      op.cp_ms = std::max(op.cp_ms, finish[v]);
-    }
+    op.cp_ms = detail::coarse_cp_ms(op.nodes, op.edges, enc, head_ms);
     const int c = pick(0, 99);
     op.criticality = c < 55 ? 0 : c < 85 ? 1 : 2;
     if (index > 0 && chance(25)) op.depends_on = pick(0, index - 1);

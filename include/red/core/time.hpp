@@ -48,6 +48,12 @@ inline Duration period_of(double hz) noexcept {
   return Duration{static_cast<std::int64_t>(std::llround(ns))};
 }
 
+/// d × f, rounded to the nanosecond: a cost slowed (interference, calibration factors) as the
+/// simulator charges it.
+inline Duration scaled_by(Duration d, double f) noexcept {
+  return Duration{static_cast<std::int64_t>(std::llround(static_cast<double>(d.count()) * f))};
+}
+
 /// A Duration as floating-point milliseconds, for reports.
 inline double to_ms(Duration d) noexcept {
   return static_cast<double>(d.count()) / 1e6;
