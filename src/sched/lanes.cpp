@@ -65,6 +65,9 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
   d.deadline = deadline;
   d.decided_at = now;
   d.start = now;
+  d.expected = first.kind == UnitKind::Encoder || first.kind == UnitKind::Head
+                   ? batch_estimate(first, d.batch)
+                   : first.cost;
   // Queued behind the lane's running unit by its own handler: no round trip.
   d.round_trip = ahead_lane < 0 && !on_demand_continuation(lane, first, now);
   // A round trip starts a new run: the handler is handed these jobs' work (docs/DESIGN.md,

@@ -84,6 +84,9 @@ struct Dispatch {
   TimePoint decided_at{0};
   bool round_trip = true;  ///< needed a round trip to the global synchronizer
   TimePoint start{0};      ///< set by the executor (after the round trip)
+  /// What the scheduler expected the run to cost when it decided it: the plan's estimate
+  /// (SchedulerConfig::estimate) of a batch of `batch`, at the costs it plans with then.
+  Duration expected{0};
 };
 
 }  // namespace red
