@@ -213,7 +213,7 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
   g->mode = opt.mode;
   g->spec = op_ptr;
   g->operation = operation;
-  g->deadline = resolve_deadline(op, costs);
+  g->deadline = opt.deadline > Duration{0} ? opt.deadline : resolve_deadline(op, costs);
   const std::vector<int> order = topo_nodes(op);
 
   for (const NodeSpec& n : op.nodes)

@@ -146,6 +146,15 @@ std::int64_t integer(const Val& v, std::int64_t lo, std::int64_t hi) {
   fail(v.line, at(v.what) + "must be an integer" + got(v.node));
 }
 
+bool boolean(const Val& v) {
+  if (is_plain_scalar(v.node) || v.node.tag() == "tag:yaml.org,2002:bool") {
+    const std::string& s = v.node.scalar();
+    if (s == "true") return true;
+    if (s == "false") return false;
+  }
+  fail(v.line, at(v.what) + "must be true or false" + got(v.node));
+}
+
 int small_int(const Val& v, int lo) {
   return static_cast<int>(integer(v, lo, std::numeric_limits<int>::max()));
 }

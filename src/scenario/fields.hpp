@@ -103,6 +103,8 @@ double non_negative(const Val& v);
 std::int64_t integer(const Val& v, std::int64_t lo, std::int64_t hi);
 
 int small_int(const Val& v, int lo);
+/// true or false (YAML's plain `true` / `false`).
+bool boolean(const Val& v);
 
 std::string text(const Val& v);
 

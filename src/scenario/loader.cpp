@@ -178,7 +178,8 @@ void Loader::parse_model(const Val& v) {
 
 void Loader::parse_scheduler(const Val& v) {
   // The tuning keys, then every policy option (option_keys(): one list with --with).
-  std::vector<std::string> allowed{"gamma_ms", "estimate", "level_cost", "max_batch", "qoe_lambda"};
+  std::vector<std::string> allowed{"gamma_ms",  "estimate",   "level_cost",
+                                   "max_batch", "qoe_lambda", "online_costs"};
   for (const std::string& key : option_keys()) allowed.push_back(key);
   const Fields f(v, allowed);
   auto& sc = s_.scheduler;
@@ -218,6 +219,7 @@ void Loader::parse_scheduler(const Val& v) {
   }
   if (const Val* x = f.get("max_batch")) sc.max_batch = small_int(*x, 1);
   if (const Val* x = f.get("qoe_lambda")) sc.qoe_lambda = positive(*x);
+  if (const Val* x = f.get("online_costs")) sc.online_costs = boolean(*x);
 }
 
 void Loader::parse_interference(const Val& v) {

@@ -115,6 +115,9 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
   } else if (key == "qoe_lambda") {
     if (!(value > 0.0)) return bad("must be > 0");
     out.scheduler.qoe_lambda = value;
+  } else if (key == "online_costs") {
+    if (value != 0.0 && value != 1.0) return bad("must be 0 or 1");
+    out.scheduler.online_costs = value == 1.0;
   } else if (key == "gamma_ms") {
     if (value < 0.0 || value > 1e12) return bad("must be in [0, 1e12]");
     out.scheduler.gamma = from_ms(value);
@@ -154,7 +157,7 @@ std::optional<Error> apply_override(Scenario& s, const std::string& key, double 
     return Error{"", 0,
                  fmt::format("override {}={}: unknown key '{}' (allowed: deadline_scale, "
                              "qoe_lambda, gamma_ms, lanes, queue_depth, rate_scale, duration_s, "
-                             "seed)",
+                             "seed, online_costs)",
                              key, value, key)};
   }
   if (auto e = check_size(out)) return bad(e->message);

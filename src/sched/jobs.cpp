@@ -37,7 +37,9 @@ void Scheduler::Impl::install(int i, const std::shared_ptr<const OperationSpec>&
     return;
   }
   const bool was_active = o.g != nullptr;
-  graphs.push_back(refine(spec, i, costs, ropt));
+  RefineOptions at_given = ropt;
+  at_given.deadline = resolve_deadline(*spec, given);
+  graphs.push_back(refine(spec, i, costs, at_given));
   o.g = graphs.back().get();
   const double old_rate = o.rate_hz;
   o.trigger = spec->trigger_sensor;

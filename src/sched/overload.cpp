@@ -14,7 +14,7 @@ namespace red {
 
 void Scheduler::Impl::plan_work() {
   const Scenario& sc = s.scenario_;
-  const WorkModel model(profile, sc.model, s.config_.estimate,
+  const WorkModel model(*profile, sc.model, s.config_.estimate,
                         opt.batching ? s.config_.max_batch : 1, s.config_.lanes,
                         opt.merge ? s.config_.gamma : Duration{0});
   WorkInput in;

@@ -28,6 +28,7 @@ SchedulerConfig SchedulerConfig::from(const Scenario& s) {
   c.warmup = s.warmup;
   if (s.device.sync_cost) c.sync_cost = *s.device.sync_cost;
   if (s.device.queue_depth) c.queue_depth = *s.device.queue_depth;
+  c.online_costs.enabled = s.scheduler.online_costs.value_or(true);
   return c;
 }
 
@@ -43,17 +44,12 @@ SchedulerConfig SchedulerConfig::from(const Scenario& s, const Profile& p) {
 }
 
 Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
-    : s(owner), profile(p), opt(owner.policy_->options()) {
+    : s(owner), profile(&p), opt(owner.policy_->options()) {
   const Scenario& sc = s.scenario_;
-  costs = CostModel{&profile, &sc.model, s.config_.estimate};
   ropt = RefineOptions{opt.graph, opt.deadlines, s.config_.level_cost};
-  enc_prof = profile.find("encoder");
-  enc_single = costs.encoder();
-  enc_max_batch = enc_prof != nullptr ? enc_prof->max_batch() : 1;
-  for (std::size_t h = 0; h < sc.model.heads.size(); ++h) {
-    head_single.push_back(costs.head(static_cast<int>(h)));
-    head_prof.push_back(profile.find("head/" + sc.model.heads[h]));
-  }
+  given = CostModel{&p, &sc.model, s.config_.estimate};
+  price(p);
+  if (s.config_.online_costs.enabled) online.emplace(p, sc.model, s.config_.online_costs);
   sensors.resize(sc.sensors.size());
   for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
   open_enc.resize(sc.sensors.size());
@@ -78,6 +74,36 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   top_criticality = hi;
   uniform_criticality = lo <= hi ? lo : 0;
   edf_rank = s.policy_->ranks_by_deadline_only();
+  plan_work();
+}
+
+void Scheduler::Impl::price(const Profile& p) {
+  const Scenario& sc = s.scenario_;
+  profile = &p;
+  costs = CostModel{profile, &sc.model, s.config_.estimate};
+  enc_prof = profile->find("encoder");
+  enc_single = costs.encoder();
+  enc_max_batch = enc_prof != nullptr ? enc_prof->max_batch() : 1;
+  head_single.clear();
+  head_prof.clear();
+  for (std::size_t h = 0; h < sc.model.heads.size(); ++h) {
+    head_single.push_back(costs.head(static_cast<int>(h)));
+    head_prof.push_back(profile->find("head/" + sc.model.heads[h]));
+  }
+}
+
+void Scheduler::Impl::use_costs(const Profile& p) {
+  price(p);
+  // Ranking reads the tasks' costs through the ready set's groups: they form again.
+  ungroup_all();
+  for (std::size_t i = 0; i < ops.size(); ++i) {
+    OpState& o = ops[i];
+    if (o.g == nullptr) continue;
+    RefineOptions keep = ropt;
+    keep.deadline = o.g->deadline;
+    graphs.push_back(refine(o.g->spec, static_cast<int>(i), costs, keep));
+    o.g = graphs.back().get();
+  }
   plan_work();
 }
 
@@ -161,6 +187,11 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
   // A unit queued behind this one starts now, in the lane's order.
   if (lane.busy() && lane.oldest().start < now) m.set_start(lane.oldest(), now);
   for (Observer* ob : m.observers) ob->on_unit_end(d, now, status);
+  // docs/DESIGN.md, "Online costs": what the run took teaches the plan.
+  if (m.online && status == UnitStatus::Completed) {
+    m.online->observe(d, now - d.start, now);
+    if (m.online->update(now)) m.use_costs(m.online->plan());
+  }
   for (const Member& mb : d.members) {
     Job& j = m.job(mb.slot);
     if (!j.live || j.id != mb.job) continue;
@@ -333,6 +364,14 @@ double Scheduler::sensor_rate(int sensor) const {
 
 const RefinedGraph* Scheduler::graph(int operation) const {
   return impl_->ops[static_cast<std::size_t>(operation)].g;
+}
+
+const OnlineCosts* Scheduler::online_costs() const noexcept {
+  return impl_->online ? &*impl_->online : nullptr;
+}
+
+const Profile& Scheduler::plan_profile() const noexcept {
+  return *impl_->profile;
 }
 
 const Dispatch* Scheduler::running(int lane) const {

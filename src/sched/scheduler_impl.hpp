@@ -10,12 +10,14 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "red/graph/necessary_work.hpp"
+#include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
 #include "state.hpp"
 
@@ -26,9 +28,13 @@ using namespace sched_detail;  // NOLINT(google-build-using-namespace)
 
 struct Scheduler::Impl {
   Scheduler& s;
-  const Profile& profile;
+  // The profile the scheduler plans with: the given one, or the online estimates' scaling
+  // of it (docs/DESIGN.md, "Online costs"; use_costs()).
+  const Profile* profile;
+  std::optional<OnlineCosts> online;
   PolicyOptions opt;
   CostModel costs;
+  CostModel given;  // on the profile given: deadlines resolve on it, whatever the plan's costs
   RefineOptions ropt;
   std::vector<std::shared_ptr<const RefinedGraph>> graphs;  // every version ever used
   std::vector<OpState> ops;
@@ -272,6 +278,12 @@ struct Scheduler::Impl {
   std::vector<std::array<Duration, kEstimates>> run_cost;
   std::vector<double> encoder_runs_per_job;  // by operation (WorkEstimate)
   void plan_work();
+  // Plans with `p` from now on (scheduler.cpp): unit costs, batch costs, every active
+  // operation's graph priced again (its deadline kept), the demand model. Jobs in flight
+  // keep the graph they were released with.
+  void use_costs(const Profile& p);
+  // Unit and batch costs from `p` (the constructor, use_costs()).
+  void price(const Profile& p);
   // What unit `ru` counts for in the work figures under estimate kind k.
   [[nodiscard]] Duration unit_cost(const RefinedUnit& ru, std::size_t k) const {
     switch (ru.kind) {

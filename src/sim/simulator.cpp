@@ -43,6 +43,12 @@ Simulator::Simulator(const Scenario& scenario, const Profile& profile,
                  [&] {
                    SchedulerConfig c = SchedulerConfig::from(scenario, profile);
                    if (options.group_from) c.group_from = *options.group_from;
+                   // docs/DESIGN.md, "Online costs": the simulator draws its costs from the
+                   // profile the scheduler plans with, unless given others (--costs); there the
+                   // estimates could only chase the draws' noise, and stay off unless the
+                   // scenario asks.
+                   if (!scenario.scheduler.online_costs && options.costs == nullptr)
+                     c.online_costs.enabled = false;
                    return c;
                  }()),
       sampler_(scenario, options.costs != nullptr ? *options.costs : profile, options.seed,

@@ -295,6 +295,30 @@ TEST_P(Conformance, NoLaneIdlesWhileWorkIsReadyAndOneUnitPerLane) {
   EXPECT_TRUE(lanes.empty()) << test::join_lines(lanes);
 }
 
+// Issue 53, "No batch that cannot finish": a batch is formed only where, at the costs the
+// scheduler plans with when it decides (its online estimates, docs/DESIGN.md, "Online
+// costs"), it ends by every member's deadline. Checked on what was decided, not on the time
+// it took, so it holds in the runtime as stated.
+TEST_P(Conformance, NoBatchThatCannotFinishByTheEstimate) {
+  const test::RecordingObserver& rec = recorded().rec;
+  int batches = 0;
+  std::string first;
+  for (const test::SeenUnit& u : rec.units()) {
+    if (u.d.batch < 2) continue;
+    ++batches;
+    TimePoint due = kNever;
+    for (const Member& m : u.d.members)
+      if (m.graph != nullptr) due = std::min(due, m.release + m.graph->deadline);
+    const TimePoint end = u.d.decided_at + u.d.expected;
+    if (end > due && first.empty())
+      first = "dispatch " + std::to_string(u.d.id) + ": batch of " + std::to_string(u.d.batch) +
+              " decided at " + std::to_string(u.d.decided_at.count()) + " ns expected to end at " +
+              std::to_string(end.count()) + " ns, after a member's deadline " +
+              std::to_string(due.count()) + " ns";
+  }
+  EXPECT_TRUE(first.empty()) << first << " (" << batches << " batches)";
+}
+
 // The simulator only: a real run's unit times are the clock's, and its decisions follow
 // them, so two runtime runs of one seed differ.
 class SimulatorConformance : public Conformance {};

@@ -172,6 +172,9 @@ struct RefineOptions {
   GraphMode mode = GraphMode::Fine;
   DeadlineMode deadlines = DeadlineMode::Proportional;
   LevelCost level_cost = LevelCost::Max;
+  /// The relative end-to-end deadline when it was resolved before (a graph priced again at
+  /// other costs keeps the deadline its operation was given); 0: resolve it from the costs.
+  Duration deadline{0};
 };
 
 /// The coarse critical path of an operation under a cost model (used to resolve

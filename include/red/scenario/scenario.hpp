@@ -138,6 +138,9 @@ struct SchedulerSpec {
   /// red::option_keys(): graph, deadlines, reassign, … — ablations, docs/DESIGN.md, "Overload");
   /// validated.
   std::string policy_with;
+  /// Online cost estimates (docs/DESIGN.md, "Online costs"): unset, the driver's default
+  /// (on for real runs; in the simulator only where it draws costs from another profile).
+  std::optional<bool> online_costs;
 };
 
 /// Background load during a run (the ROS 2 case study's interference).

@@ -28,6 +28,7 @@
 #include "red/profile/profile.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sched/observer.hpp"
+#include "red/sched/online_costs.hpp"
 #include "red/sched/policy.hpp"
 
 namespace red {
@@ -61,6 +62,9 @@ struct SchedulerConfig {
   /// N jobs released together then cost N decisions over a few groups, not over N tasks.
   /// Only the cost changes, never a decision (the tests run both ways and compare).
   int group_from = 256;
+  /// Online cost estimates (docs/DESIGN.md, "Online costs"): plans follow what units cost in
+  /// this run. Disabled: plans rest on the profile all run long.
+  OnlineCostOptions online_costs;
 
   /// The settings a scenario gives.
   static SchedulerConfig from(const Scenario& s);
@@ -145,6 +149,10 @@ class Scheduler {
   [[nodiscard]] const RefinedGraph* graph(int operation) const;
   /// The dispatch running on a lane (the oldest it holds), or null.
   [[nodiscard]] const Dispatch* running(int lane) const;
+  /// The online cost estimates, or null when disabled (SchedulerConfig::online_costs).
+  [[nodiscard]] const OnlineCosts* online_costs() const noexcept;
+  /// The profile the scheduler plans with now: the given one, or the online estimates' one.
+  [[nodiscard]] const Profile& plan_profile() const noexcept;
   /// Absolute intermediate deadline of (job slot, unit) at `now` under the policy (for
   /// reports and tests).
   [[nodiscard]] TimePoint unit_deadline(int slot, int unit, TimePoint now);
