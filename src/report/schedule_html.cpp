@@ -121,7 +121,7 @@ HtmlSection phase_section(const Scenario& s, const std::vector<std::string>& pol
 HtmlSection why_section(const Scenario& s, const std::vector<std::string>& policies,
                         const std::vector<std::vector<PhaseMetrics>>& phases) {
   HtmlSection sec;
-  sec.id = "why";
+  sec.id = "causes";
   sec.heading = "Why jobs missed";
   sec.paragraphs = {
       "Every job that did not meet its deadline has a cause (jobs.csv's cause column; red report "
