@@ -151,6 +151,7 @@ void MetricsCollector::on_unit_end(const Dispatch& d, TimePoint end, UnitStatus 
   r.members = static_cast<int>(members);
   r.round_trip = d.round_trip;
   r.status = s;
+  r.expected = d.expected;
   for (const Member& m : d.members) {
     if (!r.jobs.empty()) r.jobs += ' ';
     r.jobs += scenario_.operation_name(m.operation);

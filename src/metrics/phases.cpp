@@ -21,9 +21,11 @@ bool completed(const JobRow& j) {
 struct Tally {
   OutcomeTally t;
   std::vector<double> latency_ms;
+  std::map<std::string, std::int64_t> causes;
 
   void add(const JobRow& j) {
     t.add(j.outcome, j.qoe);
+    if (!j.cause.empty()) ++causes[j.cause];
     if (completed(j)) latency_ms.push_back(to_ms(j.finish - j.release));
   }
 
@@ -42,6 +44,7 @@ struct Tally {
     std::sort(latency_ms.begin(), latency_ms.end());
     f.latency_p50_ms = round6(percentile_sorted(latency_ms, 0.50));
     f.latency_p99_ms = round6(percentile_sorted(latency_ms, 0.99));
+    f.causes = causes;
     return f;
   }
 };

@@ -41,7 +41,7 @@ TimePoint at_ms(const Text& v) {
 
 }  // namespace
 
-const std::array<JobColumn, 12> kJobColumns{{
+const std::array<JobColumn, 14> kJobColumns{{
     {"policy",
      [](Out& out, const Scenario&, const std::string& policy, const JobRow&) {
        out += csv(policy);
@@ -136,6 +136,19 @@ const std::array<JobColumn, 12> kJobColumns{{
      [](Out& out, const Scenario&, const std::string&, const JobRow& j) { ms(out, j.finish); },
      [](const Scenario&, const Text& v, JobRow& r) -> std::optional<std::string> {
        if (!v.empty()) r.finish = at_ms(v);
+       return std::nullopt;
+     }},
+    // Why it did not meet its deadline (metrics/why.hpp); empty when it met it.
+    {"cause",
+     [](Out& out, const Scenario&, const std::string&, const JobRow& j) { out += csv(j.cause); },
+     [](const Scenario&, const Text& v, JobRow& r) -> std::optional<std::string> {
+       r.cause = v;
+       return std::nullopt;
+     }},
+    {"cause_ms",
+     [](Out& out, const Scenario&, const std::string&, const JobRow& j) { out += csv(j.cause_ms); },
+     [](const Scenario&, const Text& v, JobRow& r) -> std::optional<std::string> {
+       r.cause_ms = v;
        return std::nullopt;
      }},
 }};

@@ -5,6 +5,7 @@
 /// list, so a new column is one entry. Internal to report/.
 
 #include <array>
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -30,6 +31,10 @@ struct JobColumn {
 };
 
 /// jobs.csv's columns in order.
-extern const std::array<JobColumn, 12> kJobColumns;
+extern const std::array<JobColumn, 14> kJobColumns;
+
+/// The columns every jobs.csv has: a file written before `cause` and `cause_ms` were added
+/// stops after them, and is read with those two empty.
+inline constexpr std::size_t kJobColumnsRequired = 12;
 
 }  // namespace red::report_detail

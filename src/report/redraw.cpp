@@ -6,11 +6,13 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "red/metrics/why.hpp"
 #include "red/report/manifest.hpp"
 #include "red/report/plots.hpp"
 #include "red/report/schedule_html.hpp"
@@ -70,17 +72,16 @@ bool is_miss(const JobRow& j) {
   return j.outcome != JobOutcome::Met && j.outcome != JobOutcome::Unfinished;
 }
 
-// True when `a` is a worse miss than `b`: a job without a result before a late one, then
-// the later finish past the deadline, then the earlier release.
-bool worse(const JobRow& a, const JobRow& b) {
-  const bool ra = a.outcome != JobOutcome::Missed;
-  const bool rb = b.outcome != JobOutcome::Missed;
-  if (ra != rb) return ra;
-  if (!ra) {
-    const Duration la = a.finish - a.deadline;
-    const Duration lb = b.finish - b.deadline;
-    if (la != lb) return la > lb;
-  }
+// True when `a` is a worse miss than `b` of a run of `s`: the more critical job (at its
+// release), then the one that ended latest past its deadline (a late finish before a drop at
+// its deadline, a drop before a skipped release), then the earlier release.
+bool worse(const Scenario& s, const JobRow& a, const JobRow& b) {
+  const int ca = criticality_at(s, a.operation, a.release);
+  const int cb = criticality_at(s, b.operation, b.release);
+  if (ca != cb) return ca > cb;
+  const Duration la = a.finish - a.deadline;
+  const Duration lb = b.finish - b.deadline;
+  if (la != lb) return la > lb;
   return a.release < b.release;
 }
 
@@ -133,7 +134,8 @@ std::vector<TimelineWindow> report_timeline_windows(const Scenario& s,
     if (r.jobs == nullptr) continue;
     const JobRow* w = nullptr;
     for (const JobRow& j : *r.jobs)
-      if (is_miss(j) && j.release >= lo && j.release < hi && (w == nullptr || worse(j, *w))) w = &j;
+      if (is_miss(j) && j.release >= lo && j.release < hi && (w == nullptr || worse(s, j, *w)))
+        w = &j;
     if (w == nullptr) continue;
     // From 0.3 s before the miss, so that what led to it is in view when the page opens.
     const TimePoint at = missed_at(*w);
@@ -165,8 +167,20 @@ std::string page_json(const PageInput& in) {
   ojson sensors = ojson::array();
   for (const SensorSpec& x : s.sensors) sensors.push_back(x.name);
   j["sensors"] = sensors;
+  // Each operation's criticality at the start (null: added by an event) and the new ones an
+  // event gives, for the causes of misses and the worst miss (metrics/why.hpp).
+  ojson crit = ojson::array();
+  for (const auto& op : s.initial) crit.push_back(op ? ojson(op->criticality) : ojson());
+  j["criticality"] = crit;
   ojson events = ojson::array();
-  for (const EventSpec& e : s.events) events.push_back({{"at_ns", e.at.count()}, {"kind", e.kind}});
+  for (const EventSpec& e : s.events) {
+    ojson ev = {{"at_ns", e.at.count()}, {"kind", e.kind}};
+    ojson changed = ojson::array();
+    for (const auto& [op, snapshot] : e.changes)
+      if (snapshot) changed.push_back({op, snapshot->criticality});
+    if (!changed.empty()) ev["criticality"] = changed;
+    events.push_back(std::move(ev));
+  }
   j["events"] = events;
   ojson runs = ojson::array();
   for (const PageRun& r : in.runs)
@@ -236,9 +250,9 @@ PageReport write_report_page(const std::string& dir, const PageInput& in, const 
       }
       timelines->section.paragraphs.push_back(
           "Drawn: the first 2 s of each workload phase with every policy, then each policy alone "
-          "around its worst miss (a job without a result first, else the one that finished "
-          "latest past its deadline). Another window: red report DIR --timeline FROM:TO, or "
-          "--phase N for one phase." +
+          "around its worst miss (the most critical job that missed, and of those the one that "
+          "ended latest past its deadline). Another window: red report DIR --timeline FROM:TO, "
+          "or --phase N for one phase." +
           (none.empty() ? std::string() : " No miss to show for: " + none + "."));
     }
   }
@@ -265,6 +279,7 @@ PageReport write_report_page(const std::string& dir, const PageInput& in, const 
       names.push_back(run.metrics->name);
       phases.push_back(run.phases != nullptr ? *run.phases : std::vector<PhaseMetrics>{});
     }
+    page.sections.push_back(why_section(s, names, phases));
     page.sections.push_back(phase_section(s, names, phases));
     if (auto e = write_file(dir, "index.html", render_html(page)))
       r.errors.push_back(*e);
@@ -372,6 +387,9 @@ PhaseFigures figures_from(const ojson& f) {
   x.qoe = f.at("qoe").get<double>();
   x.latency_p50_ms = f.at("latency_ms").at("p50").get<double>();
   x.latency_p99_ms = f.at("latency_ms").at("p99").get<double>();
+  if (f.contains("causes"))  // written since the causes were (an older summary has none)
+    for (const auto& c : f.at("causes"))
+      x.causes[c.at("cause").get<std::string>()] = c.at("jobs").get<std::int64_t>();
   return x;
 }
 
@@ -472,6 +490,19 @@ Expected<SavedRun> read_saved_run(const std::string& dir) {
     s.warmup = Duration{pg.at("warmup_ns").get<std::int64_t>()};
     s.names_ = pg.at("operations").get<std::vector<std::string>>();
     s.initial.resize(s.names_.size());
+    // Definitions that carry only the criticality (all the causes read of them); a page
+    // written before it was kept has none: every operation then counts as criticality 0.
+    auto with_criticality = [](const std::string& name, int c) {
+      auto op = std::make_shared<OperationSpec>();
+      op->name = name;
+      op->criticality = c;
+      return std::shared_ptr<const OperationSpec>(std::move(op));
+    };
+    if (pg.contains("criticality")) {
+      const auto& crit = pg.at("criticality");
+      for (std::size_t i = 0; i < s.initial.size() && i < crit.size(); ++i)
+        if (!crit[i].is_null()) s.initial[i] = with_criticality(s.names_[i], crit[i].get<int>());
+    }
     s.model.heads = pg.at("heads").get<std::vector<std::string>>();
     s.device.lanes = pg.at("lanes").get<int>();
     for (const auto& x : pg.at("sensors")) {
@@ -483,6 +514,16 @@ Expected<SavedRun> read_saved_run(const std::string& dir) {
       EventSpec ev;
       ev.at = Duration{e.at("at_ns").get<std::int64_t>()};
       ev.kind = e.at("kind").get<std::string>();
+      if (e.contains("criticality"))
+        for (const auto& c : e.at("criticality")) {
+          const auto op = c.at(0).get<int>();
+          if (op < 0 || static_cast<std::size_t>(op) >= s.names_.size())
+            return Error{
+                summary, line_of(summary, "criticality"),
+                fmt::format("an event changes operation {}, which \"operations\" lacks", op)};
+          ev.changes.emplace_back(
+              op, with_criticality(s.names_[static_cast<std::size_t>(op)], c.at(1).get<int>()));
+        }
       s.events.push_back(std::move(ev));
     }
     run.index_html = pg.at("index_html").get<bool>();

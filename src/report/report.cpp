@@ -1,6 +1,7 @@
 #include "red/report/report.hpp"
 
 #include "red/core/output_file.hpp"
+#include "red/metrics/why.hpp"
 
 #include "job_columns.hpp"
 
@@ -22,6 +23,20 @@ nlohmann::json opt(const std::optional<double>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
 }
 
+// Why the jobs missed, most first: [{"cause", "jobs", "share"}], the share of the jobs
+// with a cause.
+nlohmann::ordered_json causes_json(const std::map<std::string, std::int64_t>& causes) {
+  std::int64_t all = 0;
+  for (const auto& [cause, n] : causes) all += n;
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const auto& [cause, n] : top_causes(causes))
+    out.push_back(
+        {{"cause", cause},
+         {"jobs", n},
+         {"share", std::round(static_cast<double>(n) / static_cast<double>(all) * 1e6) / 1e6}});
+  return out;
+}
+
 nlohmann::ordered_json phase_figures(const PhaseFigures& f) {
   return {{"jobs", f.jobs},
           {"completed", f.completed},
@@ -31,7 +46,8 @@ nlohmann::ordered_json phase_figures(const PhaseFigures& f) {
           {"miss_rate", f.miss_rate},
           {"drop_rate", f.drop_rate},
           {"qoe", f.qoe},
-          {"latency_ms", {{"p50", f.latency_p50_ms}, {"p99", f.latency_p99_ms}}}};
+          {"latency_ms", {{"p50", f.latency_p50_ms}, {"p99", f.latency_p99_ms}}},
+          {"causes", causes_json(f.causes)}};
 }
 
 nlohmann::ordered_json phases_json(const std::vector<PhaseMetrics>& phases) {
@@ -161,16 +177,16 @@ std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& r
 
 std::string units_csv_header() {
   return "policy,dispatch,lane,decided_ms,start_ms,end_ms,kind,head,batch,members,round_trip,"
-         "status,jobs\n";
+         "status,jobs,expected_ms\n";
 }
 
 void append_unit_row(std::string& out, const Scenario& s, const std::string& policy,
                      const UnitRow& u) {
-  out +=
-      fmt::format("{},{},{},{:.6f},{:.6f},{:.6f},{},{},{},{},{},{},{}\n", csv(policy), u.dispatch,
-                  u.lane, to_ms(u.decided), to_ms(u.start), to_ms(u.end), to_string(u.kind),
-                  u.head >= 0 ? s.model.heads[static_cast<std::size_t>(u.head)] : "", u.batch,
-                  u.members, u.round_trip ? 1 : 0, to_string(u.status), csv(u.jobs));
+  out += fmt::format(
+      "{},{},{},{:.6f},{:.6f},{:.6f},{},{},{},{},{},{},{},{:.6f}\n", csv(policy), u.dispatch,
+      u.lane, to_ms(u.decided), to_ms(u.start), to_ms(u.end), to_string(u.kind),
+      u.head >= 0 ? s.model.heads[static_cast<std::size_t>(u.head)] : "", u.batch, u.members,
+      u.round_trip ? 1 : 0, to_string(u.status), csv(u.jobs), to_ms(u.expected));
 }
 
 std::string units_csv(const Scenario& s, const std::vector<PolicyRows<UnitRow>>& runs) {

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "red/metrics/why.hpp"
 #include "red/report/report.hpp"
 
 namespace red {
@@ -114,6 +115,52 @@ HtmlSection phase_section(const Scenario& s, const std::vector<std::string>& pol
     }
     sec.tables.push_back(std::move(t));
   }
+  return sec;
+}
+
+HtmlSection why_section(const Scenario& s, const std::vector<std::string>& policies,
+                        const std::vector<std::vector<PhaseMetrics>>& phases) {
+  HtmlSection sec;
+  sec.id = "causes";
+  sec.heading = "Why jobs missed";
+  sec.paragraphs = {
+      "Every job that did not meet its deadline has a cause (jobs.csv's cause column; red report "
+      "DIR --why OPERATION#JOB tells one job's story): the rule that shed it (admission, "
+      "hopeless, max_inflight, a failure), or what took the most lane time between its release "
+      "and its deadline: its own work, a cost overrun past the scheduler's estimate, its work "
+      "held back while a lane was idle (a merge or a batch forming), or other operations' work "
+      "of higher, equal or lower criticality, or its operation's earlier jobs. One row per "
+      "phase and operation with a miss: the jobs not met, the top cause and its share, then the "
+      "next causes with their numbers of jobs."};
+  const std::size_t n = std::min(policies.size(), phases.size());
+  bool any = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    HtmlTable t;
+    t.caption = policies[i] + ": why jobs missed, per phase and operation";
+    t.header = {"phase", "operation", "not met", "top cause", "share %", "next causes"};
+    for (const PhaseMetrics& ph : phases[i])
+      for (const auto& [op, f] : ph.operations) {
+        const auto top = top_causes(f.causes);
+        if (top.empty()) continue;
+        std::int64_t all = 0;
+        for (const auto& [cause, k] : top) all += k;
+        std::string next;
+        for (std::size_t c = 1; c < top.size() && c < 4; ++c)
+          next += fmt::format("{}{} ({})", next.empty() ? "" : "; ", top[c].first, top[c].second);
+        if (top.size() > 4) next += fmt::format("; {} more", top.size() - 4);
+        t.rows.push_back(
+            {phase_label(s, ph.span), op, std::to_string(all), top.front().first,
+             num(100.0 * static_cast<double>(top.front().second) / static_cast<double>(all), 1),
+             next.empty() ? "-" : next});
+      }
+    if (t.rows.empty()) continue;
+    any = true;
+    sec.tables.push_back(std::move(t));
+  }
+  if (!any)
+    sec.paragraphs.emplace_back(
+        "No job with a cause: every job met its deadline (or the run's files were written by an "
+        "older red, without causes).");
   return sec;
 }
 

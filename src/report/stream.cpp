@@ -237,18 +237,27 @@ std::optional<std::vector<std::string>> fields(const std::string& line) {
 }
 
 // Reads `path` line by line: checks the header, then calls `row(fields, line_number)` for
-// each row; a row's Error stops the reading.
+// each row; a row's Error stops the reading. The header may stop short of `header` (a file
+// written before its last columns were added) after `least` columns at least: the rows then
+// have as many fields as it, and `parse` sees only those.
 template <typename Row>
 Expected<std::vector<std::pair<std::string, std::vector<Row>>>> read_rows(
-    const std::string& path, const char* what, const std::string& header, std::size_t columns,
+    const std::string& path, const char* what, const std::string& header, std::size_t least,
     const std::function<std::optional<Error>(const std::vector<std::string>&, int, Row&)>& parse) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Error{path, 0, "cannot open for reading"};
   std::string line;
-  if (!std::getline(in, line) || line + "\n" != header)
-    return Error{path, 1,
-                 fmt::format("not a {} (header '{}' expected)", what,
-                             std::string_view(header).substr(0, header.size() - 1))};
+  const std::string full(std::string_view(header).substr(0, header.size() - 1));
+  const auto expected = fields(full);
+  std::optional<std::vector<std::string>> got;
+  if (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    got = fields(line);
+  }
+  const bool prefix = got && expected && got->size() >= least && got->size() <= expected->size() &&
+                      std::equal(got->begin(), got->end(), expected->begin());
+  if (!prefix) return Error{path, 1, fmt::format("not a {} (header '{}' expected)", what, full)};
+  const std::size_t columns = got->size();
   std::vector<std::pair<std::string, std::vector<Row>>> out;
   for (int n = 2; std::getline(in, line); ++n) {
     if (line.empty()) continue;
@@ -277,7 +286,7 @@ TimePoint at_ms(const std::string& v) {
 Expected<std::vector<std::pair<std::string, std::vector<JobRow>>>> read_job_rows(
     const std::string& path, const Scenario& s) {
   return read_rows<JobRow>(
-      path, "jobs.csv", jobs_csv_header(), report_detail::kJobColumns.size(),
+      path, "jobs.csv", jobs_csv_header(), report_detail::kJobColumnsRequired,
       [&](const std::vector<std::string>& f, int n, JobRow& r) -> std::optional<Error> {
         for (std::size_t i = 0; i < f.size(); ++i) {
           const auto read = report_detail::kJobColumns[i].read;
@@ -322,6 +331,7 @@ Expected<std::vector<std::pair<std::string, std::vector<UnitRow>>>> read_unit_ro
           }
         if (!known) return Error{path, n, "unknown status '" + f[11] + "'"};
         r.jobs = f[12];
+        if (f.size() > 13 && !f[13].empty()) r.expected = from_ms(std::stod(f[13]));
         return std::nullopt;
       });
 }

@@ -183,16 +183,18 @@ TEST_F(Cli, SimulateWritesSummaryJobsAndUnits) {
   ASSERT_FALSE(job_lines.empty());
   EXPECT_EQ(job_lines[0],
             "policy,operation,job,release_ms,finish_ms,deadline_ms,outcome,response_ms,qoe,"
-            "frame_age_ms,reason,ended_ms");
+            "frame_age_ms,reason,ended_ms,cause,cause_ms");
   EXPECT_EQ(static_cast<std::int64_t>(job_lines.size()) - 1, jobs);
   std::map<std::string, std::int64_t> outcomes;
   for (std::size_t i = 1; i < job_lines.size(); ++i) {
     const auto f = split_csv(job_lines[i]);
-    ASSERT_EQ(f.size(), 12u) << job_lines[i];
+    ASSERT_EQ(f.size(), 14u) << job_lines[i];
     EXPECT_EQ(f[0], "red");
     EXPECT_EQ(f[1], "cruise");
     EXPECT_GE(std::stod(f[3]), 1000.0) << "a warm-up job was counted: " << job_lines[i];
     ++outcomes[f[6]];
+    // A cause for every job not met, none for a met one (docs/REPORTS.md, "Why jobs missed").
+    EXPECT_EQ(f[12].empty(), f[6] == "met") << job_lines[i];
   }
   EXPECT_EQ(outcomes["met"] + outcomes["missed"], p.at("completed").get<std::int64_t>());
 
@@ -200,8 +202,8 @@ TEST_F(Cli, SimulateWritesSummaryJobsAndUnits) {
   ASSERT_GT(unit_lines.size(), 1u);
   EXPECT_EQ(unit_lines[0],
             "policy,dispatch,lane,decided_ms,start_ms,end_ms,kind,head,batch,members,round_trip,"
-            "status,jobs");
-  EXPECT_EQ(split_csv(unit_lines[1]).size(), 13u);
+            "status,jobs,expected_ms");
+  EXPECT_EQ(split_csv(unit_lines[1]).size(), 14u);
 
   // Same seed, same summary, byte for byte but for the run's id (docs/REPORTS.md).
   const fs::path again = dir_ / "again";

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <sstream>
 #include <string>
 
 #include <fmt/format.h>
@@ -218,6 +219,60 @@ TEST_F(ReportCli, BadDirectoriesAreRefusedWithTheFileAndLine) {
   EXPECT_EQ(red("report " + quote(ok.string()) + " --phase 9").code, 2);
   EXPECT_EQ(red("report " + quote(ok.string()) + " --policy lst").code, 2);
   EXPECT_EQ(red("report " + quote(ok.string()) + " --timeline 99:100").code, 2);
+}
+
+// `red report DIR --why OPERATION#JOB`: one job's story with the cause jobs.csv gives it;
+// bad input is refused with exit code 2 and a message that says what to give.
+TEST_F(ReportCli, WhyTellsOneJobsStory) {
+  const fs::path out = compare("why");
+  // The first job not met, with its policy, name and cause (jobs.csv's columns 0, 1, 2, 6, 12).
+  std::istringstream rows(read_text(out / "jobs.csv"));
+  std::string line;
+  std::getline(rows, line);
+  std::vector<std::string> f;
+  while (std::getline(rows, line)) {
+    if (line.find('"') != std::string::npos) continue;  // a quoted field: not needed here
+    f.clear();
+    std::istringstream cells(line);
+    for (std::string c; std::getline(cells, c, ',');) f.push_back(c);
+    if (f.size() >= 13 && f[6] != "met") break;
+    f.clear();
+  }
+  ASSERT_GE(f.size(), 13u) << "no job missed in the delivery robot";
+  EXPECT_FALSE(f[12].empty()) << line;
+  const std::string job = f[1] + "#" + f[2];
+  Result r = red("report " + quote(out.string()) + " --why " + job + " --policy " + f[0]);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find(job + " under " + f[0]), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("cause: " + f[12]), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("its units"), std::string::npos) << r.out;
+  // The page's why table and the summary's causes of the same policy.
+  EXPECT_NE(read_text(out / "index.html").find(f[0] + ": why jobs missed"), std::string::npos);
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  bool counted = false;
+  for (const auto& p : summary.at("policies"))
+    if (p.at("name") == f[0])
+      for (const auto& ph : p.at("phases"))
+        if (ph.at("operations").contains(f[1]))
+          for (const auto& c : ph.at("operations").at(f[1]).at("causes"))
+            counted = counted || c.at("cause") == f[12];
+  EXPECT_TRUE(counted) << "summary.json has no count of " << f[12];
+
+  // Several policies and none named; a name that is not a job; an unknown operation; a job
+  // not in the run.
+  r = red("report " + quote(out.string()) + " --why " + job);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--policy"), std::string::npos) << r.err;
+  r = red("report " + quote(out.string()) + " --why " + f[1] + " --policy " + f[0]);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("OPERATION#JOB"), std::string::npos) << r.err;
+  r = red("report " + quote(out.string()) + " --why nosuch#1 --policy " + f[0]);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("no operation 'nosuch'"), std::string::npos) << r.err;
+  r = red("report " + quote(out.string()) + " --why " + f[1] + "#999999999 --policy " + f[0]);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("no such job"), std::string::npos) << r.err;
+  EXPECT_EQ(red("report " + quote(out.string()) + " --why " + job + " --policy lst").code, 2);
 }
 
 }  // namespace

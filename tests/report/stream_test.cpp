@@ -175,7 +175,7 @@ TEST(CsvRowStream, TheFilesHoldWholeRowsAtAnyMoment) {
       ASSERT_EQ(text.back(), '\n');
       std::istringstream in(text);
       for (std::string line; std::getline(in, line);)
-        ASSERT_EQ(std::count(line.begin(), line.end(), ','), 11) << line;
+        ASSERT_EQ(std::count(line.begin(), line.end(), ','), 13) << line;
     }
   EXPECT_GT(checked, 0U) << "the buffer must have been written out at least once";
   EXPECT_FALSE((*st)->flush().has_value());
@@ -189,8 +189,8 @@ TEST(CsvRowStream, ABadFileReadBackNamesItsLine) {
   fs::create_directories(dir);
   {
     std::ofstream f(dir / "jobs.csv");
-    f << jobs_csv_header() << "red,navigate,0,1.0,2.0,3.0,met,1.0,1.0,0.5,,2.0\n"
-      << "red,nosuch,1,1.0,2.0,3.0,met,1.0,1.0,0.5,,2.0\n";
+    f << jobs_csv_header() << "red,navigate,0,1.0,2.0,3.0,met,1.0,1.0,0.5,,2.0,,\n"
+      << "red,nosuch,1,1.0,2.0,3.0,met,1.0,1.0,0.5,,2.0,,\n";
   }
   auto rows = read_job_rows((dir / "jobs.csv").string(), s);
   ASSERT_FALSE(rows.has_value());

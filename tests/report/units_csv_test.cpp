@@ -51,10 +51,11 @@ struct UnitCounter final : Observer {
 
 const char* kUnitColumns[] = {"policy",     "dispatch", "lane", "decided_ms", "start_ms",
                               "end_ms",     "kind",     "head", "batch",      "members",
-                              "round_trip", "status",   "jobs"};
+                              "round_trip", "status",   "jobs", "expected_ms"};
 const char* kJobColumns[] = {"policy",    "operation",    "job",     "release_ms",
                              "finish_ms", "deadline_ms",  "outcome", "response_ms",
-                             "qoe",       "frame_age_ms", "reason",  "ended_ms"};
+                             "qoe",       "frame_age_ms", "reason",  "ended_ms",
+                             "cause",     "cause_ms"};
 
 TEST(UnitsCsv, OneRowPerUnitExecutionWithTheDocumentedColumns) {
   auto s = load_scenario(std::string(RED_SOURCE_DIR) + "/scenarios/case-dynamic.yaml");

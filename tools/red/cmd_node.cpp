@@ -295,7 +295,8 @@ int run_node(const NodeArgs& a) {
     oo.rows_files = stream->finished();
     oo.set = &*set;
     OutputReport wrote;
-    if (auto e = write_outputs(*a.out, s, p, std::string((*backend)->name()), s.seed, {run}, oo,
+    std::vector<PolicyRun> runs{std::move(run)};
+    if (auto e = write_outputs(*a.out, s, p, std::string((*backend)->name()), s.seed, runs, oo,
                                &wrote)) {
       for (const Error& f : wrote.errors) print_error(f);
       return kRunFailure;

@@ -16,6 +16,7 @@
 #include "red/report/manifest.hpp"
 #include "red/report/redraw.hpp"
 #include "red/report/timeline.hpp"
+#include "red/report/why_text.hpp"
 
 namespace red::cli {
 
@@ -26,7 +27,51 @@ struct ReportArgs {
   std::optional<std::string> timeline;
   std::optional<std::size_t> phase;
   std::optional<std::string> policy;
+  std::optional<std::string> why;
 };
+
+// `--why OPERATION#JOB`: one job's story, printed; nothing is redrawn.
+int run_why(const ReportArgs& a, const SavedRun& saved) {
+  auto ref = parse_job_ref(*a.why, saved.scenario);
+  if (!ref) {
+    print_error(ref.error());
+    return kBadInput;
+  }
+  std::size_t run = 0;
+  if (a.policy) {
+    while (run < saved.metrics.size() && saved.metrics[run].name != *a.policy) ++run;
+  } else if (saved.metrics.size() > 1) {
+    std::string known;
+    for (const PolicyMetrics& m : saved.metrics) known += (known.empty() ? "" : ", ") + m.name;
+    print_error(Error{"", 0,
+                      "--why " + *a.why + ": the run has several policies (" + known +
+                          "); say which with --policy"});
+    return kBadInput;
+  }
+  const std::vector<JobRow>& jobs = saved.jobs[run];
+  const auto it = std::find_if(jobs.begin(), jobs.end(), [&](const JobRow& j) {
+    return j.operation == ref->first && j.seq == ref->second;
+  });
+  if (it == jobs.end()) {
+    std::uint64_t lo = 0, hi = 0;
+    bool any = false;
+    for (const JobRow& j : jobs)
+      if (j.operation == ref->first) {
+        lo = any ? std::min(lo, j.seq) : j.seq;
+        hi = any ? std::max(hi, j.seq) : j.seq;
+        any = true;
+      }
+    print_error(Error{
+        "", 0,
+        fmt::format("--why {}: no such job in {}'s jobs.csv ({})", *a.why, saved.metrics[run].name,
+                    any ? fmt::format("its jobs of {} counted after the warm-up: {} to {}",
+                                      saved.scenario.operation_name(ref->first), lo, hi)
+                        : "it has no job of that operation after the warm-up")});
+    return kBadInput;
+  }
+  fmt::print("{}", why_story(saved.scenario, saved.metrics[run].name, *it, saved.units[run]));
+  return kOk;
+}
 
 int run_report(const ReportArgs& a) {
   auto saved = read_saved_run(a.dir);
@@ -34,6 +79,20 @@ int run_report(const ReportArgs& a) {
     print_error(saved.error());
     return kBadInput;
   }
+  if (a.policy) {
+    std::string known;
+    bool found = false;
+    for (const PolicyMetrics& m : saved->metrics) {
+      known += (known.empty() ? "" : ", ") + m.name;
+      found = found || m.name == *a.policy;
+    }
+    if (!found) {
+      print_error(Error{
+          "", 0, "--policy " + *a.policy + ": not in this run (its policies: " + known + ")"});
+      return kBadInput;
+    }
+  }
+  if (a.why) return run_why(a, *saved);
   PageOptions o;
   o.gnuplot = gnuplot_command();
   if (a.timeline) {
@@ -62,20 +121,7 @@ int run_report(const ReportArgs& a) {
     }
     o.phase = a.phase;
   }
-  if (a.policy) {
-    std::string known;
-    bool found = false;
-    for (const PolicyMetrics& m : saved->metrics) {
-      known += (known.empty() ? "" : ", ") + m.name;
-      found = found || m.name == *a.policy;
-    }
-    if (!found) {
-      print_error(Error{
-          "", 0, "--policy " + *a.policy + ": not in this run (its policies: " + known + ")"});
-      return kBadInput;
-    }
-    o.policy = a.policy;
-  }
+  o.policy = a.policy;
   // The directory is marked unfinished (same run id) until the new page and its manifest
   // are written, as a run's own files are.
   auto set = OutputSet::reopen(a.dir, saved->command.empty() ? "report" : saved->command,
@@ -119,12 +165,19 @@ void register_report(CLI::App& app, int& exit_code) {
   auto* t = cmd->add_option("--timeline", a->timeline,
                             "Timeline window FROM:TO in seconds (default: each workload "
                             "phase's start and each policy's worst miss)");
-  cmd->add_option("--phase", a->phase,
-                  "Timeline of one workload phase (0-based, as in the page's phase table): "
-                  "its start and each policy's worst miss in it")
-      ->check(whole_number(1000))
-      ->excludes(t);
-  cmd->add_option("--policy", a->policy, "Draw only this policy in the timeline");
+  auto* ph =
+      cmd->add_option("--phase", a->phase,
+                      "Timeline of one workload phase (0-based, as in the page's phase table): "
+                      "its start and each policy's worst miss in it")
+          ->check(whole_number(1000))
+          ->excludes(t);
+  cmd->add_option("--policy", a->policy,
+                  "Draw only this policy in the timeline; with --why, the policy whose job");
+  cmd->add_option("--why", a->why,
+                  "Print why job OPERATION#JOB (e.g. navigate#42) did not meet its deadline: its "
+                  "units, what ran meanwhile and its cause; nothing is redrawn")
+      ->excludes(t)
+      ->excludes(ph);
   cmd->callback([a, &exit_code] { exit_code = run_report(*a); });
 }
 

@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "red/core/output_file.hpp"
+#include "red/metrics/why.hpp"
 #include "red/profile/quality.hpp"
 #include "red/report/html.hpp"
 #include "red/report/plots.hpp"
@@ -157,11 +158,13 @@ std::unique_ptr<TraceObserver> make_trace(const Scenario& s, std::size_t total_e
 
 std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, const Profile& p,
                                    const std::string& backend, std::uint64_t seed,
-                                   const std::vector<PolicyRun>& runs, const OutputOptions& options,
+                                   std::vector<PolicyRun>& runs, const OutputOptions& options,
                                    OutputReport* report) {
   OutputReport local;
   OutputReport& r = report != nullptr ? *report : local;
   r = {};
+  // Why each job missed (metrics/why.hpp): before the phases and jobs.csv, which show it.
+  for (PolicyRun& run : runs) annotate_causes(s, run.jobs, run.units);
   std::vector<PolicyMetrics> metrics;
   std::vector<PolicyRows<JobRow>> jobs;
   std::vector<PolicyRows<UnitRow>> units;
@@ -233,7 +236,16 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     put("jobs.csv", jobs_csv(s, jobs));
     put("units.csv", units_csv(s, units));
   } else {
-    for (const std::string& f : options.rows_files) wrote(f);
+    // The streamed jobs.csv has no causes (a job's cause needs the units that ran up to its
+    // deadline, which end after it): written again with them when every row is here.
+    const bool whole = std::find(options.rows_files.begin(), options.rows_files.end(),
+                                 "jobs.csv") != options.rows_files.end() &&
+                       std::all_of(runs.begin(), runs.end(), [](const PolicyRun& run) {
+                         return static_cast<std::int64_t>(run.jobs.size()) == run.metrics.jobs;
+                       });
+    for (const std::string& f : options.rows_files)
+      if (f != "jobs.csv" || !whole) wrote(f);
+    if (whole) put("jobs.csv", jobs_csv(s, jobs));
   }
 
   // trace.json: one process per policy, so Perfetto shows the policies on one time axis.

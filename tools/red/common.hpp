@@ -124,11 +124,12 @@ struct OutputReport {
 /// (core/output_file.hpp). A missing or failing gnuplot gives a note on stderr, never an
 /// error. A file that cannot be written does not stop the others (OutputReport::errors);
 /// when it is summary.json, the summary goes to stderr instead. Error: the first file that
-/// could not be written (names the path and the system's reason).
+/// could not be written (names the path and the system's reason). Sets the cause of every
+/// job row of `runs` (metrics/why.hpp) first; with OutputOptions::rows_written, writes
+/// jobs.csv again with the causes when every run's rows are there.
 std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, const Profile& p,
                                    const std::string& backend, std::uint64_t seed,
-                                   const std::vector<PolicyRun>& runs,
-                                   const OutputOptions& options = {},
+                                   std::vector<PolicyRun>& runs, const OutputOptions& options = {},
                                    OutputReport* report = nullptr);
 
 /// "wrote DIR/summary.json, jobs.csv, units.csv, trace.json, index.html, plots/ (N images)".

@@ -30,6 +30,11 @@ struct JobRow {
   double qoe = 0.0;
   Duration frame_age{0};
   std::string reason;
+  /// Why it did not meet its deadline (metrics/why.hpp); empty when it met it or before
+  /// annotate_causes().
+  std::string cause;
+  /// The lane time behind `cause` by share ("own 12.300; held 4.000"); empty for a rule.
+  std::string cause_ms;
 };
 
 /// One row of units.csv: a unit execution (merged or batched).
@@ -46,6 +51,9 @@ struct UnitRow {
   bool round_trip = true;
   UnitStatus status = UnitStatus::Completed;
   std::string jobs;  ///< "op#seq:node ..." of every member
+  /// What the scheduler expected the run to cost when it decided it (Dispatch::expected);
+  /// 0 when unknown.
+  Duration expected{0};
 };
 
 /// Latency figures in milliseconds.

@@ -10,6 +10,7 @@
 ///       fmt::print("{} .. {} s: miss {}\n", ph.from_s, ph.to_s, ph.all.miss_rate);
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -34,6 +35,8 @@ struct PhaseFigures {
   std::int64_t completed = 0, missed = 0, dropped = 0, unfinished = 0;
   double miss_rate = 0, drop_rate = 0, qoe = 0;   ///< as in summary.json, over this phase
   double latency_p50_ms = 0, latency_p99_ms = 0;  ///< of completed jobs, nearest rank
+  /// Why its jobs did not meet their deadlines: JobRow::cause → number of jobs (metrics/why.hpp).
+  std::map<std::string, std::int64_t> causes;
 };
 
 /// One phase: its span and its figures, overall and per operation.

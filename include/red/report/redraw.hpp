@@ -70,9 +70,9 @@ struct PageReport {
 
 /// The default timeline windows (docs/REPORTS.md, "The timeline"): the first 2 s of each
 /// workload phase (at most 8) with every run, then for each run with a miss the 2 s around
-/// its worst miss (a job without a result first, else the latest finish past its deadline;
-/// the earliest release on ties), that run alone. With `phase`: that phase's start, and the
-/// worst misses among the jobs released in it.
+/// its worst miss (the most critical job at its release, then the one that ended latest past
+/// its deadline, then the earliest release), that run alone. With `phase`: that phase's start, and
+/// the worst misses among the jobs released in it.
 std::vector<TimelineWindow> report_timeline_windows(const Scenario& s,
                                                     const std::vector<TimelineRun>& runs,
                                                     std::optional<std::size_t> phase = {});

@@ -41,7 +41,7 @@ struct PolicyRows {
 };
 
 /// jobs.csv text: policy, operation, job, release_ms, finish_ms, deadline_ms, outcome,
-/// response_ms, qoe, frame_age_ms, reason, ended_ms (docs/REPORTS.md).
+/// response_ms, qoe, frame_age_ms, reason, ended_ms, cause, cause_ms (docs/REPORTS.md).
 std::string jobs_csv(const Scenario& s, const std::vector<PolicyRows<JobRow>>& runs);
 
 /// jobs.csv's header line, with its line break.

@@ -37,4 +37,10 @@ Expected<TimelineReport> write_timelines(const std::string& dir, const Scenario&
 HtmlSection phase_section(const Scenario& s, const std::vector<std::string>& policies,
                           const std::vector<std::vector<PhaseMetrics>>& phases);
 
+/// The index.html section "Why jobs missed": per policy, one row per phase and operation with
+/// a job not met: how many, the top cause (PhaseFigures::causes) and its share, the next
+/// causes. `phases[i]` belongs to `policies[i]`.
+HtmlSection why_section(const Scenario& s, const std::vector<std::string>& policies,
+                        const std::vector<std::vector<PhaseMetrics>>& phases);
+
 }  // namespace red
