@@ -261,6 +261,7 @@ int Loader::sensor_index(const Val& v) const {
 
 DeadlineSpec Loader::parse_deadline(const Val& v) const {
   DeadlineSpec d;
+  d.line = v.line;
   if (v.node.is_map()) {
     const Fields f(v, {"critical_path_x"});
     const Val& x = f.need("critical_path_x");
