@@ -272,7 +272,8 @@ std::string analysis_text(const Analysis& a) {
   }
   if (!a.headroom.empty()) {
     t += fmt::format(
-        "\nheadroom (every operation's miss rate <= {:g} %, bisection in the simulator):\n",
+        "\nheadroom (each operation's own miss rate <= {:g} %, not all jobs pooled as `red "
+        "sweep`'s breakdown rate; bisection in the simulator):\n",
         100 * a.miss_limit);
     t += fmt::format("  {:<10} {:<11} {:<34} {:<34} {}\n", "policy", "costs", "rate_scale",
                      "deadline_scale", "first to fail as load grows");

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -25,7 +28,9 @@ constexpr double kOpH = 40;
 constexpr double kAxisH = 22;
 constexpr double kPolicyTitleH = 24;
 constexpr double kGap = 16;
-constexpr double kCharW = 5.6;  // width of one character at font-size 10 (for fitting labels)
+constexpr double kCharW = 5.6;    // width of one character at font-size 10 (for fitting labels)
+constexpr double kBoldW = 1.15;   // a bold character is this much wider
+constexpr double kLabelGap = 12;  // between two labels on one line
 
 // Operation colours: mid-tones that keep black labels legible.
 constexpr const char* kOpColors[] = {"#7fb2e5", "#f4a261", "#8fd18b", "#e98f8f",
@@ -277,20 +282,52 @@ class SvgWriter {
     return out;
   }
 
-  std::string events(double y0, double y1) const {
-    std::string out;
+  // The label of each workload event in the window, drawn in the policy's title row just right of
+  // the event's line: [x0, x1) is where its (bold) text lies.
+  struct EventLabel {
+    std::size_t event = 0;
+    double line_x = 0;
+    std::string text;
+    double x0 = 0, x1 = 0;
+  };
+  [[nodiscard]] std::vector<EventLabel> event_labels() const {
+    std::vector<EventLabel> out;
     for (std::size_t i = 0; i < s_.events.size(); ++i) {
       const TimePoint at = s_.events[i].at;
       if (at < l_.from || at > l_.to) continue;
-      const double x = l_.x(at);
+      EventLabel e;
+      e.event = i;
+      e.line_x = l_.x(at);
+      e.text = fmt::format("event {}: {}", i, s_.events[i].kind);
+      e.x0 = e.line_x + 4;
+      e.x1 = e.x0 + kBoldW * kCharW * static_cast<double>(glyphs(e.text));
+      out.push_back(std::move(e));
+    }
+    return out;
+  }
+
+  // Where the title row's "N jobs released" text starts: at kLeft, else past every event label
+  // it would run into (an event at the window's start puts its label there), so none overlap.
+  [[nodiscard]] static double free_x(const std::vector<EventLabel>& labels, double width) {
+    std::vector<std::pair<double, double>> spans;
+    for (const EventLabel& e : labels) spans.emplace_back(e.x0, e.x1);
+    std::sort(spans.begin(), spans.end());
+    double x = kLeft;
+    for (const auto& [x0, x1] : spans)
+      if (x0 < x + width + kLabelGap && x1 + kLabelGap > x) x = std::max(x, x1 + kLabelGap);
+    return x;
+  }
+
+  std::string events(double y0, double y1) const {
+    std::string out;
+    for (const EventLabel& e : event_labels())
       out += fmt::format(
           "<g class=\"event\" data-event=\"{}\" data-at-ms=\"{}\"><line x1=\"{:.2f}\" "
           "y1=\"{:.1f}\" x2=\"{:.2f}\" y2=\"{:.1f}\" stroke=\"#444\" stroke-width=\"1.2\" "
           "stroke-dasharray=\"5,3\"/><text x=\"{:.2f}\" y=\"{:.1f}\" fill=\"#222\" "
-          "font-weight=\"bold\">event {}: {}</text></g>\n",
-          i, ms6(at), x, y0 - kPolicyTitleH + 4, x, y1, x + 4, y0 - 7, i,
-          html_escape(s_.events[i].kind));
-    }
+          "font-weight=\"bold\">{}</text></g>\n",
+          e.event, ms6(s_.events[e.event].at), e.line_x, y0 - kPolicyTitleH + 4, e.line_x, y1, e.x0,
+          y0 - 7, html_escape(e.text));
     return out;
   }
 
@@ -305,13 +342,14 @@ class SvgWriter {
         ++jobs;
         if (j.outcome != JobOutcome::Met && j.outcome != JobOutcome::Unfinished) ++misses;
       }
+    const std::string released =
+        fmt::format("{} jobs released in this window, {} missed", jobs, misses);
     out += fmt::format(
         "<rect x=\"0\" y=\"{:.1f}\" width=\"{:.0f}\" height=\"{:.1f}\" fill=\"#f0f0f0\"/>"
         "<text x=\"8\" y=\"{:.1f}\" font-size=\"13\" font-weight=\"bold\">{}</text>"
-        "<text x=\"{:.1f}\" y=\"{:.1f}\" fill=\"#444\">{} jobs released in this window, {} "
-        "missed</text>\n",
-        y, l_.total_width(), kPolicyTitleH, y + 16, html_escape(r.policy), kLeft, y + 16, jobs,
-        misses);
+        "<text class=\"released\" x=\"{:.1f}\" y=\"{:.1f}\" fill=\"#444\">{}</text>\n",
+        y, l_.total_width(), kPolicyTitleH, y + 16, html_escape(r.policy),
+        free_x(event_labels(), kCharW * static_cast<double>(glyphs(released))), y + 16, released);
     // The name again every 1200 px, for a reader scrolled far to the right.
     for (double x = kLeft + 1200; x + 200 < l_.total_width(); x += 1200)
       out += fmt::format(

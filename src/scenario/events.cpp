@@ -53,8 +53,13 @@ int Loader::need_active(const Val& v, Duration t) const {
   const int i = active_index(name);
   if (i >= 0) return i;
   const bool existed = std::find(s_.names_.begin(), s_.names_.end(), name) != s_.names_.end();
-  fail(v.line, fmt::format("{}no operation '{}' in the workload at {} s{}", at(v.what), name,
-                           to_s(t), existed ? " (an earlier event removed it)" : ""));
+  std::vector<std::string> active;
+  for (const auto& op : current_)
+    if (op) active.push_back(op->name);
+  fail(v.line,
+       fmt::format("{}no operation '{}' in the workload at {} s ({}){}", at(v.what), name, to_s(t),
+                   active.empty() ? "no operations are left" : "operations: " + join(active),
+                   existed ? "; an earlier event removed it" : ""));
 }
 
 EventSpec Loader::parse_event(const Val& v, Duration& last_at, int& last_line) {

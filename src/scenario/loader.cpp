@@ -263,6 +263,7 @@ int Loader::sensor_index(const Val& v) const {
 
 DeadlineSpec Loader::parse_deadline(const Val& v) const {
   DeadlineSpec d;
+  d.line = v.line;
   if (v.node.is_map()) {
     const Fields f(v, {"critical_path_x"});
     const Val& x = f.need("critical_path_x");
@@ -491,10 +492,14 @@ Scenario Loader::run(const yaml::Node& root) {
   for (auto& p : parsed) {
     if (!p.depends_on) continue;
     const std::string target = text(*p.depends_on);
-    for (std::size_t i = 0; i < parsed.size(); ++i)
+    std::vector<std::string> names;
+    for (std::size_t i = 0; i < parsed.size(); ++i) {
       if (parsed[i].op.name == target) p.op.depends_on = static_cast<int>(i);
+      names.push_back(parsed[i].op.name);
+    }
     if (p.op.depends_on < 0)
-      fail(p.depends_on->line, at(p.depends_on->what) + "no operation named '" + target + "'");
+      fail(p.depends_on->line, fmt::format("{}no operation named '{}' (operations: {})",
+                                           at(p.depends_on->what), target, join(names)));
   }
   // A cycle of "wait for the newest job of" would deadlock the operations on it.
   for (std::size_t i = 0; i < parsed.size(); ++i) {

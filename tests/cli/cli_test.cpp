@@ -139,6 +139,71 @@ TEST_F(Cli, ValidatePrintsNodesWithHeightsAndDeadlines) {
   EXPECT_TRUE(contains(r.out, "ok"));
 }
 
+TEST_F(Cli, ValidateWarnsOfADeadlineShorterThanTheCriticalPath) {
+  const std::string path = data("infeasible_deadline.yaml");
+  const RunResult r = red("validate " + quote(path));
+  ASSERT_TRUE(r.exited);
+  EXPECT_EQ(r.code, 0) << r.err;  // a warning, not an error
+  // Named by file and the line of the deadline: 5 + 8 ms at mean costs, at least.
+  EXPECT_TRUE(contains(r.err, "red: warning: " + path +
+                                  ":11: operation 'chain': deadline 0.050 ms is shorter than its "
+                                  "least critical path 13.000 ms"))
+      << r.err;
+  // An event's set_deadline is named by its own line and the time it takes effect.
+  EXPECT_TRUE(contains(r.err, path + ":23: operation 'side' from 1 s (event 0): deadline 1.000 ms "
+                                     "is shorter than its least critical path 2.000 ms"))
+      << r.err;
+  EXPECT_FALSE(contains(r.err, "operation 'side': deadline")) << r.err;  // 50 ms at t = 0 fits
+  EXPECT_TRUE(contains(r.out, "ok, with 2 warning(s) on stderr")) << r.out;
+}
+
+TEST_F(Cli, ValidatePrintsEachOperationsCriticality) {
+  const RunResult r = red("validate " + quote(data("infeasible_deadline.yaml")));
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.out,
+                       "operation chain: every frame of camera; deadline 0.050 ms; coarse "
+                       "critical path 15.000 ms; criticality 3; max_inflight 2"))
+      << r.out;
+  EXPECT_TRUE(contains(r.out,
+                       "operation side: 10 Hz, newest frames; deadline 50.000 ms; coarse "
+                       "critical path 2.000 ms; criticality 0;"))
+      << r.out;
+}
+
+// Every column of a node table ends where its heading does, however long a node's name or a
+// plain node's "mean / p99" cost.
+TEST_F(Cli, ValidateNodeTableColumnsFitTheirContent) {
+  for (const char* file : {"tiny.yaml", "infeasible_deadline.yaml"}) {
+    SCOPED_TRACE(file);
+    const RunResult r = red("validate " + quote(data(file)));
+    ASSERT_TRUE(r.exited);
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::string header;
+    int rows = 0;
+    for (const std::string& line : lines_of(r.out)) {
+      if (contains(line, "    node ")) {
+        header = line;
+        continue;
+      }
+      if (header.empty() || !contains(line, " plain ")) continue;
+      ++rows;
+      // The row is as long as its heading and has a blank wherever the heading does between
+      // columns (after "runs", "coarse H", "coarse d ms", "fine H"), so no cell runs into the next.
+      EXPECT_EQ(line.size(), header.size()) << header << '\n' << line;
+      for (const char* heading : {"coarse H", "coarse d ms", "fine H", "fine d ms"}) {
+        const std::size_t at = header.find(heading);
+        ASSERT_NE(at, std::string::npos);
+        ASSERT_LT(at, line.size());
+        EXPECT_EQ(line[at - 1], ' ') << heading << '\n' << header << '\n' << line;
+      }
+    }
+    EXPECT_GE(rows, 2) << r.out;
+  }
+  const RunResult r = red("validate " + quote(data("tiny.yaml")));
+  EXPECT_TRUE(contains(r.out, "plain mean 8.000 / p99 10.000 ms")) << r.out;
+}
+
 // ---- red simulate ---------------------------------------------------------------------------
 
 TEST_F(Cli, SimulateWritesSummaryJobsAndUnits) {

@@ -233,6 +233,50 @@ TEST(Timeline, JobsReleasesDeadlinesAndMissesAreMarked) {
   EXPECT_NE(svg.find("data-at-ms=\"4000.000000\""), std::string::npos);
 }
 
+// A text's extent along x, as the writer estimates it (5.6 px a character at font-size 10, bold
+// 15 % wider): [x, x + width).
+struct TextBox {
+  double x0 = 0, x1 = 0;
+  std::string text;
+};
+
+std::vector<TextBox> text_boxes(const std::string& svg, const std::regex& re, double char_w) {
+  std::vector<TextBox> out;
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), re); it != std::sregex_iterator();
+       ++it) {
+    const std::string text = (*it)[2];
+    std::size_t glyphs = 0;
+    for (char c : text) glyphs += (static_cast<unsigned char>(c) & 0xC0U) != 0x80U ? 1 : 0;
+    const double x = std::stod((*it)[1]);
+    out.push_back({x, x + char_w * static_cast<double>(glyphs), text});
+  }
+  return out;
+}
+
+// The event labels and "N jobs released in this window" share the title row of each policy: an
+// event at the window's start (3 s here) draws its label where that text used to start, so the
+// text moves right of it.
+TEST(Timeline, EventLabelsDoNotOverlapTheJobsReleasedLabel) {
+  const Runs r = simulate("minibench-tight.yaml", {"edf", "red"});
+  const TimelineWindow w{from_s(3.0), from_s(5.0), "t", "t", ""};
+  const std::string svg = timeline_svg(r.scenario, r.timeline, w);
+  const auto released = text_boxes(
+      svg, std::regex("<text class=\"released\" x=\"([0-9.]+)\"[^>]*>([^<]*)</text>"), 5.6);
+  const auto events = text_boxes(
+      svg, std::regex("<text x=\"([0-9.]+)\"[^>]*font-weight=\"bold\">(event [^<]*)</text>"),
+      5.6 * 1.15);
+  ASSERT_EQ(released.size(), 2u);       // one per policy
+  ASSERT_EQ(events.size(), 2u * 3);     // events at 3, 4 and 5 s, in each policy's block
+  EXPECT_LT(events.front().x0, 160.0);  // the first lies at the window's start
+  for (const TextBox& j : released) {
+    EXPECT_NE(j.text.find("jobs released in this window"), std::string::npos);
+    for (const TextBox& e : events)
+      EXPECT_TRUE(j.x1 <= e.x0 || e.x1 <= j.x0)
+          << "'" << j.text << "' [" << j.x0 << ", " << j.x1 << ") overlaps '" << e.text << "' ["
+          << e.x0 << ", " << e.x1 << ")";
+  }
+}
+
 TEST(Timeline, MergeWaitsAreDrawnWhenRecorded) {
   Runs r = simulate("case-async.yaml", {"red"});
   const TimelineWindow w{from_ms(1000), from_ms(1100), "t", "t", ""};

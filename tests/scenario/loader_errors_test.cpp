@@ -67,6 +67,7 @@ TEST(LoaderErrors, NonPositiveDeadline) {
 
 TEST(LoaderErrors, EventRefersToMissingOperation) {
   expect_error("event_missing_operation.yaml", 10, "no operation 'b'");
+  expect_error("event_missing_operation.yaml", 10, "at 2 s (operations: a)");
 }
 
 TEST(LoaderErrors, EventRemovesNodeRemovedEarlier) {
@@ -188,6 +189,12 @@ TEST(LoaderErrors, DependsOnItselfOrMissing) {
                     "    depends_on: {operation: q}\n"
                     "    nodes: {X: {cost_ms: 1}}\n",
                 17, "no operation named 'q'");
+  // The message lists the operations there are, as an unknown sensor's lists the sensors.
+  expect_inline(std::string(kBase) +
+                    "  - name: p\n    rate_hz: 5\n    deadline_ms: 5\n"
+                    "    depends_on: {operation: q}\n"
+                    "    nodes: {X: {cost_ms: 1}}\n",
+                17, "no operation named 'q' (operations: drive, p)");
 }
 
 TEST(LoaderErrors, HeadWithoutModel) {

@@ -253,8 +253,9 @@ void register_sweep(CLI::App& app, int& exit_code) {
              b.scale && has_limit ? fmt::format("{}{:.3f}", ge, *b.scale / limit) : "-", past});
       }
       text += fmt::format(
-          "breakdown rate (miss rate <= {:g} % at every swept rate_scale up to it; see "
-          "docs/DESIGN.md#targets)\n"
+          "breakdown rate (miss rate of all the policy's jobs, every operation pooled, <= {:g} % "
+          "at every swept rate_scale up to it; `red analyze`'s headroom asks instead that each "
+          "operation's own miss rate stay within the limit; see docs/DESIGN.md#targets)\n"
           "physical limit: {}\n{:<{}} {:>9} {:>12}\n",
           100 * kBreakdownMiss, limit_text, "policy", name_width, "breakdown", "of the limit");
       for (const auto& r : bd_rows)
@@ -345,8 +346,10 @@ void register_sweep(CLI::App& app, int& exit_code) {
         sec.paragraphs = {
             fmt::format(
                 "The largest swept rate_scale up to which each policy misses at most "
-                "{:g} % of its jobs at every swept value, and its fraction of the physical limit "
-                "(docs/DESIGN.md, \"Performance targets\").",
+                "{:g} % of all its jobs (every operation pooled) at every swept value, and its "
+                "fraction of the physical limit (docs/DESIGN.md, \"Performance targets\"). "
+                "`red analyze`'s headroom asks instead that each operation's own miss rate "
+                "stay within the limit: a rarely released operation can miss every job here.",
                 100 * kBreakdownMiss),
             "Physical limit: " + limit_text + "."};
         HtmlTable t;

@@ -3,7 +3,12 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <array>
 #include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -24,8 +29,27 @@ std::string describe_node(const Scenario& s, const NodeSpec& n) {
                      s.sensors[static_cast<std::size_t>(n.sensor)].name);
 }
 
-void print_operation(const Scenario& s, const OperationSpec& op, int index,
-                     const CostModel& costs) {
+/// A warning (file:line: ...) when no job of `op` can meet its deadline even alone: the deadline
+/// is shorter than its least critical path (least_critical_path, at mean costs), the test the
+/// analysis bound uses to leave such jobs out. `when`: "" at t = 0, else " from T s (event E)".
+std::optional<std::string> deadline_warning(const Scenario& s, const OperationSpec& op,
+                                            Duration deadline, const CostModel& mean,
+                                            const std::string& when) {
+  const Duration least = least_critical_path(op, mean);
+  if (deadline >= least) return std::nullopt;
+  return Error{s.file, op.deadline.line > 0 ? op.deadline.line : op.line,
+               fmt::format("operation '{}'{}: deadline {:.3f} ms is shorter than its least "
+                           "critical path {:.3f} ms (every node at its least mean cost), so no "
+                           "job can meet it",
+                           op.name, when, to_ms(deadline), to_ms(least))}
+      .to_string();
+}
+
+/// Prints one operation snapshot and its node table; appends the deadline warning, if any, to
+/// `warnings` (and prints it on stderr).
+void print_operation(const Scenario& s, const OperationSpec& op, int index, const CostModel& costs,
+                     const CostModel& mean, const std::string& when,
+                     std::vector<std::string>& warnings) {
   const auto coarse =
       refine(std::make_shared<OperationSpec>(op), index, costs,
              {GraphMode::Coarse, DeadlineMode::Proportional, s.scheduler.level_cost});
@@ -40,12 +64,16 @@ void print_operation(const Scenario& s, const OperationSpec& op, int index,
     trigger = "at start";
   if (op.release_count) trigger += fmt::format(", {} release(s)", *op.release_count);
   fmt::print(
-      "  operation {}: {}; deadline {:.3f} ms; coarse critical path {:.3f} ms; max_inflight {}\n",
-      op.name, trigger, to_ms(coarse->deadline), to_ms(coarse->critical_path), op.max_inflight);
+      "  operation {}: {}; deadline {:.3f} ms; coarse critical path {:.3f} ms; criticality {}; "
+      "max_inflight {}\n",
+      op.name, trigger, to_ms(coarse->deadline), to_ms(coarse->critical_path), op.criticality,
+      op.max_inflight);
+  if (auto w = deadline_warning(s, op, coarse->deadline, mean, when)) {
+    std::cerr << "red: warning: " << *w << '\n';
+    warnings.push_back(std::move(*w));
+  }
   if (op.depends_on >= 0)
     fmt::print("    depends on the newest job of {}\n", s.operation_name(op.depends_on));
-  fmt::print("    {:<10} {:<24} {:>7} {:>12} {:>7} {:>12}\n", "node", "runs", "coarse H",
-             "coarse d ms", "fine H", "fine d ms");
   // Each node's height in the coarse graph and of its head (not encoder) in the fine one,
   // in one pass over the units (the last unit of a node wins, as the listing always did).
   std::vector<int> coarse_height(op.nodes.size(), 0);
@@ -57,15 +85,30 @@ void print_operation(const Scenario& s, const OperationSpec& op, int index,
     if (u.node >= 0 && static_cast<std::size_t>(u.node) < op.nodes.size() &&
         u.kind != UnitKind::Encoder)
       fine_height[static_cast<std::size_t>(u.node)] = u.height;
+  // Every column is as wide as its widest cell, heading included (a plain node's "mean / p99"
+  // cost, a long node name, "coarse H"), so each number stays under its heading; the name and
+  // what it runs are left-aligned, the numbers right-aligned.
+  std::vector<std::array<std::string, 6>> rows{
+      {"node", "runs", "coarse H", "coarse d ms", "fine H", "fine d ms"}};
   for (std::size_t v = 0; v < op.nodes.size(); ++v) {
     const int ch = coarse_height[v];
     const int fh = fine_height[v];
-    fmt::print("    {:<10} {:<24} {:>7} {:>12.3f} {:>7} {:>12.3f}{}\n", op.nodes[v].name,
-               describe_node(s, op.nodes[v]), ch,
-               to_ms(coarse->static_offset[static_cast<std::size_t>(ch)]), fh,
-               to_ms(fine->static_offset[static_cast<std::size_t>(fh)]),
-               op.nodes[v].deadline
-                   ? fmt::format("  (override {:.3f} ms)", to_ms(*op.nodes[v].deadline))
+    rows.push_back(
+        {op.nodes[v].name, describe_node(s, op.nodes[v]), std::to_string(ch),
+         fmt::format("{:.3f}", to_ms(coarse->static_offset[static_cast<std::size_t>(ch)])),
+         std::to_string(fh),
+         fmt::format("{:.3f}", to_ms(fine->static_offset[static_cast<std::size_t>(fh)]))});
+  }
+  std::array<std::size_t, 6> width{10, 24, 7, 12, 7, 12};  // the least, as the table always was
+  for (const auto& row : rows)
+    for (std::size_t c = 0; c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    const auto& row = rows[r];
+    const NodeSpec* node = r > 0 ? &op.nodes[r - 1] : nullptr;
+    fmt::print("    {:<{}} {:<{}} {:>{}} {:>{}} {:>{}} {:>{}}{}\n", row[0], width[0], row[1],
+               width[1], row[2], width[2], row[3], width[3], row[4], width[4], row[5], width[5],
+               node && node->deadline
+                   ? fmt::format("  (override {:.3f} ms)", to_ms(*node->deadline))
                    : "");
   }
   for (const EdgeSpec& e : op.edges)
@@ -127,6 +170,7 @@ void register_validate(CLI::App& app, int& exit_code) {
     for (const std::string& w : warnings) std::cerr << "red: warning: " << w << '\n';
     warn_suspect_profile(*p, args->profile.value_or(s->profile));
     const CostModel costs{&p.value(), &s->model, s->scheduler.estimate};
+    const CostModel mean{&p.value(), &s->model, EstimateKind::Mean};
     fmt::print("scenario {} ({}): {:g} s, warm-up {:g} s, seed {}, {} lane(s)\n", s->name, s->file,
                to_s(s->duration), to_s(s->warmup), s->seed, s->device.lanes);
     fmt::print("profile: {} ({}); estimate {}; gamma {:.1f} ms; max batch {}\n", p->source,
@@ -145,13 +189,14 @@ void register_validate(CLI::App& app, int& exit_code) {
     fmt::print("operations at t = 0:\n");
     for (int i = 0; i < s->operation_count(); ++i)
       if (s->initial[static_cast<std::size_t>(i)])
-        print_operation(*s, *s->initial[static_cast<std::size_t>(i)], i, costs);
+        print_operation(*s, *s->initial[static_cast<std::size_t>(i)], i, costs, mean, "", warnings);
     for (std::size_t e = 0; e < s->events.size(); ++e) {
       const EventSpec& ev = s->events[e];
       fmt::print("event {} at {:g} s: {}\n", e, to_s(ev.at), ev.kind);
       for (const auto& [op, spec] : ev.changes) {
         if (spec)
-          print_operation(*s, *spec, op, costs);
+          print_operation(*s, *spec, op, costs, mean,
+                          fmt::format(" from {:g} s (event {})", to_s(ev.at), e), warnings);
         else
           fmt::print("  operation {} leaves the workload\n", s->operation_name(op));
       }

@@ -67,6 +67,7 @@ struct EdgeSpec {
 struct DeadlineSpec {
   Duration fixed{0};                      ///< used when critical_path_x is not set
   std::optional<double> critical_path_x;  ///< multiple of the coarse critical path (profile)
+  int line = 0;  ///< where the file gives it (`deadline_ms:`, or set_deadline's); 0: built in code
 };
 
 /// A DAG task τ (docs/DESIGN.md, "Task model"). One snapshot of its definition; events produce new
