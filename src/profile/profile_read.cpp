@@ -124,7 +124,7 @@ Quality parse_quality(const json& q) {
     if (!m.is_object()) bad("quality.machine: must be an object");
     only_keys(m,
               {"online_cpus", "threads", "load1_before", "load1_after", "other_busy_cpus",
-               "process_cpu_s", "wall_s"},
+               "process_cpu_s", "wall_s", "host"},
               "quality.machine");
     out.has_machine = true;
     const auto count = [&m](const char* key) {
@@ -142,6 +142,7 @@ Quality parse_quality(const json& q) {
     figure("load1_after", out.machine.load1_after);
     figure("process_cpu_s", out.machine.process_cpu_s);
     figure("wall_s", out.machine.wall_s);
+    if (m.contains("host")) out.machine.host = str(m["host"], "quality.machine.host");
     if (m.contains("other_busy_cpus"))
       out.machine.other_busy_cpus =
           signed_num(m["other_busy_cpus"], "quality.machine.other_busy_cpus");

@@ -45,6 +45,7 @@ ordered quality_json(const Quality& q) {
                            {"other_busy_cpus", m.other_busy_cpus},
                            {"process_cpu_s", m.process_cpu_s},
                            {"wall_s", m.wall_s}};
+    if (!m.host.empty()) o["machine"]["host"] = m.host;
   }
   ordered fs = ordered::array();
   for (const QualityFinding& f : q.findings) {

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -156,8 +157,21 @@ int online_cpus() {
   return n > 0 ? static_cast<int>(n) : 1;
 }
 
+std::string this_host() {
+  std::array<char, 256> name{};
+  std::string host = gethostname(name.data(), name.size() - 1) == 0 ? name.data() : "?";
+  std::ifstream in("/proc/cpuinfo");
+  std::string line, model;
+  while (model.empty() && std::getline(in, line))
+    if (line.rfind("model name", 0) == 0 && line.find(':') != std::string::npos)
+      model = line.substr(line.find(':') + 2);
+  return host + ", " + (model.empty() ? "unknown CPU" : model) + ", " +
+         std::to_string(online_cpus()) + " CPUs";
+}
+
 MachineState machine_between(const CpuSnapshot& before, const CpuSnapshot& after, int threads) {
   MachineState m;
+  m.host = this_host();
   m.online_cpus = online_cpus();
   m.threads = threads;
   m.load1_before = before.load1;

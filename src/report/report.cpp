@@ -122,6 +122,19 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
       p["percentiles"] = {{"exact", false},
                           {"exact_up_to", m.percentile_exact_up_to},
                           {"relative_error", *m.percentile_error}};
+    if (m.online_costs || !m.costs.empty()) {
+      nlohmann::ordered_json units = nlohmann::ordered_json::array();
+      for (const UnitCostFigures& f : m.costs)
+        units.push_back({{"unit", f.unit},
+                         {"batch", f.batch},
+                         {"runs", f.runs},
+                         {"profile_mean_ms", to_ms(f.profile_mean)},
+                         {"run_mean_ms", to_ms(f.run_mean)},
+                         {"run_p50_ms", to_ms(f.run_p50)},
+                         {"ratio", std::round(f.ratio() * 1000) / 1000},
+                         {"planned_factor", std::round(f.factor * 1000) / 1000}});
+      p["costs"] = {{"online", m.online_costs}, {"plan_changes", m.plan_changes}, {"units", units}};
+    }
     if (m.decision_p50_us)
       p["decision_us"] = {{"p50", *m.decision_p50_us}, {"p99", opt(m.decision_p99_us)}};
     if (!m.failure_reasons.empty()) {

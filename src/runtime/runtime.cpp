@@ -296,6 +296,11 @@ RuntimeReport Runtime::Impl::run() {
     sched.finish(end);
     report.end = end;
     report.stats = sched.stats();
+    if (const OnlineCosts* oc = sched.online_costs()) {
+      report.online_costs = true;
+      report.costs = oc->figures();
+      report.plan_changes = oc->changes();
+    }
     count_offered();
   }
   if (options.realtime) munlockall();

@@ -141,6 +141,9 @@ int run_node(const NodeArgs& a) {
     print_error(backend.error());
     return kBadInput;
   }
+  if (auto note = profile_origin_note(s, p, real)) {
+    std::cerr << "red: note: " << *note << '\n';
+  }
   auto node = dds::Node::make(s, p, **backend, o);
   if (!node) {
     print_error(node.error());

@@ -290,6 +290,7 @@ Expected<std::unique_ptr<Driver>> make_driver(const RunArgs& a, const Scenario& 
                  "measured here; measure one (red profile) or turn it off (--watchdog-x 0)\n";
   auto b = make_backend(s, p, real);
   if (!b) return b.error();
+  if (auto note = profile_origin_note(s, p, real)) std::cerr << "red: note: " << *note << '\n';
   return std::unique_ptr<Driver>(
       std::make_unique<RealDriver>(s, p, seed, a.backend, std::move(real), std::move(b.value())));
 }

@@ -74,6 +74,58 @@ std::optional<std::string> measured_elsewhere(const Profile& p, const std::strin
   return measured_on;
 }
 
+std::optional<std::string> profile_origin_note(const Scenario& s, const Profile& p,
+                                               const RealRunOptions& o) {
+  if (o.backend != "torch") return std::nullopt;  // the synthetic backend runs the profile
+  std::string why;
+  const std::string here = this_host();
+  if (p.source != "measured") {
+    why = "the built-in profile holds costs of no particular machine";
+  } else if (!p.quality || !p.quality->has_machine || p.quality->machine.host.empty()) {
+    why = "the profile does not say which machine it was measured on";
+  } else if (p.quality->machine.host != here) {
+    why = "the profile was measured on " + p.quality->machine.host + ", this is " + here;
+  } else if (const auto elsewhere = measured_elsewhere(p, o.device)) {
+    why = "the profile was measured on " + *elsewhere + ", this run is on " + o.device;
+  }
+  if (why.empty()) return std::nullopt;
+  std::string model;
+  if (!s.model.manifest.empty()) {
+    model = " --model " + s.model.manifest;
+  } else if (!s.model.input.empty()) {
+    model = " --input ";
+    for (std::size_t i = 0; i < s.model.input.size(); ++i)
+      model += (i > 0 ? "," : "") + std::to_string(s.model.input[i]);
+  }
+  return why +
+         ": its costs may not be this run's (online estimates correct them as the run goes, "
+         "docs/DESIGN.md#online-costs, but the first second plans on them). Measure them: red "
+         "profile" +
+         model + " --device " + o.device +
+         " --out profile.json, then run with --profile profile.json";
+}
+
+std::optional<std::string> costs_differed(const PolicyMetrics& m, const std::string& label) {
+  std::string parts;
+  double worst = 1.0;
+  for (const UnitCostFigures& f : m.costs) {
+    if (f.runs < 10) continue;
+    const double r = f.ratio();
+    if (r <= 0.0 || std::abs(r - 1.0) <= 0.3) continue;
+    if (std::abs(r - 1.0) > std::abs(worst - 1.0)) worst = r;
+    if (!parts.empty()) parts += ", ";
+    parts += fmt::format("{} batch {}: {:.2f}x ({} runs)", f.unit, f.batch, r, f.runs);
+  }
+  if (parts.empty()) return std::nullopt;
+  return fmt::format(
+      "policy {}: in this run units cost up to {:.2f}x the profile's mean ({}){}; summary.json's "
+      "costs has every unit. The profile is not this run's machine or load: red profile --from "
+      "PROFILE --calibrate SCENARIO --out calibrated.json measures it in a run",
+      label, worst, parts,
+      m.online_costs ? fmt::format(", the plan followed ({} change(s))", m.plan_changes)
+                     : " and the plan stayed on the profile (scheduler.online_costs: false)");
+}
+
 Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile& p,
                                                 const RealRunOptions& o) {
   if (auto e = check_device(o)) return *e;
@@ -189,6 +241,11 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   for (const RuntimeSample& x : report.samples) peak = std::max(peak, x.rss_bytes);
   if (peak > 0) run.metrics.peak_rss_mb = std::round(static_cast<double>(peak) / 1e5) / 10;
   run.metrics.releases = releases_of(report);
+  run.metrics.online_costs = report.online_costs;
+  run.metrics.plan_changes = report.plan_changes;
+  run.metrics.costs = report.costs;
+  if (auto w = costs_differed(run.metrics, o.label.empty() ? policy : o.label))
+    std::cerr << "red: " << *w << '\n';
   if (auto w = releases_warning(run.metrics)) std::cerr << "red: warning: " << *w << '\n';
   run.jobs = metrics.take_jobs();
   run.units = metrics.take_units();

@@ -27,6 +27,18 @@ struct Handoffs {
 };
 
 /// Options of a real run.
+struct RealRunOptions;
+
+/// Why a real run's profile may not hold this machine's costs (the built-in one, another
+/// machine's, another device's), with the command that measures them; nullopt when it was
+/// measured here, or on the synthetic backend (it runs the profile). Said before the run.
+std::optional<std::string> profile_origin_note(const Scenario& s, const Profile& p,
+                                               const RealRunOptions& o);
+
+/// Units whose in-run mean differed from the profile's by more than 30 % (10 runs at least),
+/// by how much, and the command that calibrates; nullopt when none. Said after the run.
+std::optional<std::string> costs_differed(const PolicyMetrics& m, const std::string& label);
+
 struct RealRunOptions {
   std::string backend = "torch";  ///< torch or synthetic
   std::string device = "cpu";     ///< LibTorch device (cpu, cuda, cuda:N)

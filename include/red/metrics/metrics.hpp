@@ -15,6 +15,7 @@
 #include "red/metrics/tally.hpp"
 #include "red/scenario/scenario.hpp"
 #include "red/sched/observer.hpp"
+#include "red/sched/online_costs.hpp"
 
 namespace red {
 
@@ -104,6 +105,11 @@ struct PolicyMetrics {
   /// BoundedDistribution keeps exactly): the relative error of each percentile.
   std::optional<double> percentile_error;
   std::int64_t percentile_exact_up_to = 0;  ///< values kept exactly (with percentile_error)
+  /// Online cost estimates (docs/DESIGN.md, "Online costs"): on in this run, the plan's
+  /// changes, and the profile's costs against the run's per unit and batch size.
+  bool online_costs = false;
+  int plan_changes = 0;
+  std::vector<UnitCostFigures> costs;
 };
 
 /// Nearest-rank percentile (p in [0, 1]) of values already sorted ascending; 0 when empty.

@@ -26,7 +26,13 @@ struct MachineState {
   double other_busy_cpus = -1;
   double process_cpu_s = 0;  ///< this process's CPU time while measuring
   double wall_s = 0;         ///< wall time of the measuring
+  /// The machine: "<hostname>, <CPU model>, <online CPUs> CPUs" (this_host()); empty in
+  /// profiles written before it was recorded.
+  std::string host;
 };
+
+/// This machine as MachineState::host names it.
+std::string this_host();
 
 /// One thing wrong with a profile's figures or the machine that measured them.
 struct QualityFinding {

@@ -28,6 +28,7 @@
 #include "red/profile/profile.hpp"
 #include "red/runtime/backend.hpp"
 #include "red/scenario/scenario.hpp"
+#include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
 
 namespace red {
@@ -130,6 +131,11 @@ struct RuntimeReport {
   /// After the caller released what the run kept (Backend::end_run, malloc_trim); set by
   /// the caller, 0 when it did not
   std::int64_t resident_bytes_released = 0;
+  /// Online cost estimates (docs/DESIGN.md, "Online costs"): the profile's costs against the
+  /// run's, per unit and batch size, and how often the plan changed; empty when disabled.
+  std::vector<UnitCostFigures> costs;
+  int plan_changes = 0;
+  bool online_costs = false;
 };
 
 class Runtime {
