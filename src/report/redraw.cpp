@@ -280,6 +280,7 @@ PageReport write_report_page(const std::string& dir, const PageInput& in, const 
       phases.push_back(run.phases != nullptr ? *run.phases : std::vector<PhaseMetrics>{});
     }
     page.sections.push_back(why_section(s, names, phases));
+    if (auto c = costs_section(metrics)) page.sections.push_back(std::move(*c));
     page.sections.push_back(phase_section(s, names, phases));
     if (auto e = write_file(dir, "index.html", render_html(page)))
       r.errors.push_back(*e);
@@ -371,6 +372,25 @@ PolicyMetrics metrics_from(const ojson& p) {
     x.late_p99_ms = f.at("released_late_ms").at("p99").get<double>();
     x.late_max_ms = f.at("released_late_ms").at("max").get<double>();
     m.releases = x;
+  }
+  if (p.contains("costs")) {  // a real run's, or one that followed --costs (docs/REPORTS.md)
+    const auto& c = p.at("costs");
+    m.online_costs = c.at("online").get<bool>();
+    m.plan_changes = c.at("plan_changes").get<int>();
+    const auto ms = [](const ojson& v) {
+      return Duration{static_cast<std::int64_t>(std::llround(v.get<double>() * 1e6))};
+    };
+    for (const auto& u : c.at("units")) {
+      UnitCostFigures f;
+      f.unit = u.at("unit").get<std::string>();
+      f.batch = u.at("batch").get<int>();
+      f.runs = u.at("runs").get<int>();
+      f.profile_mean = ms(u.at("profile_mean_ms"));
+      f.run_mean = ms(u.at("run_mean_ms"));
+      f.run_p50 = ms(u.at("run_p50_ms"));
+      f.factor = u.at("planned_factor").get<double>();
+      m.costs.push_back(f);
+    }
   }
   return m;
 }

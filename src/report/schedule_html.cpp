@@ -118,6 +118,36 @@ HtmlSection phase_section(const Scenario& s, const std::vector<std::string>& pol
   return sec;
 }
 
+std::optional<HtmlSection> costs_section(const std::vector<PolicyMetrics>& runs) {
+  HtmlSection sec;
+  sec.id = "costs";
+  sec.heading = "Costs: the profile against this run";
+  sec.paragraphs = {
+      "What each unit cost in this run against the profile the scheduler was given, per batch "
+      "size that ran (summary.json's costs). A ratio far from 1 means the profile is not this "
+      "machine's, or not under this load: measure one here (red profile), or calibrate it in a "
+      "run (red profile --from PROFILE --calibrate SCENARIO). With online estimates "
+      "(scheduler.online_costs, on by default in real runs) the plan followed the run's costs: "
+      "the planned factor is what the profile's figures were multiplied by at the end."};
+  for (const PolicyMetrics& m : runs) {
+    if (m.costs.empty()) continue;
+    HtmlTable t;
+    t.caption = fmt::format("{}: online estimates {}, the plan changed {} time(s)", m.name,
+                            m.online_costs ? "on" : "off", m.plan_changes);
+    t.header = {"unit",        "batch", "runs",          "profile mean ms",
+                "run mean ms", "ratio", "planned factor"};
+    for (const UnitCostFigures& f : m.costs) {
+      if (f.runs == 0) continue;
+      t.rows.push_back({f.unit, std::to_string(f.batch), std::to_string(f.runs),
+                        num(to_ms(f.profile_mean), 2), num(to_ms(f.run_mean), 2), num(f.ratio(), 2),
+                        num(f.factor, 2)});
+    }
+    if (!t.rows.empty()) sec.tables.push_back(std::move(t));
+  }
+  if (sec.tables.empty()) return std::nullopt;
+  return sec;
+}
+
 HtmlSection why_section(const Scenario& s, const std::vector<std::string>& policies,
                         const std::vector<std::vector<PhaseMetrics>>& phases) {
   HtmlSection sec;

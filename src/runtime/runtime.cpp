@@ -297,7 +297,7 @@ RuntimeReport Runtime::Impl::run() {
     report.end = end;
     report.stats = sched.stats();
     if (const OnlineCosts* oc = sched.online_costs()) {
-      report.online_costs = true;
+      report.online_costs = oc->options().follow;
       report.costs = oc->figures();
       report.plan_changes = oc->changes();
     }

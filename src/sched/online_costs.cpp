@@ -49,6 +49,10 @@ OnlineCosts::OnlineCosts(const Profile& base, const ModelSpec& model, OnlineCost
   };
   add("encoder");
   for (const std::string& h : model_.heads) add("head/" + h);
+  planned_ = units_.size();
+  // Figures only: a coarse unit (encoder and head back to back, the coarse graphs of edf and
+  // fifo) against the profile's own figure of it.
+  for (const std::string& h : model_.heads) add("coarse/" + h);
 }
 
 void OnlineCosts::record(int unit, int batch, double ratio, Duration took, bool timed,
@@ -73,7 +77,7 @@ void OnlineCosts::record(int unit, int batch, double ratio, Duration took, bool 
 }
 
 void OnlineCosts::observe(const Dispatch& d, Duration took, TimePoint now) {
-  if (!opt_.enabled || d.members.empty() || took <= Duration{0}) return;
+  if (d.members.empty() || took <= Duration{0}) return;
   const auto p50 = [&](int unit, int batch) {
     const UnitProfile* p = units_[static_cast<std::size_t>(unit)].prof;
     return p != nullptr ? p->at(batch).p50 : Duration{0};
@@ -117,6 +121,14 @@ void OnlineCosts::observe(const Dispatch& d, Duration took, TimePoint now) {
       if (expect <= Duration{0}) return;
       const double r = static_cast<double>(took.count()) / static_cast<double>(expect.count());
       for (int unit : parts) record(unit, 1, r, took, false, now);
+      if (d.kind == UnitKind::Coarse && d.head >= 0 &&
+          d.head < static_cast<int>(model_.heads.size())) {
+        const int c = static_cast<int>(planned_) + d.head;
+        const Duration own = p50(c, 1);
+        if (own > Duration{0})
+          record(c, 1, static_cast<double>(took.count()) / static_cast<double>(own.count()), took,
+                 true, now);
+      }
       return;
     }
     case UnitKind::Plain:
@@ -125,13 +137,13 @@ void OnlineCosts::observe(const Dispatch& d, Duration took, TimePoint now) {
 }
 
 bool OnlineCosts::update(TimePoint now) {
-  if (!opt_.enabled || !fresh_) return false;
+  if (!opt_.follow || !fresh_) return false;
   if (last_update_ != kNever && now - last_update_ < opt_.interval) return false;
   last_update_ = now;
   fresh_ = false;
   bool moved = false;
   std::vector<std::vector<double>> next(units_.size());
-  for (std::size_t i = 0; i < units_.size(); ++i) {
+  for (std::size_t i = 0; i < planned_; ++i) {
     Unit& u = units_[i];
     next[i] = u.applied;
     if (u.ring.size() < static_cast<std::size_t>(opt_.min_samples)) continue;
@@ -175,7 +187,7 @@ bool OnlineCosts::update(TimePoint now) {
     plan_.calibration.reset();  // the scheduler reads the units only
     changed_ = true;
   }
-  for (std::size_t i = 0; i < units_.size(); ++i) {
+  for (std::size_t i = 0; i < planned_; ++i) {
     Unit& u = units_[i];
     if (u.prof == nullptr) continue;
     u.applied = next[i];

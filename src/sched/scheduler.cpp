@@ -28,7 +28,7 @@ SchedulerConfig SchedulerConfig::from(const Scenario& s) {
   c.warmup = s.warmup;
   if (s.device.sync_cost) c.sync_cost = *s.device.sync_cost;
   if (s.device.queue_depth) c.queue_depth = *s.device.queue_depth;
-  c.online_costs.enabled = s.scheduler.online_costs.value_or(true);
+  c.online_costs.follow = s.scheduler.online_costs.value_or(true);
   return c;
 }
 
@@ -49,7 +49,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   ropt = RefineOptions{opt.graph, opt.deadlines, s.config_.level_cost};
   given = CostModel{&p, &sc.model, s.config_.estimate};
   price(p);
-  if (s.config_.online_costs.enabled) online.emplace(p, sc.model, s.config_.online_costs);
+  if (s.config_.measure_costs) online.emplace(p, sc.model, s.config_.online_costs);
   sensors.resize(sc.sensors.size());
   for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
   open_enc.resize(sc.sensors.size());

@@ -37,7 +37,7 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
   run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   run.metrics = metrics.summarize(policy, run.result.end);
   if (const OnlineCosts* oc = sim.scheduler().online_costs()) {
-    run.metrics.online_costs = true;
+    run.metrics.online_costs = oc->options().follow;
     run.metrics.plan_changes = oc->changes();
     run.metrics.costs = oc->figures();
   }

@@ -48,7 +48,7 @@ Simulator::Simulator(const Scenario& scenario, const Profile& profile,
                    // estimates could only chase the draws' noise, and stay off unless the
                    // scenario asks.
                    if (!scenario.scheduler.online_costs && options.costs == nullptr)
-                     c.online_costs.enabled = false;
+                     c.measure_costs = false;
                    return c;
                  }()),
       sampler_(scenario, options.costs != nullptr ? *options.costs : profile, options.seed,

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../support/cli.hpp"
+#include "red/profile/profile.hpp"
 
 namespace red {
 namespace {
@@ -273,6 +274,47 @@ TEST_F(ReportCli, WhyTellsOneJobsStory) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("no such job"), std::string::npos) << r.err;
   EXPECT_EQ(red("report " + quote(out.string()) + " --why " + job + " --policy lst").code, 2);
+}
+
+// Issue 53: a run whose units cost twice the profile's (the simulator drawing from another
+// profile, --costs) follows them with online estimates, and says so: summary.json's costs
+// per unit and batch size, index.html's costs table, both kept by `red report DIR`.
+TEST_F(ReportCli, TheCostsARunMetAreSavedShownAndRedrawn) {
+  Profile slow = default_profile();
+  for (auto& [name, u] : slow.units)
+    for (LatencyStats& st : u.by_batch)
+      for (Duration* d : {&st.min, &st.mean, &st.p50, &st.p95, &st.p99, &st.max}) *d = *d * 2;
+  const fs::path costs = dir_ / "slow.json";
+  std::ofstream(costs) << profile_to_json(slow);
+  const fs::path out = compare("costs", "--costs " + quote(costs.string()));
+  const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+  for (const auto& p : summary.at("policies")) {
+    ASSERT_TRUE(p.contains("costs")) << p.at("name");
+    const auto& c = p.at("costs");
+    EXPECT_TRUE(c.at("online").get<bool>());
+    EXPECT_GE(c.at("plan_changes").get<int>(), 1) << p.at("name");
+    // red runs the encoder as its own unit; edf and fifo run coarse units (encoder and
+    // head back to back), measured against the profile's coarse figures.
+    int measured = 0;
+    for (const auto& u : c.at("units")) {
+      const std::string unit = u.at("unit").get<std::string>();
+      if (u.at("runs").get<int>() < 10 || (unit != "encoder" && unit.rfind("coarse/", 0) != 0))
+        continue;
+      ++measured;
+      EXPECT_NEAR(u.at("ratio").get<double>(), 2.0, 0.25) << p.at("name") << " " << unit;
+    }
+    EXPECT_GE(measured, 1) << p.at("name");
+    // The plan follows: the encoder's figures doubled.
+    for (const auto& u : c.at("units"))
+      if (u.at("unit") == "encoder" && u.at("batch") == 1) {
+        EXPECT_NEAR(u.at("planned_factor").get<double>(), 2.0, 0.25) << p.at("name");
+      }
+  }
+  const std::string page = read_text(out / "index.html");
+  EXPECT_NE(page.find("Costs: the profile against this run"), std::string::npos);
+  const Result r = red("report " + quote(out.string()));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(read_text(out / "index.html"), page);
 }
 
 }  // namespace

@@ -124,11 +124,11 @@ TEST(OnlineCosts, AStrayOutlierDoesNotMoveThePlan) {
   EXPECT_EQ(oc.changes(), 0);
 }
 
-TEST(OnlineCosts, DisabledNeverMoves) {
+TEST(OnlineCosts, NotFollowedNeverMovesButMeasures) {
   const Profile base = default_profile();
   const ModelSpec model = four_heads();
   OnlineCostOptions o;
-  o.enabled = false;
+  o.follow = false;
   OnlineCosts oc(base, model, o);
   TimePoint now{0};
   for (int i = 0; i < 100; ++i) {
@@ -136,7 +136,12 @@ TEST(OnlineCosts, DisabledNeverMoves) {
     oc.observe(encoder_run(1), base.find("encoder")->at(1).p50 * 3, now);
     EXPECT_FALSE(oc.update(now));
   }
-  EXPECT_TRUE(oc.figures().empty());
+  ASSERT_FALSE(oc.figures().empty());
+  EXPECT_NEAR(oc.figures().front().ratio(),
+              3.0 * static_cast<double>(base.find("encoder")->at(1).p50.count()) /
+                  static_cast<double>(base.find("encoder")->at(1).mean.count()),
+              0.01);
+  EXPECT_EQ(oc.figures().front().factor, 1.0);
 }
 
 // The case in the simulator: the scheduler is given the built-in profile while the

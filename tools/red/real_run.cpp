@@ -241,7 +241,7 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   for (const RuntimeSample& x : report.samples) peak = std::max(peak, x.rss_bytes);
   if (peak > 0) run.metrics.peak_rss_mb = std::round(static_cast<double>(peak) / 1e5) / 10;
   run.metrics.releases = releases_of(report);
-  run.metrics.online_costs = report.online_costs;
+  run.metrics.online_costs = report.online_costs;  // followed (measured: costs non-empty)
   run.metrics.plan_changes = report.plan_changes;
   run.metrics.costs = report.costs;
   if (auto w = costs_differed(run.metrics, o.label.empty() ? policy : o.label))

@@ -8,10 +8,12 @@
 ///     page.sections.push_back(phase_section(s, names, phases));
 ///     page.sections.push_back(t->section);
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "red/core/expected.hpp"
+#include "red/metrics/metrics.hpp"
 #include "red/metrics/phases.hpp"
 #include "red/report/html.hpp"
 #include "red/report/timeline.hpp"
@@ -40,6 +42,12 @@ HtmlSection phase_section(const Scenario& s, const std::vector<std::string>& pol
 /// The index.html section "Why jobs missed": per policy, one row per phase and operation with
 /// a job not met: how many, the top cause (PhaseFigures::causes) and its share, the next
 /// causes. `phases[i]` belongs to `policies[i]`.
+/// index.html's "Costs: the profile against this run": per policy, each unit and batch size
+/// that ran, the profile's mean against the run's, and the factor the plan used
+/// (PolicyMetrics::costs); nullopt when no run measured its costs (the simulator's, unless
+/// it drew costs from another profile).
+std::optional<HtmlSection> costs_section(const std::vector<PolicyMetrics>& runs);
+
 HtmlSection why_section(const Scenario& s, const std::vector<std::string>& policies,
                         const std::vector<std::vector<PhaseMetrics>>& phases);
 

@@ -30,7 +30,9 @@ namespace red {
 
 /// How the estimates follow the run.
 struct OnlineCostOptions {
-  bool enabled = true;  ///< false: plan on the profile all run long
+  /// Plans follow the estimates. false: plans rest on the profile all run long, and the
+  /// run's costs are only measured (figures()).
+  bool follow = true;
   /// Ratios newer than this count (at least `min_samples` of the newest, whatever their age).
   Duration window{std::chrono::seconds{1}};
   int min_samples = 10;  ///< a unit with fewer does not move; a batch size with fewer
@@ -67,7 +69,8 @@ class OnlineCosts {
 
   /// A dispatch completed at `now` after running `took`. Encoder and head runs count at their
   /// batch size; a coarse or mono unit (several parts) counts its ratio for each of its model
-  /// parts at batch 1; plain-only units are not the model's and do not count.
+  /// parts at batch 1 (a coarse one in the figures as `coarse/<head>` too); plain-only units
+  /// are not the model's and do not count.
   void observe(const Dispatch& d, Duration took, TimePoint now);
   /// Takes the estimates at `now` (at most once per interval): true when the plan changed.
   bool update(TimePoint now);
@@ -104,7 +107,10 @@ class OnlineCosts {
   const Profile& base_;
   const ModelSpec& model_;
   OnlineCostOptions opt_;
-  std::vector<Unit> units_;  // 0: the encoder, 1 + h: head h
+  // 0: the encoder, 1 + h: head h (planned_ of them, what plans read), then coarse/<h>
+  // (figures only).
+  std::vector<Unit> units_;
+  std::size_t planned_ = 0;
   Profile plan_;
   bool changed_ = false;
   bool fresh_ = false;  // samples since the last update

@@ -65,6 +65,9 @@ struct SchedulerConfig {
   /// Online cost estimates (docs/DESIGN.md, "Online costs"): plans follow what units cost in
   /// this run. Disabled: plans rest on the profile all run long.
   OnlineCostOptions online_costs;
+  /// Measure what units cost in this run (Scheduler::online_costs()); false: neither measured
+  /// nor followed (the simulator, drawing its costs from the profile it plans with).
+  bool measure_costs = true;
 
   /// The settings a scenario gives.
   static SchedulerConfig from(const Scenario& s);
@@ -149,7 +152,7 @@ class Scheduler {
   [[nodiscard]] const RefinedGraph* graph(int operation) const;
   /// The dispatch running on a lane (the oldest it holds), or null.
   [[nodiscard]] const Dispatch* running(int lane) const;
-  /// The online cost estimates, or null when disabled (SchedulerConfig::online_costs).
+  /// The online cost estimates, or null when not measured (SchedulerConfig::measure_costs).
   [[nodiscard]] const OnlineCosts* online_costs() const noexcept;
   /// The profile the scheduler plans with now: the given one, or the online estimates' one.
   [[nodiscard]] const Profile& plan_profile() const noexcept;
