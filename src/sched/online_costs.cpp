@@ -72,8 +72,11 @@ void OnlineCosts::record(int unit, int batch, double ratio, Duration took, bool 
   ++u.runs[b - 1];
   u.total[b - 1] += took;
   auto& k = u.kept[b - 1];
-  if (k.size() >= kKeep) k.erase(k.begin());
-  k.push_back(static_cast<float>(to_ms(took)));
+  const auto ms = static_cast<float>(to_ms(took));
+  if (k.size() < kKeep)
+    k.push_back(ms);
+  else
+    k[static_cast<std::size_t>(u.runs[b - 1] - 1) % kKeep] = ms;  // the oldest kept
 }
 
 void OnlineCosts::observe(const Dispatch& d, Duration took, TimePoint now) {

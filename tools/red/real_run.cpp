@@ -79,7 +79,7 @@ std::optional<std::string> profile_origin_note(const Scenario& s, const Profile&
   if (o.backend != "torch") return std::nullopt;  // the synthetic backend runs the profile
   std::string why;
   const std::string here = this_host();
-  if (p.source != "measured") {
+  if (p.source == "builtin-default") {
     why = "the built-in profile holds costs of no particular machine";
   } else if (!p.quality || !p.quality->has_machine || p.quality->machine.host.empty()) {
     why = "the profile does not say which machine it was measured on";

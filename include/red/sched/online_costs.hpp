@@ -95,7 +95,7 @@ class OnlineCosts {
     std::size_t next = 0;
     std::vector<int> runs;                 // per batch size (index b - 1)
     std::vector<Duration> total;           // per batch size: the runs' time
-    std::vector<std::vector<float>> kept;  // per batch size: the last kKeep times (ms)
+    std::vector<std::vector<float>> kept;  // per batch size: the last kKeep times (ms), a ring
     std::vector<double> applied;           // per batch size: the factor in plan_
   };
   static constexpr std::size_t kRing = 64;
