@@ -104,26 +104,19 @@ void OnlineCosts::observe(const Dispatch& d, Duration took, TimePoint now) {
       const RefinedGraph* g = d.members.front().graph;
       if (g == nullptr) return;
       const RefinedUnit& ru = g->units[static_cast<std::size_t>(d.members.front().unit)];
+      // Two passes over the parts (no list of them: a decision allocates nothing).
       Duration expect{0};
-      std::vector<int> parts;
       for_each_part(*g, ru, [&](const UnitPart& p) {
-        switch (p.kind) {
-          case UnitPart::Kind::Encoder:
-            expect += p50(0, 1);
-            parts.push_back(0);
-            break;
-          case UnitPart::Kind::Head:
-            expect += p50(1 + p.head, 1);
-            parts.push_back(1 + p.head);
-            break;
-          case UnitPart::Kind::Plain:
-            if (p.cost != nullptr) expect += p.cost->mean;
-            break;
-        }
+        if (p.kind == UnitPart::Kind::Encoder) expect += p50(0, 1);
+        if (p.kind == UnitPart::Kind::Head) expect += p50(1 + p.head, 1);
+        if (p.kind == UnitPart::Kind::Plain && p.cost != nullptr) expect += p.cost->mean;
       });
       if (expect <= Duration{0}) return;
       const double r = static_cast<double>(took.count()) / static_cast<double>(expect.count());
-      for (int unit : parts) record(unit, 1, r, took, false, now);
+      for_each_part(*g, ru, [&](const UnitPart& p) {
+        if (p.kind == UnitPart::Kind::Encoder) record(0, 1, r, took, false, now);
+        if (p.kind == UnitPart::Kind::Head) record(1 + p.head, 1, r, took, false, now);
+      });
       if (d.kind == UnitKind::Coarse && d.head >= 0 &&
           d.head < static_cast<int>(model_.heads.size())) {
         const int c = static_cast<int>(planned_) + d.head;
@@ -145,30 +138,33 @@ bool OnlineCosts::update(TimePoint now) {
   last_update_ = now;
   fresh_ = false;
   bool moved = false;
-  std::vector<std::vector<double>> next(units_.size());
   for (std::size_t i = 0; i < planned_; ++i) {
     Unit& u = units_[i];
-    next[i] = u.applied;
-    if (u.ring.size() < static_cast<std::size_t>(opt_.min_samples)) continue;
-    // The samples that count: those within the window, or the newest min_samples.
-    std::vector<Sample> recent(u.ring.begin(), u.ring.end());
-    std::sort(recent.begin(), recent.end(),
-              [](const Sample& a, const Sample& b) { return a.at > b.at; });
+    u.next_applied = u.applied;
+    const std::size_t size = u.ring.size();
+    if (size < static_cast<std::size_t>(opt_.min_samples)) continue;
+    // The samples that count, newest first (the ring is in time order from `next`): those
+    // within the window, or the newest min_samples, read in place. Only on evidence: where
+    // the plan is right a run is as likely to take more than its median as less. A sign test
+    // over them (z of the count above the planned median) keeps a wide but right profile from
+    // moving the plan on a few slow runs; most updates end there, allocating nothing.
     std::size_t n = 0;
-    while (n < recent.size() &&
-           (n < static_cast<std::size_t>(opt_.min_samples) || now - recent[n].at <= opt_.window))
-      ++n;
-    recent.resize(n);
-    // Only on evidence: where the plan is right a run is as likely to take more than its
-    // median as less. A sign test over the recent runs (z of the count above the planned
-    // median) keeps a wide but right profile from moving the plan on a few slow runs.
     int above = 0;
-    for (const Sample& s : recent)
+    for (std::size_t idx = (u.next == 0 ? size : u.next) - 1; n < size;
+         idx = idx == 0 ? size - 1 : idx - 1) {
+      const Sample& s = u.ring[idx];
+      if (n >= static_cast<std::size_t>(opt_.min_samples) && now - s.at > opt_.window) break;
       above += s.ratio > u.applied[static_cast<std::size_t>(s.batch - 1)] ? 1 : 0;
+      ++n;
+    }
     const double half = static_cast<double>(n) / 2.0;
     const double z =
         (static_cast<double>(above) - half) / (0.5 * std::sqrt(static_cast<double>(n)));
     if (std::abs(z) < opt_.evidence) continue;
+    std::vector<Sample> recent;
+    for (std::size_t k = 0, idx = (u.next == 0 ? size : u.next) - 1; k < n;
+         ++k, idx = idx == 0 ? size - 1 : idx - 1)
+      recent.push_back(u.ring[idx]);
     scratch_.clear();
     for (const Sample& s : recent) scratch_.push_back(s.ratio);
     const double unit_factor = median_of(scratch_);
@@ -179,7 +175,7 @@ bool OnlineCosts::update(TimePoint now) {
       const double f =
           static_cast<int>(scratch_.size()) >= opt_.min_samples ? median_of(scratch_) : unit_factor;
       if (std::abs(f / u.applied[b] - 1.0) > opt_.threshold) {
-        next[i][b] = f;
+        u.next_applied[b] = f;
         moved = true;
       }
     }
@@ -193,7 +189,7 @@ bool OnlineCosts::update(TimePoint now) {
   for (std::size_t i = 0; i < planned_; ++i) {
     Unit& u = units_[i];
     if (u.prof == nullptr) continue;
-    u.applied = next[i];
+    u.applied = u.next_applied;
     UnitProfile& p = plan_.units.at(u.name);
     for (std::size_t b = 0; b < p.by_batch.size() && b < u.applied.size(); ++b)
       p.by_batch[b] = scaled(u.prof->by_batch[b], u.applied[b]);

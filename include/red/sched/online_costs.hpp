@@ -97,6 +97,7 @@ class OnlineCosts {
     std::vector<Duration> total;           // per batch size: the runs' time
     std::vector<std::vector<float>> kept;  // per batch size: the last kKeep times (ms), a ring
     std::vector<double> applied;           // per batch size: the factor in plan_
+    std::vector<double> next_applied;      // update()'s scratch
   };
   static constexpr std::size_t kRing = 64;
   static constexpr std::size_t kKeep = 256;
