@@ -391,6 +391,33 @@ TEST_F(Cli, RealComparePredictsFromTheProfileAndFromTheRunsOwnCosts) {
     }
   }
 
+  // Issue 53: a real run measures what its units cost (the synthetic backend spins the
+  // profile's draws: near the profile), and every job it did not meet has a cause.
+  for (const json& p : summary.at("policies")) {
+    SCOPED_TRACE(p.at("name").get<std::string>());
+    ASSERT_TRUE(p.contains("costs"));
+    EXPECT_TRUE(p.at("costs").at("online").get<bool>());
+    int measured = 0;
+    for (const json& u : p.at("costs").at("units")) measured += u.at("runs").get<int>();
+    EXPECT_GT(measured, 0);
+  }
+  const std::vector<std::string> rows = lines_of(read_text(out / "jobs.csv"));
+  ASSERT_GT(rows.size(), 1u);
+  const auto column = [&](const std::string& name) {
+    const std::vector<std::string> header = split_csv(rows.front());
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  const std::size_t outcome = column("outcome"), cause = column("cause");
+  ASSERT_LT(cause, split_csv(rows.front()).size()) << rows.front();
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    if (rows[i].empty()) continue;
+    const std::vector<std::string> f = split_csv(rows[i]);
+    ASSERT_GT(f.size(), std::max(outcome, cause)) << rows[i];
+    if (f[outcome] != "met" && f[outcome] != "unfinished") {
+      EXPECT_FALSE(f[cause].empty()) << rows[i];
+    }
+  }
+
   // index.html shows both predictions after the comparison.
   const std::string html = read_text(out / "index.html");
   EXPECT_TRUE(contains(html, "Simulator&#39;s prediction of these runs") ||
