@@ -4,7 +4,8 @@
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
 // ready_set.cpp (the ready set's groups), dispatch.cpp (ranking, pick), merge.cpp (merge
 // waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
-// (the demand test, admission, drops' estimates), queue.cpp (queued lanes).
+// (the demand test, admission, drops' estimates), queue.cpp (queued lanes); online_costs.cpp
+// (what units cost in this run, and the profile plans are made on: use_costs()).
 
 #include "red/sched/scheduler.hpp"
 
