@@ -24,6 +24,14 @@
 
 namespace red {
 
+LatencyStats LatencyStats::scaled(double f) const noexcept {
+  LatencyStats o = *this;
+  for (Duration LatencyStats::*m : {&LatencyStats::min, &LatencyStats::mean, &LatencyStats::p50,
+                                    &LatencyStats::p95, &LatencyStats::p99, &LatencyStats::max})
+    o.*m = scaled_by(this->*m, f);
+  return o;
+}
+
 Duration LatencyStats::estimate(EstimateKind k) const noexcept {
   switch (k) {
     case EstimateKind::Mean:

@@ -20,17 +20,6 @@ double median_of(std::vector<float>& v) {
   return (static_cast<double>(lower) + static_cast<double>(*mid)) / 2.0;
 }
 
-LatencyStats scaled(const LatencyStats& s, double f) {
-  LatencyStats o = s;
-  o.min = scaled_by(s.min, f);
-  o.mean = scaled_by(s.mean, f);
-  o.p50 = scaled_by(s.p50, f);
-  o.p95 = scaled_by(s.p95, f);
-  o.p99 = scaled_by(s.p99, f);
-  o.max = scaled_by(s.max, f);
-  return o;
-}
-
 }  // namespace
 
 OnlineCosts::OnlineCosts(const Profile& base, const ModelSpec& model, OnlineCostOptions opt)
@@ -192,7 +181,7 @@ bool OnlineCosts::update(TimePoint now) {
     u.applied = u.next_applied;
     UnitProfile& p = plan_.units.at(u.name);
     for (std::size_t b = 0; b < p.by_batch.size() && b < u.applied.size(); ++b)
-      p.by_batch[b] = scaled(u.prof->by_batch[b], u.applied[b]);
+      p.by_batch[b] = u.prof->by_batch[b].scaled(u.applied[b]);
   }
   ++changes_;
   return true;

@@ -282,8 +282,7 @@ TEST_F(ReportCli, WhyTellsOneJobsStory) {
 TEST_F(ReportCli, TheCostsARunMetAreSavedShownAndRedrawn) {
   Profile slow = default_profile();
   for (auto& [name, u] : slow.units)
-    for (LatencyStats& st : u.by_batch)
-      for (Duration* d : {&st.min, &st.mean, &st.p50, &st.p95, &st.p99, &st.max}) *d = *d * 2;
+    for (LatencyStats& st : u.by_batch) st = st.scaled(2.0);
   const fs::path costs = dir_ / "slow.json";
   std::ofstream(costs) << profile_to_json(slow);
   const fs::path out = compare("costs", "--costs " + quote(costs.string()));

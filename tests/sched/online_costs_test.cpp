@@ -27,14 +27,7 @@ using std::chrono::milliseconds;
 Profile scaled_profile(const Profile& p, double f) {
   Profile o = p;
   for (auto& [name, u] : o.units)
-    for (LatencyStats& s : u.by_batch) {
-      s.min = scaled_by(s.min, f);
-      s.mean = scaled_by(s.mean, f);
-      s.p50 = scaled_by(s.p50, f);
-      s.p95 = scaled_by(s.p95, f);
-      s.p99 = scaled_by(s.p99, f);
-      s.max = scaled_by(s.max, f);
-    }
+    for (LatencyStats& s : u.by_batch) s = s.scaled(f);
   return o;
 }
 

@@ -32,6 +32,8 @@ struct LatencyStats {
 
   /// The statistic that stands for the cost.
   [[nodiscard]] Duration estimate(EstimateKind k) const noexcept;
+  /// Every figure (min, mean, p50, p95, p99, max) × f; the counts as they are.
+  [[nodiscard]] LatencyStats scaled(double f) const noexcept;
   /// Inverse CDF through the knots (0: min, .5: p50, .95: p95, .99: p99, 1: max), linear
   /// between knots; u in [0, 1). Deterministic for a given u.
   [[nodiscard]] Duration quantile(double u) const noexcept;
