@@ -269,12 +269,21 @@ int run_node(const NodeArgs& a) {
       "receiving thread) p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
       percentile(tm.after_release_us, 0.5), percentile(tm.after_release_us, 0.99),
       tm.after_release_us.size());
+  // What the node's units cost against the profile (docs/DESIGN.md, "Online costs").
+  PolicyMetrics costs;
+  costs.online_costs = report.online_costs;
+  costs.plan_changes = report.plan_changes;
+  costs.costs = report.costs;
+  if (auto w = costs_differed(costs, a.policy)) std::cerr << "red node: " << *w << '\n';
   if (a.out) {
     PolicyRun run;
     run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     run.metrics = metrics.summarize(a.policy, report.end);
     run.metrics.decision_p50_us = percentile(report.decision_us, 0.5);
     run.metrics.decision_p99_us = percentile(report.decision_us, 0.99);
+    run.metrics.online_costs = costs.online_costs;
+    run.metrics.plan_changes = costs.plan_changes;
+    run.metrics.costs = std::move(costs.costs);
     run.result.end = report.end;
     run.result.stats = report.stats;
     queue->drain();
