@@ -436,6 +436,9 @@ std::optional<Error> read_waits(const std::string& path, SavedRun& run) {
   for (const auto& e : events) {
     const std::string name = e.value("name", "");
     if (name != "merge wait" && name != "trace truncated") continue;
+    // Instants only: the counter of waiting tasks is a "C" event of the same name (its args
+    // hold a count, not a wait).
+    if (e.value("ph", "") == "C") continue;
     const auto it = policy_of_pid.find(e.value("pid", std::int64_t{-1}));
     if (it == policy_of_pid.end()) continue;
     const std::size_t i = it->second;
