@@ -17,7 +17,7 @@ namespace {
 
 constexpr std::array<const char*, kWhyShares> kLabels = {"its own work",
                                                          "cost overrun",
-                                                         "held for a merge or batch",
+                                                         "held back by the scheduler",
                                                          "higher-criticality work ahead",
                                                          "equal-criticality work ahead",
                                                          "its operation's earlier jobs",

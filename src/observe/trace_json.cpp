@@ -303,7 +303,7 @@ void write_counters(Emitter& e, const TraceObserver& t, int pid) {
   for (const TraceObserver::CounterRec& c : t.counters()) {
     if (c.counter == TraceObserver::Counter::Waiting && !waits) continue;
     // Perfetto names a counter track "<name> <arg>": "ready queue length", "merge wait
-    // tasks", "jobs in flight".
+    // tasks" (tasks in a merge wait or held by the criticality guard), "jobs in flight".
     const char* name = c.counter == TraceObserver::Counter::Ready     ? "ready queue"
                        : c.counter == TraceObserver::Counter::Waiting ? "merge wait"
                                                                       : "jobs";

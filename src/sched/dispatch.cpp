@@ -139,6 +139,9 @@ bool Scheduler::Impl::pick(TimePoint now) {
     bool rescan = false;
     // Every scanned task was past its merge wait; only a wait begun below changes that.
     bool began_wait = false;
+    // The criticality guard (guard.cpp) acts only between different criticalities.
+    const bool guarding = opt.guard && mixed_criticality;
+    guard_held.clear();
     for (;;) {
       best = -1;
       best_scan = nullptr;
@@ -150,6 +153,9 @@ bool Scheduler::Impl::pick(TimePoint now) {
       } else {
         for (const Scan& e : scanned) {
           if (began_wait && task(e.task).wait_until > now) continue;  // began a wait this round
+          if (!guard_held.empty() &&
+              std::find(guard_held.begin(), guard_held.end(), e.task) != guard_held.end())
+            continue;  // yielded to more critical work this pick
           if (best_scan == nullptr || before(e, *best_scan)) {
             best_scan = &e;
             best = e.task;
@@ -163,6 +169,26 @@ bool Scheduler::Impl::pick(TimePoint now) {
       rt = round_trip_cost(
           ahead_lane < 0 &&
           !on_demand_continuation(lanes[static_cast<std::size_t>(lane_index)], k, now));
+      if (guarding && best_scan->criticality < top_criticality) {
+        const GuardVerdict g = guard(std::span<const int>(&best, 1), lane_index, now,
+                                     dispatch_begin(lane_index, now) + rt);
+        if (g.blocks) {
+          if (g.until != kNever && g.until > now) {
+            // Held until the more critical release it would block (a wake-up, as a merge wait).
+            k.wait_until = g.until;
+            began_wait = true;
+            if (!k.in_waits) {
+              k.in_waits = true;
+              waits.push_back(best);
+            }
+            min_wait = std::min(min_wait, g.until);
+            ++s.stats_.guard_holds;
+          } else {
+            guard_held.push_back(best);
+          }
+          continue;
+        }
+      }
       // docs/DESIGN.md, "Drops" hopeless, on the drop estimate and with the round trip this
       // dispatch pays. An overload-aware policy (rank=overload) aborts only while overloaded: with
       // the lanes to spare, a job that may still make it costs no other job anything; nor does a
@@ -254,6 +280,14 @@ bool Scheduler::Impl::pick(TimePoint now) {
         const Duration cb = batch_estimate(k, b);
         const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
         if (cb >= single * b || now + rt + cb > dl) break;
+        // Nor may the larger run make more critical work miss (the criticality guard).
+        if (guarding) {
+          batch.push_back(t);
+          const bool blocks =
+              guard(batch, lane_index, now, dispatch_begin(lane_index, now) + rt).blocks;
+          batch.pop_back();
+          if (blocks) break;
+        }
         batch.push_back(t);
         deadline = dl;
       }

@@ -78,7 +78,7 @@ struct OptionSpec {
 };
 
 // Every option, in documentation order (option_keys(), describe(), the CLI's --with help).
-const std::array<OptionSpec, 18> kOptions{{
+const std::array<OptionSpec, 19> kOptions{{
     {"graph",
      [](PolicyOptions& o, std::string_view k, std::string_view v) {
        return choose(
@@ -199,6 +199,11 @@ const std::array<OptionSpec, 18> kOptions{{
        return choose(o.inherit, k, v, kBool);
      },
      [](const PolicyOptions& o) -> std::string { return yes_no(o.inherit); }},
+    {"guard",
+     [](PolicyOptions& o, std::string_view k, std::string_view v) {
+       return choose(o.guard, k, v, kBool);
+     },
+     [](const PolicyOptions& o) -> std::string { return yes_no(o.guard); }},
 }};
 
 // What every preset starts from (docs/DESIGN.md, "Policies").
@@ -292,6 +297,7 @@ const std::array<Preset, 8> kPresets{{
        o.path_rank = true;
        o.miss_gate = true;
        o.inherit = true;
+       o.guard = true;
        return o;
      }},
     {"lst", PolicyClass::LeastSlack, false, red_options},

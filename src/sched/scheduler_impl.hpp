@@ -12,6 +12,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -528,6 +529,26 @@ struct Scheduler::Impl {
 
   // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
   bool pick(TimePoint now);
+
+  // docs/DESIGN.md, "Criticality" guard (PolicyOptions::guard; guard.cpp): whether running the
+  // dispatch of the tasks `run` on lane `lane` from `begin` (at mean costs) would make a more
+  // critical job miss that could make it otherwise. `until`: when the reason is a predicted
+  // release, the time to look again (the task waits until then); kNever when it is a job in flight
+  // (the task only yields this pick).
+  struct GuardVerdict {
+    bool blocks = false;
+    TimePoint until = kNever;
+  };
+  GuardVerdict guard(std::span<const int> run, int lane, TimePoint now, TimePoint begin);
+  // When a lane is free to start more work, by the plan's estimates of what it holds.
+  TimePoint lane_free_at(const Lane& l, TimePoint now) const;
+  // When a dispatch picked now for lane `lane` begins: now, or after what the lane holds when
+  // pick() fills its queue (dispatch_ahead).
+  TimePoint dispatch_begin(int lane, TimePoint now) const {
+    return ahead_lane >= 0 ? lane_free_at(lanes[static_cast<std::size_t>(lane)], now) : now;
+  }
+  std::vector<int> guard_held;   // scratch of pick(): tasks that yielded to the guard this pick
+  std::vector<int> guard_slots;  // scratch of guard(): the jobs of the dispatch
 };
 
 }  // namespace red

@@ -148,7 +148,7 @@ TEST(Why, AnIdleLaneWhileItWaitedIsHeldWork) {
   // lo ran on lane 1 (beside it: not ahead of it).
   const std::vector<UnitRow> units = {unit(0, 6, 12, "mid#1:a"), unit(1, 6, 12, "lo#5:a")};
   const JobWhy w = WhyIndex(s, units).explain(job(kMid, 1, 0, 10, 12, JobOutcome::Missed));
-  EXPECT_EQ(w.cause, "held for a merge or batch");
+  EXPECT_EQ(w.cause, "held back by the scheduler");
   EXPECT_EQ(share(w, WhyShare::Held), milliseconds{12});  // 6 ms × 2 lanes
   EXPECT_EQ(share(w, WhyShare::Own), milliseconds{4});
   EXPECT_EQ(share(w, WhyShare::Lower), Duration{0});
@@ -185,7 +185,7 @@ TEST(Why, WithoutUnitsTheCauseSaysSo) {
   const std::vector<UnitRow> units;
   // No unit at all: the lane was idle throughout, which is held time.
   EXPECT_EQ(WhyIndex(s, units).explain(job(kMid, 1, 0, 10, 12, JobOutcome::Missed)).cause,
-            "held for a merge or batch");
+            "held back by the scheduler");
   // An empty window (a deadline at its release) has no lane time.
   EXPECT_EQ(WhyIndex(s, units).explain(job(kMid, 1, 5, 5, 5, JobOutcome::Dropped)).cause,
             "no lane time recorded");

@@ -245,10 +245,12 @@ struct Known {
 // fewer points below red (41 -> 37, 25 -> 19, 15 -> 14), one point 0.017 below edf on robot-mnv3s
 // (seed 55 at 2.5x), and more critical operations below their on-time under red 120 -> 123,
 // 158 -> 147, 169 -> 160. `red`, too, detects overload (for criticality) with that demand test.
+// With the criticality guard in red-robust (issue 53): fewer points below red (37 -> 30, 19 -> 18)
+// and fewer more critical operations below red (123 -> 120, 147 -> 133, 160 -> 143).
 constexpr Known kKnown[] = {
-    {"builtin", 37, 1, 123},
-    {"robot-mnv3s", 19, 1, 147},
-    {"robot-r18", 14, 0, 160},
+    {"builtin", 30, 1, 120},
+    {"robot-mnv3s", 18, 1, 133},
+    {"robot-r18", 14, 0, 143},
 };
 
 TEST(RobotWorkload, RedRobustIsNeverTheWorseChoice) {
@@ -391,13 +393,18 @@ TEST(RobotWorkload, SharedEncoderModeHoldsWhatItPromises) {
 
 // RedRobustGeneralizes: the issue's targets are red-robust's mean >= red's and edf's per profile
 // and load, within 2 points of red at 95 % of the points, within 5 at every point, and the critical
-// operation's mean >= its mean under red. Not all of them hold yet (docs/BENCHMARKS.md, "One model
-// of necessary work"): what holds is asserted exactly, and each gap is held where it stands so that
-// it does not grow: red-robust's mean may fall below red's by at most kMeanSlack (0.05 and 0.03
-// points at 0.5x on robot-mnv3s and robot-r18), the critical operation's by kCriticalSlack (up to
-// 0.5 points at 1.0 and 1.5x), and per profile these shares and counts are the floor and ceiling.
-constexpr double kMeanSlack = 0.001;
-constexpr double kCriticalSlack = 0.006;
+// operation's mean >= its mean under red. The means hold at every profile and load (with the
+// criticality guard, issue 53: before it red-robust's mean fell below red's by up to 0.05 points
+// at 0.5x and the critical operation's by up to 0.5 points at 1.0 and 1.5x); they are asserted
+// exactly. The per-point gaps are held where they stand so that they do not grow: per profile these
+// shares and counts are the floor and ceiling. The guard moved some of them both ways: it keeps the
+// lane for a more critical job that by estimate would otherwise miss, and at a few points less
+// critical jobs pay more than the critical one gains in count (robot-r18 seed 83 at 1x: the
+// critical operation missed 4 of 30 jobs under red and none under red-robust, while 20 less
+// critical jobs missed that red met), so robot-mnv3s and robot-r18 have more points beyond 5 and
+// mnv3-delivery fewer within 2 than before (9 -> 10, 2 -> 6; 0.94 -> 0.93).
+constexpr double kMeanSlack = 0.0;
+constexpr double kCriticalSlack = 0.0;
 struct GeneralizeKnown {
   const char* profile;
   double within2;  // the least share of points within 2 points of red
@@ -405,9 +412,9 @@ struct GeneralizeKnown {
 };
 constexpr GeneralizeKnown kGeneralizeKnown[] = {
     {"builtin", 0.96, 8},
-    {"robot-mnv3s", 0.96, 9},
-    {"robot-r18", 0.97, 2},
-    {"mnv3-delivery", 0.94, 13},
+    {"robot-mnv3s", 0.96, 10},
+    {"robot-r18", 0.97, 6},
+    {"mnv3-delivery", 0.93, 12},
 };
 
 TEST(RobotWorkload, RedRobustGeneralizes) {

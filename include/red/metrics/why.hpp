@@ -10,7 +10,7 @@
 /// * **overrun**: of that, the part of a unit that ran past what the scheduler expected it to
 ///   cost when it decided it (Dispatch::expected);
 /// * **held**: it had nothing running and a lane was idle: the scheduler held its work back
-///   (a DynamicMerge wait, a batch forming, a synchronizer round trip);
+///   (a DynamicMerge wait, a batch forming, a synchronizer round trip, the criticality guard);
 /// * **higher**, **equal**, **lower**: it had nothing running and a lane ran other operations'
 ///   jobs of higher, equal or lower criticality than its own (a unit shared by several jobs is
 ///   split among them);

@@ -109,6 +109,12 @@ struct PolicyOptions {
   /// deadline less the longest path from its units that wait: its intermediate deadlines and its
   /// rank are taken from the earlier of the two. Its own deadline still decides its outcome.
   bool inherit = false;
+  /// With operations of different criticalities (docs/DESIGN.md, "Criticality"): a unit of less
+  /// critical work does not start where, by estimate, it would make a more critical job miss that
+  /// could make it otherwise — a job in flight, or the next release of a more critical operation
+  /// before the unit would end. It runs after (or another lane takes it); the lane may idle until
+  /// that release. Nothing changes with equal criticalities.
+  bool guard = false;
 
   bool operator==(const PolicyOptions&) const = default;
 };

@@ -86,6 +86,9 @@ struct SchedulerStats {
   std::uint64_t releases = 0;
   std::uint64_t rejected = 0;  ///< jobs shed at release by admission (docs/DESIGN.md, "Overload")
   std::uint64_t hopeless = 0;  ///< jobs aborted at dispatch as hopeless
+  /// Less critical units held back by the criticality guard (PolicyOptions::guard) until a more
+  /// critical operation's predicted release.
+  std::uint64_t guard_holds = 0;
 };
 
 class Scheduler {

@@ -1,0 +1,152 @@
+// The criticality guard (docs/DESIGN.md, "Criticality"; PolicyOptions::guard): a unit of less
+// critical work does not start where it would make a more critical job miss that could make it
+// otherwise. Lanes do not preempt a unit once it runs, so the order under overload alone (the most
+// critical ready work first) does not protect a job released while a long, less critical unit
+// holds its lane. Part of the scheduler (scheduler_impl.hpp); pick() asks it.
+
+#include <algorithm>
+#include <cstdint>
+#include <span>
+
+#include "scheduler_impl.hpp"
+
+namespace red {
+
+namespace {
+
+// A frame later than this after its period is no longer expected at once (camera jitter, a
+// transport's delay); past it the sensor's next frame is predicted a period on.
+Duration late_allowance(Duration period) {
+  return std::min(period / 4, Duration{std::chrono::milliseconds{5}});
+}
+
+}  // namespace
+
+TimePoint Scheduler::Impl::lane_free_at(const Lane& l, TimePoint now) const {
+  if (!l.busy()) return now;
+  const Dispatch& running = l.at(0);
+  TimePoint t = std::max(now, std::max(running.start, running.decided_at) + running.expected);
+  for (int q = 1; q < l.count; ++q) t += l.at(q).expected;
+  return t;
+}
+
+Scheduler::Impl::GuardVerdict Scheduler::Impl::guard(std::span<const int> run, int lane,
+                                                     TimePoint now, TimePoint begin) {
+  GuardVerdict v;
+  // The dispatch's criticality is its most critical member's: only more critical work is
+  // protected from it, and not its own members.
+  int crit = std::numeric_limits<int>::min();
+  guard_slots.clear();
+  for (int t : run)
+    for (const auto& [slot, unit] : task(t).members) {
+      crit = std::max(crit, ops[static_cast<std::size_t>(job(slot).op)].criticality);
+      guard_slots.push_back(slot);
+    }
+  if (crit >= top_criticality) return v;
+  const Duration rt = round_trip_cost(true);
+  // Where another lane frees first, more critical work can go there instead.
+  TimePoint other = kNever;
+  for (std::size_t i = 0; i < lanes.size(); ++i)
+    if (static_cast<int>(i) != lane) other = std::min(other, lane_free_at(lanes[i], now));
+  // Work that a more critical operation waits on (depends_on, directly or down a chain) is not
+  // held back for it: holding it would hold that operation too.
+  auto waits_on_run = [&](int op) {
+    for (int d = ops[static_cast<std::size_t>(op)].depends_on, hops = 0;
+         d >= 0 && hops < static_cast<int>(ops.size());
+         d = ops[static_cast<std::size_t>(d)].depends_on, ++hops)
+      for (int slot : guard_slots)
+        if (job(slot).op == d) return true;
+    return false;
+  };
+
+  // Judged twice. On mean costs, where the blocking is what typically happens, the dispatch is
+  // held whatever the hold costs its own jobs. On the plan's estimate (SchedulerConfig::estimate,
+  // p99 by default), which foresees more blocking than happens, it is held only where the hold
+  // costs none of its jobs a deadline it would meet by running now.
+  auto check = [&](EstimateKind kind, bool must_afford) {
+    const auto k = static_cast<std::size_t>(kind);
+    const Task& first = task(run.front());
+    Duration cost{0};
+    if (run.size() == 1) {
+      const auto [slot, unit] = first.members.front();
+      cost = job(slot).g->units[static_cast<std::size_t>(unit)].costs[k];
+    } else {
+      const UnitProfile* p = first.kind == UnitKind::Encoder
+                                 ? enc_prof
+                                 : head_prof[static_cast<std::size_t>(first.head)];
+      cost = p != nullptr ? p->at(static_cast<int>(run.size())).estimate(kind)
+                          : first.cost * static_cast<std::int64_t>(run.size());
+    }
+    const TimePoint end = begin + cost;
+    const TimePoint blocked_until = std::min(end, other);
+    // Whether the dispatch can wait until more critical work is done (at `done`): none of its
+    // jobs that would make its deadline by running now misses it by running then.
+    auto affords = [&](TimePoint done) {
+      if (!must_afford) return true;
+      for (int slot : guard_slots) {
+        Job& m = job(slot);
+        const Duration path = std::max(cost, critical_path(m, now, k));
+        if (begin + path <= m.deadline && done + rt + path > m.deadline) return false;
+      }
+      return true;
+    };
+
+    // More critical jobs in flight with work ready for a lane: each needs its remaining work (its
+    // critical path) from when a lane frees. A job whose units all run, or wait on units that run,
+    // goes on on their lane (docs/DESIGN.md, "Synchronization": the run continues).
+    for (int slot : by_deadline) {
+      Job& j = job(slot);
+      if (!j.live || j.ended || ops[static_cast<std::size_t>(j.op)].criticality <= crit) continue;
+      if (std::find(guard_slots.begin(), guard_slots.end(), slot) != guard_slots.end()) continue;
+      if (waits_on_run(j.op)) continue;
+      bool waiting = false;
+      for (std::size_t u = 0; !waiting && u < j.u.size(); ++u)
+        waiting = j.u[u].state == UState::Queued;
+      if (!waiting) continue;
+      const Duration w = critical_path(j, now, k);
+      if (now + rt + w <= j.deadline && blocked_until + rt + w > j.deadline) {
+        v.blocks = true;
+        return;  // yield this pick: the job's work is ready, it goes next or on its lane
+      }
+    }
+
+    // The next release of each more critical operation before the dispatch would end: its job
+    // needs its whole critical path within its deadline.
+    for (std::size_t i = 0; i < ops.size(); ++i) {
+      const OpState& o = ops[i];
+      if (o.g == nullptr || o.remaining == 0 || o.criticality <= crit) continue;
+      if (waits_on_run(static_cast<int>(i))) continue;
+      if (o.inflight >= o.max_inflight) continue;  // its next release is skipped
+      TimePoint r = kNever;
+      Duration period{0};
+      Duration allowance{0};
+      if (o.own_rate) {
+        r = o.next_tick;  // the scheduler's own clock: on time
+        period = period_of(o.rate_hz);
+      } else if (o.trigger >= 0) {
+        const SensorState& sn = sensors[static_cast<std::size_t>(o.trigger)];
+        if (!sn.has_frame || sn.rate_hz <= 0) continue;
+        period = period_of(sn.rate_hz);
+        allowance = late_allowance(period);
+        // A sensor silent for two periods has stopped, or is not periodic: predict nothing.
+        if (now - sn.time > 2 * period + allowance) continue;
+        r = sn.time + period;
+        while (r + allowance < now) r += period;
+      }
+      if (r == kNever || period <= Duration{0} || r >= end) continue;
+      Duration w{0};
+      for (int src : o.g->sources)
+        w = std::max(w, o.g->units[static_cast<std::size_t>(src)].tail[k]);
+      if (rt + w > o.g->deadline) continue;  // it cannot make it even on a free lane
+      const TimePoint start = std::max(r, blocked_until);
+      if (start + rt + w <= r + o.g->deadline || !affords(std::max(r, now) + rt + w)) continue;
+      v.blocks = true;
+      v.until = std::min(v.until, r > now ? r : r + allowance);
+    }
+  };
+  check(EstimateKind::Mean, false);
+  if (!v.blocks && s.config_.estimate != EstimateKind::Mean) check(s.config_.estimate, true);
+  return v;
+}
+
+}  // namespace red
