@@ -132,7 +132,8 @@ std::string summary_json(const SummaryHeader& h, const std::vector<PolicyMetrics
                          {"run_mean_ms", to_ms(f.run_mean)},
                          {"run_p50_ms", to_ms(f.run_p50)},
                          {"ratio", std::round(f.ratio() * 1000) / 1000},
-                         {"planned_factor", std::round(f.factor * 1000) / 1000}});
+                         // Unrounded: index.html shows it, and `red report` redraws it from here.
+                         {"planned_factor", f.factor}});
       p["costs"] = {{"online", m.online_costs}, {"plan_changes", m.plan_changes}, {"units", units}};
     }
     if (m.decision_p50_us)

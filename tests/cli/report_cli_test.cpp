@@ -316,5 +316,28 @@ TEST_F(ReportCli, TheCostsARunMetAreSavedShownAndRedrawn) {
   EXPECT_EQ(read_text(out / "index.html"), page);
 }
 
+// A run whose trace holds tasks waiting (merge waits, or the criticality guard's holds, counted
+// by the trace's "merge wait" counter) is redrawn: the counter, a "C" event of the same name as
+// the waits' instants, once aborted `red report` on its missing until_ms.
+TEST_F(ReportCli, RedrawsARunWhoseTraceCountsWaitingTasks) {
+  Profile slow = default_profile();
+  for (auto& [name, u] : slow.units)
+    for (LatencyStats& st : u.by_batch) st = st.scaled(2.0);
+  const fs::path costs = dir_ / "slow.json";
+  std::ofstream(costs) << profile_to_json(slow);
+  const fs::path out = dir_ / "warehouse";
+  const Result run = red(
+      "compare " + quote(std::string(RED_TEST_DATA) + "/workloads/warehouse/warehouse.yaml") +
+      " --policies red-robust --costs " + quote(costs.string()) + " --out " + quote(out.string()));
+  ASSERT_EQ(run.code, 0) << run.err;
+  const std::string trace = read_text(out / "trace.json");
+  EXPECT_NE(trace.find(R"("name":"merge wait","ph":"C")"), std::string::npos)
+      << "no waiting tasks counted: the run no longer exercises the counter";
+  const std::string page = read_text(out / "index.html");
+  const Result r = red("report " + quote(out.string()));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(read_text(out / "index.html"), page);
+}
+
 }  // namespace
 }  // namespace red
