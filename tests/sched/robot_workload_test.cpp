@@ -231,10 +231,10 @@ TEST(RobotWorkload, RedRobustRejectsOnlyTheLeastCritical) {
   EXPECT_GT(rejected, 0);
 }
 
-// Points below the issue's target today, per profile: red-robust's on-time fraction below
-// red's or edf's less 0.5 points, and operations more critical than the workload's least
-// below red's less 0.5 points (one point per operation). The target is 0 for all three; what
-// is left (docs/BENCHMARKS.md "Issue 37") is not fixed yet, so this test holds the line: a
+// Points below the issue's target today, per profile: red-robust's on-time fraction below red's or
+// edf's less 0.5 points, and operations more critical than the workload's least below red's less
+// 0.5 points (one point per operation). The target is 0 for all three; what is left
+// (docs/journal/robot-workloads.md, "Issue 37") is not fixed yet, so this test holds the line: a
 // change that adds a point fails it, and one that removes points should lower these.
 struct Known {
   const char* profile;
@@ -391,11 +391,12 @@ TEST(RobotWorkload, SharedEncoderModeHoldsWhatItPromises) {
 
 // RedRobustGeneralizes: the issue's targets are red-robust's mean >= red's and edf's per profile
 // and load, within 2 points of red at 95 % of the points, within 5 at every point, and the critical
-// operation's mean >= its mean under red. Not all of them hold yet (docs/BENCHMARKS.md, "One model
-// of necessary work"): what holds is asserted exactly, and each gap is held where it stands so that
-// it does not grow: red-robust's mean may fall below red's by at most kMeanSlack (0.05 and 0.03
-// points at 0.5x on robot-mnv3s and robot-r18), the critical operation's by kCriticalSlack (up to
-// 0.5 points at 1.0 and 1.5x), and per profile these shares and counts are the floor and ceiling.
+// operation's mean >= its mean under red. Not all of them hold yet
+// (docs/journal/robot-workloads.md, "One model of necessary work"): what holds is asserted exactly,
+// and each gap is held where it stands so that it does not grow: red-robust's mean may fall below
+// red's by at most kMeanSlack (0.05 and 0.03 points at 0.5x on robot-mnv3s and robot-r18), the
+// critical operation's by kCriticalSlack (up to 0.5 points at 1.0 and 1.5x), and per profile these
+// shares and counts are the floor and ceiling.
 constexpr double kMeanSlack = 0.001;
 constexpr double kCriticalSlack = 0.006;
 struct GeneralizeKnown {
