@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Asynchronous lanes side by side with synchronous ones (issue 36, docs/BENCHMARKS.md,
-# "Asynchronous lanes"): bench/releases.yaml at several camera rates, each policy in each
+# Asynchronous lanes side by side with synchronous ones (issue 36, docs/journal/runtime.md,
+# "Issue 36: asynchronous lanes"): bench/releases.yaml at several camera rates, each policy in each
 # MODE: `sync` (the lane's handler runs the unit, then decides the next; on a GPU the
 # torch backend is always asynchronous, so this is d2 there), `d1` (--async, one unit per
 # lane: enqueued, then waited for) and `d2` (--async, queue_depth 2: an on-demand handler

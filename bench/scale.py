@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""How RED's cost grows with the size of the workload (docs/BENCHMARKS.md, "Issue 39 item 7").
+"""How RED's cost grows with the size of the workload (docs/journal/decision-and-simulator.md,
+"Issue 39 item 7").
 
 Times, RUNS times each, with the load average before and after:
   * `red --version` and `red validate` of a small scenario (the process start);

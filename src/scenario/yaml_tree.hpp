@@ -6,7 +6,7 @@
 /// Why not yaml-cpp's YAML::Load, which the rest of RED uses for small files: a scenario may
 /// hold 50,000 nodes and edges, and yaml-cpp's scanner took 0.78 s of the 1.2 s that
 /// `red validate` spent on such a chain; libyaml, the C library behind PyYAML's fast loader,
-/// parses the same 2.7 MB in 0.12 s (docs/BENCHMARKS.md, "Issue 39 item 7").
+/// parses the same 2.7 MB in 0.12 s (docs/journal/decision-and-simulator.md, "Issue 39 item 7").
 ///
 /// The tree keeps what the loader's messages need: each node's line, its tag as yaml-cpp
 /// spells it ("?" for an untagged plain scalar, "!" for an untagged quoted one, else the

@@ -25,7 +25,7 @@ int Scheduler::Impl::batch_limit(const Task& k) const {
 
 TimePoint Scheduler::Impl::latest_batch_end(const Task& k) const {
   // The scheduler's estimate (p99, by default) of the path after the unit: on the mean,
-  // batches formed that their members' later units then missed (docs/BENCHMARKS.md
+  // batches formed that their members' later units then missed (docs/journal/overload-grid.md,
   // round 7).
   TimePoint d = kNever;
   for (const auto& [slot, unit] : k.members) {

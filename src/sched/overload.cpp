@@ -34,7 +34,8 @@ void Scheduler::Impl::plan_work() {
   // The encoder at the model's cost per run (frames shared and batched as the deadlines let them
   // gather); a head at its cost alone. Counting heads batched too let admission take work that was
   // then dropped: on the overload grid at twice capacity 43 of 216 points wasted over 20 % of the
-  // lanes, where at most 1 in 20 may (docs/BENCHMARKS.md, "One model of necessary work").
+  // lanes, where at most 1 in 20 may (docs/journal/robot-workloads.md, "One model of necessary
+  // work").
   run_cost.assign(w.units.size(), {});
   for (std::size_t k = 0; k < kEstimates; ++k) {
     run_cost[WorkModel::kEncoder][k] = w.units[WorkModel::kEncoder].per_run[k];
@@ -475,7 +476,7 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin)
   // that come while it is full, and the frames each one takes drift apart: an encoder run
   // then serves one or two jobs, not one per operation. Rejecting a job that would run its
   // frame's encoder alone, when it would leave its operation fewer than half its slots,
-  // keeps the slot for a frame the operations share (docs/BENCHMARKS.md round 7).
+  // keeps the slot for a frame the operations share (docs/journal/overload-grid.md, round 7).
   auto reads = [](const OpState& o, int sensor) {
     return std::find(o.sensors_read.begin(), o.sensors_read.end(), sensor) != o.sensors_read.end();
   };

@@ -377,8 +377,8 @@ struct Scheduler::Impl {
   }
 
   // What ranking by job deadline reads for one member: the job's deadline, less the path
-  // after the unit with path_rank (docs/DESIGN.md, "Overload"; docs/BENCHMARKS.md round 9: on mean
-  // costs instead, one of the tests' 216 sets lost a job to edf at capacity).
+  // after the unit with path_rank (docs/DESIGN.md, "Overload"; docs/journal/overload-grid.md,
+  // round 9: on mean costs instead, one of the tests' 216 sets lost a job to edf at capacity).
   TimePoint rank_deadline(const Job& j, int unit) const {
     return opt.path_rank ? j.plan - path_after(j, unit) : j.plan;
   }

@@ -42,11 +42,11 @@ struct Worst {
   }
 };
 
-// At every load, on average over the grid, red-robust does at least as well as edf and as
-// red (within 0.5 points); from capacity on, it is never worse than edf by more than 0.5
-// points at any single point. The worst single points are recorded (and in
-// docs/BENCHMARKS.md): below capacity "never worse at any point" is not met everywhere yet
-// (a few 2 s task sets on 4 lanes lose up to 4 points to hopeless aborts and admission).
+// At every load, on average over the grid, red-robust does at least as well as edf and as red
+// (within 0.5 points); from capacity on, it is never worse than edf by more than 0.5 points at any
+// single point. The worst single points are recorded (and in docs/journal/overload-grid.md): below
+// capacity "never worse at any point" is not met everywhere yet (a few 2 s task sets on 4 lanes
+// lose up to 4 points to hopeless aborts and admission).
 TEST(Overload, RedRobustKeepsUpWithEdfAndRedAtEveryLoad) {
   const Profile p = default_profile();
   for (double load : {0.6, 1.0, 1.2, 2.0}) {
@@ -128,7 +128,7 @@ TEST(Overload, WastedLaneTimeStaysSmallAtTwiceCapacity) {
   RecordProperty("mean_wasted", std::to_string(sum / n));
   RecordProperty("points_over_20_percent", std::to_string(over));
   // The 20 % holds on average with room to spare; a few single points exceed it
-  // (recorded above and in docs/BENCHMARKS.md).
+  // (recorded above and in docs/journal/overload-grid.md).
   EXPECT_LT(sum / n, 0.10) << "mean wasted lane time at 2x";
   EXPECT_LE(over * 20, n) << "more than 1 point in 20 wastes over 20 % of the lanes at 2x";
 }
@@ -569,13 +569,13 @@ operations:
                         "shared-frames.yaml");
 }
 
-// shed_lone (docs/DESIGN.md, "Overload", docs/BENCHMARKS.md round 7), on grid set MIMONet chain
-// seed 41 on 4 lanes: four operations on one camera, 213 frames a second at 2.5x, max_inflight 4
-// each. Every operation fills its slots and skips the frames that come meanwhile, so the frames
-// each one takes drift apart and an encoder run (12 ms, as long as the heads of a whole job) serves
-// 1.9 jobs on average. Rejecting the jobs that would run their frame's encoder alone and leave
-// their operation fewer than half its slots keeps those for frames the operations share: more jobs
-// per encoder run, more jobs met. Below capacity it rejects nothing.
+// shed_lone (docs/DESIGN.md, "Overload", docs/journal/overload-grid.md, round 7), on grid set
+// MIMONet chain seed 41 on 4 lanes: four operations on one camera, 213 frames a second at 2.5x,
+// max_inflight 4 each. Every operation fills its slots and skips the frames that come meanwhile, so
+// the frames each one takes drift apart and an encoder run (12 ms, as long as the heads of a whole
+// job) serves 1.9 jobs on average. Rejecting the jobs that would run their frame's encoder alone
+// and leave their operation fewer than half its slots keeps those for frames the operations share:
+// more jobs per encoder run, more jobs met. Below capacity it rejects nothing.
 TEST(Overload, ShedLoneKeepsTheOperationsOnSharedFrames) {
   auto base = shared_frames_scenario();
   ASSERT_TRUE(base.has_value()) << base.error().to_string();
@@ -609,11 +609,11 @@ TEST(Overload, BatchByJobIsAnOptionOfRedRobustOnly) {
   expect_option_of_red_robust_only("batch_by_job", &PolicyOptions::batch_by_job);
 }
 
-// batch_by_job (docs/DESIGN.md, "Overload", docs/BENCHMARKS.md round 7), on the same set: while
-// ranked by job deadline, a head batch was checked against the task's intermediate deadline, which
-// is past due under overload, so heads of different frames seldom ran together. Checked against
-// each member's job deadline less the path after the head, they do: more batched head
-// dispatches, fewer head runs in all, more jobs met. Below capacity nothing changes.
+// batch_by_job (docs/DESIGN.md, "Overload", docs/journal/overload-grid.md, round 7), on the same
+// set: while ranked by job deadline, a head batch was checked against the task's intermediate
+// deadline, which is past due under overload, so heads of different frames seldom ran together.
+// Checked against each member's job deadline less the path after the head, they do: more batched
+// head dispatches, fewer head runs in all, more jobs met. Below capacity nothing changes.
 TEST(Overload, BatchByJobBatchesHeadsAcrossFramesUnderOverload) {
   auto base = shared_frames_scenario();
   ASSERT_TRUE(base.has_value()) << base.error().to_string();
@@ -658,12 +658,12 @@ TEST(Overload, PathRankIsAnOptionOfRedRobustOnly) {
   expect_option_of_red_robust_only("path_rank", &PolicyOptions::path_rank);
 }
 
-// path_rank (docs/DESIGN.md, "Overload", docs/BENCHMARKS.md round 9): while ranked by job deadline,
-// every unit of a job ranked alike, so on several lanes a job's units off its critical path ran
-// ahead of another job's critical path, and red-robust fell to edf's figure below capacity, where
-// the demand test fires on a job's own critical path (plain fork-join and wide sets of the grid).
-// Ranked by the job's deadline less the path after the unit (p99), it meets as many as red
-// and edf there.
+// path_rank (docs/DESIGN.md, "Overload", docs/journal/overload-grid.md, round 9): while ranked by
+// job deadline, every unit of a job ranked alike, so on several lanes a job's units off its
+// critical path ran ahead of another job's critical path, and red-robust fell to edf's figure below
+// capacity, where the demand test fires on a job's own critical path (plain fork-join and wide sets
+// of the grid). Ranked by the job's deadline less the path after the unit (p99), it meets as many
+// as red and edf there.
 TEST(Overload, PathRankRunsOtherJobsCriticalPathsFirstOnSeveralLanes) {
   const Profile p = default_profile();
   struct Set {

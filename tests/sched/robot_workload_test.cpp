@@ -231,10 +231,10 @@ TEST(RobotWorkload, RedRobustRejectsOnlyTheLeastCritical) {
   EXPECT_GT(rejected, 0);
 }
 
-// Points below the issue's target today, per profile: red-robust's on-time fraction below
-// red's or edf's less 0.5 points, and operations more critical than the workload's least
-// below red's less 0.5 points (one point per operation). The target is 0 for all three; what
-// is left (docs/BENCHMARKS.md "Issue 37") is not fixed yet, so this test holds the line: a
+// Points below the issue's target today, per profile: red-robust's on-time fraction below red's or
+// edf's less 0.5 points, and operations more critical than the workload's least below red's less
+// 0.5 points (one point per operation). The target is 0 for all three; what is left
+// (docs/journal/robot-workloads.md, "Issue 37") is not fixed yet, so this test holds the line: a
 // change that adds a point fails it, and one that removes points should lower these.
 struct Known {
   const char* profile;

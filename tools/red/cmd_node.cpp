@@ -55,7 +55,7 @@ void add_dds(CLI::App* cmd, DdsArgs& a) {
 // rgb8) is allocated when the node takes the sample from shared memory and freed once
 // converted, and glibc's dynamic mmap and trim thresholds returned and faulted those pages
 // in again in about half the runs (~150 page faults a frame, transport p50 ~1.0 ms instead of
-// ~0.5 ms; docs/BENCHMARKS.md, "Shared memory (iceoryx)"). Large blocks come from the heap,
+// ~0.5 ms; docs/journal/ros2-node.md, "Shared memory (iceoryx)"). Large blocks come from the heap,
 // which is not trimmed below 128 MiB of free space.
 void keep_large_buffers() {
   (void)mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest (64-bit)

@@ -121,7 +121,7 @@ Expected<torchb::ModelOptions> model_options(const ProfileArgs& a) {
     m.threads = a.threads;
   } else {
     // Not every hardware thread: on a machine already busy that oversubscribes the CPUs and
-    // every unit waits for one (docs/BENCHMARKS.md, "Default profile threads").
+    // every unit waits for one (docs/journal/real-runs.md, "Default profile threads").
     const int online = online_cpus();
     const double busy = other_busy_cpus_now(0.5);
     m.threads = default_profile_threads(online, busy);

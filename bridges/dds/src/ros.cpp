@@ -130,8 +130,9 @@ dds_qos_t* make_qos(const EndpointQos& q) {
 std::string loopback_config() {
   // Large fragments: a 640x480 rgb8 frame (921 KB) goes in 16 datagrams of up to 65000 B
   // instead of Cyclone's default 63 of 14720 B (fragments of 1344 B), which halves its
-  // transport on loopback (docs/BENCHMARKS.md, "The node's targets"). Any RTPS reader
-  // reassembles fragments of any size; loopback's MTU (65536) carries them unfragmented.
+  // transport on loopback (docs/journal/ros2-node.md, "Measured where it happens, and larger
+  // fragments"). Any RTPS reader reassembles fragments of any size; loopback's MTU (65536)
+  // carries them unfragmented.
   return "<CycloneDDS><Domain Id=\"any\">"
          "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
          "<AllowMulticast>false</AllowMulticast>"
