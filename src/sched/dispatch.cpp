@@ -280,11 +280,12 @@ bool Scheduler::Impl::pick(TimePoint now) {
         const Duration cb = batch_estimate(k, b);
         const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
         if (cb >= single * b || now + rt + cb > dl) break;
-        // Nor may the larger run make more critical work miss (the criticality guard).
+        // Nor may the larger run make more critical work miss (the criticality guard): work
+        // outside the batch, or a more critical member of it.
         if (guarding) {
+          const TimePoint begin = dispatch_begin(lane_index, now) + rt;
           batch.push_back(t);
-          const bool blocks =
-              guard(batch, lane_index, now, dispatch_begin(lane_index, now) + rt).blocks;
+          const bool blocks = guard(batch, lane_index, now, begin).blocks;
           batch.pop_back();
           if (blocks) break;
         }

@@ -549,6 +549,7 @@ struct Scheduler::Impl {
   }
   std::vector<int> guard_held;   // scratch of pick(): tasks that yielded to the guard this pick
   std::vector<int> guard_slots;  // scratch of guard(): the jobs of the dispatch
+  std::vector<int> guard_units;  // beside guard_slots: each one's unit in the dispatch
 };
 
 }  // namespace red
