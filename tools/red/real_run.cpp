@@ -247,6 +247,16 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   if (auto w = costs_differed(run.metrics, o.label.empty() ? policy : o.label))
     std::cerr << "red: " << *w << '\n';
   if (auto w = releases_warning(run.metrics)) std::cerr << "red: warning: " << *w << '\n';
+  if (!report.device_lost.empty()) {
+    // Every later unit would have failed the same way: the run stopped, and so does red.
+    print_runtime_report(o.label.empty() ? policy : o.label, report);
+    return Error{"", 0,
+                 "policy " + (o.label.empty() ? policy : o.label) + ": " + report.device_lost +
+                     "; the run stopped there (reported by lane " +
+                     std::to_string(report.device_lost_lane) +
+                     "; the faulting kernel may have been on any lane: run again with "
+                     "CUDA_LAUNCH_BLOCKING=1 to place it, docs/GPU.md)"};
+  }
   run.jobs = metrics.take_jobs();
   run.units = metrics.take_units();
   run.result.end = report.end;
@@ -307,6 +317,11 @@ void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
     std::cerr << fmt::format(
         "red:   {} timed-out unit(s) returned late; lanes out of service {:.1f} ms\n",
         r.late_returns, to_ms(r.out_of_service));
+  if (r.abandoned > 0)
+    std::cerr << fmt::format(
+        "red:   {} unit(s) abandoned at the end of the run: the device had not finished them "
+        "past their watchdog limit (a hung device)\n",
+        r.abandoned);
   for (const auto& [reason, n] : r.failure_reasons)
     std::cerr << fmt::format("red:   {} unit(s) failed: {}\n", n, reason);
   for (const std::string& line : r.realtime) std::cerr << "red:   " << line << '\n';
