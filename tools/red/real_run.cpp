@@ -38,6 +38,10 @@ void add_device_options(CLI::App* cmd, RealRunOptions& o) {
                   "LibTorch intra-op threads per lane (0: the hardware threads shared among "
                   "the lanes)")
       ->check(whole_number(1024));
+  cmd->add_flag("--debug-sync", o.debug_sync,
+                "LibTorch warns on stderr at every operation that makes the host wait for the "
+                "GPU (its CUDA sync debug mode, torch.cuda.set_sync_debug_mode('warn')), so that "
+                "a hidden synchronization in a lane's path is named; nothing on the CPU");
   cmd->add_flag("--async", o.asynchronous,
                 "Run each lane asynchronously on the CPU too: units are enqueued on a lane's "
                 "worker and waited for, and an on-demand policy queues the next unit while "
@@ -45,6 +49,11 @@ void add_device_options(CLI::App* cmd, RealRunOptions& o) {
 }
 
 std::optional<Error> check_device(const RealRunOptions& o) {
+  if (o.debug_sync && o.backend != "torch")
+    return Error{"", 0,
+                 "--debug-sync: the " + o.backend +
+                     " backend has no device to synchronize with; --debug-sync is for "
+                     "--backend torch"};
   if (o.device == "cpu") return std::nullopt;
   if (o.backend != "torch")
     return Error{"", 0,
@@ -148,6 +157,7 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
     // measures), so lanes running side by side do not oversubscribe the cores.
     const int hw = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
     const int threads = o.threads > 0 ? o.threads : std::max(1, hw / std::max(1, s.device.lanes));
+    if (o.debug_sync) std::cerr << "red: " << torchb::warn_on_device_sync() << '\n';
     return torchb::make_torch_backend(s, o.device, threads, o.asynchronous);
 #else
     return Error{"", 0,
