@@ -256,6 +256,37 @@ TEST(TorchLanesStandIn, UnitTimesAreTheEventsNotWhenTheHostWaited) {
   EXPECT_LT(head.ended + 4s, waited) << "stamped when waited for, not when the device ran it";
 }
 
+// The reference event is recorded again when the lane is idle and it is over a second old,
+// and kept when the new one is not seen at once (the stream was not idle).
+TEST(TorchLanesStandIn, TheReferenceEventIsRenewedOnlyOnAnIdleStream) {
+  const Scenario s = small_scenario();
+  const RefinedGraph g = fine_graph();
+  auto dev = std::make_shared<FakeDevice>();
+  auto b = make(s, dev);
+  ASSERT_TRUE(b);
+  dev->device_ms = {100.0};
+  b->init_lane(0);
+  for (std::uint64_t f = 1; f <= 3; ++f) b->on_frame(0, f);
+  dev->device_ms = {110.0, 120.0};
+  b->enqueue(0, dispatch(g, 0, 1));
+  const UnitDone a = b->wait(0);
+  dev->host += 2s;
+  dev->delay = 1ms;  // the renewal is seen late: not adopted
+  dev->device_ms = {3000.0, 3010.0, 3020.0};
+  b->enqueue(0, dispatch(g, 0, 2));
+  const UnitDone late = b->wait(0);
+  EXPECT_EQ(late.started - a.started, 2900ms) << "placed by the old reference event";
+  dev->host += 2s;
+  dev->delay = 0ms;
+  dev->device_ms = {9000.0, 9010.0, 9020.0};
+  const HostTime enqueued = dev->host;
+  b->enqueue(0, dispatch(g, 0, 3));
+  const UnitDone renewed = b->wait(0);
+  EXPECT_NE(renewed.started - a.started, 8900ms) << "the old reference event was kept";
+  EXPECT_LT(renewed.started - (enqueued + 10ms), 100us);
+  EXPECT_GT(renewed.started - (enqueued + 10ms), -100us);
+}
+
 TEST(TorchLanesStandIn, WithoutEventTimingTheEndIsWhenTheHostSawIt) {
   const Scenario s = small_scenario();
   const RefinedGraph g = fine_graph();

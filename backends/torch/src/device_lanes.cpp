@@ -17,9 +17,10 @@ namespace {
 constexpr std::chrono::microseconds kSpin{50};
 constexpr std::chrono::microseconds kRestMin{20};
 constexpr std::chrono::microseconds kRestMax{1000};
-// A renewed reference event on an idle stream completes at once; if it does not (an
-// abandoned unit still runs there), the old one stays.
-constexpr std::chrono::milliseconds kRenewLimit{100};
+// A renewed reference event on an idle stream completes at once; if it is not seen within
+// kRenewSpan of its record (work still runs there: an abandoned unit, a failed unit's
+// kernels), its place on the host's clock is unknown, and the old one stays.
+constexpr std::chrono::microseconds kRenewSpan{200};
 
 std::string failure_of(const std::exception& e) {
   return "LibTorch: " + detail::describe(e);
@@ -76,6 +77,7 @@ void DeviceLanes::anchor(Lane& l, Duration limit) {
                              std::to_string(std::chrono::duration<double>(limit).count()) + " s");
   }
   const HostTime after = device_->now();
+  if (l.anchor && after - before > kRenewSpan) return;
   l.anchor = std::move(e);
   l.anchor_host = before + (after - before) / 2;
 }
@@ -103,12 +105,14 @@ DeviceLanes::Current::~Current() {
   }
 }
 
-std::shared_ptr<DeviceLanes::Event> DeviceLanes::record(int l) {
-  const StreamId s = stream(l);
+void DeviceLanes::renew(int l) {
   Lane& ln = lane(l);
-  if (ln.units.empty() && ln.anchor && device_->now() - ln.anchor_host > kAnchorAge)
-    anchor(ln, kRenewLimit);
-  return device_->record(s);
+  if (ln.stream && ln.units.empty() && ln.anchor && device_->now() - ln.anchor_host > kAnchorAge)
+    anchor(ln, kRenewSpan);
+}
+
+std::shared_ptr<DeviceLanes::Event> DeviceLanes::record(int l) {
+  return device_->record(stream(l));
 }
 
 void DeviceLanes::block(int l, const std::shared_ptr<Event>& e, StreamId recorded_on) {
@@ -273,7 +277,9 @@ std::string DeviceLanes::lost() const {
 
 void DeviceLanes::finish(int l) {
   const std::shared_ptr<Event> e = device_->record(stream(l));
-  (void)poll([&] { return device_->query(*e); }, HostTime::max());
+  if (!poll([&] { return device_->query(*e); }, device_->now() + kDrainLimit))
+    throw std::runtime_error("the device did not finish lane " + std::to_string(l) +
+                             "'s work within " + std::to_string(kDrainLimit.count()) + " s");
 }
 
 void DeviceLanes::spin(Duration d) const {

@@ -86,8 +86,10 @@ class DeviceLanes {
     StreamId previous_;
   };
 
-  /// Records an event on the lane's stream, first renewing the lane's reference event when
-  /// the lane is idle and it is older than kAnchorAge.
+  /// Renews the lane's reference event when the lane holds no unit and it is older than
+  /// kAnchorAge (before anything of the next unit is queued: the stream must be idle).
+  void renew(int lane);
+  /// Records an event on the lane's stream.
   std::shared_ptr<Event> record(int lane);
   /// Makes the lane's stream wait for `e` when `e` was recorded on another stream.
   void block(int lane, const std::shared_ptr<Event>& e, StreamId recorded_on);
@@ -120,7 +122,7 @@ class DeviceLanes {
   [[nodiscard]] std::string lost() const;
 
   /// Waits (polling) until everything queued on the lane's stream so far has run. Throws
-  /// a device error.
+  /// a device error, or when the device has not done so within kDrainLimit.
   void finish(int lane);
   /// Spins the calling thread for `d` on the device's host clock (a plain unit's work).
   void spin(Duration d) const;

@@ -276,6 +276,7 @@ class TorchBackend final : public Backend {
     try {
       translated([&] {
         c10::InferenceMode guard;
+        lanes_->renew(lane);
         const DeviceLanes::Current current(*lanes_, lane);
         execute(
             d, lane, &u.keep, [&] { u.start = lanes_->record(lane); }, published);
