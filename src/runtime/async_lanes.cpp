@@ -69,19 +69,24 @@ TimePoint Runtime::Impl::expected_end(const std::deque<Held>& held) const {
 }
 
 // Polls the backend until the lane's oldest unit has ended (Backend::ready()), spin-then-park
-// as every wait of the runtime: parked until a spin before the unit's expected end, polling
-// back to back for options.spin, then parked between polls for kPollRest, doubled each time
-// up to kPollRestMax. A waiting lane thread (SCHED_FIFO, pinned) thus leaves its cores to
-// others, and a unit's times come from the backend, not from when this saw it end. False when
-// the run is stopping and the unit is still not done at `limit` (its watchdog limit): the
-// device hangs, and the unit is abandoned so that the run can end.
+// as every wait of the runtime: parked between polls every kPollEarly until a spin before the
+// unit's expected end (it may end early), polling back to back for options.spin, then parked
+// between polls for kPollRest, doubled each time up to kPollRestMax. A waiting lane thread
+// (SCHED_FIFO, pinned) thus leaves its cores to others, and a unit's times come from the
+// backend, not from when this saw it end. False when the run is stopping and the unit is still
+// not done at `limit` (its watchdog limit): the device hangs, and the unit is abandoned so that
+// the run can end.
 bool Runtime::Impl::await_unit(Handler& h, int lane, TimePoint expected, TimePoint limit) {
+  constexpr Duration kPollEarly = std::chrono::microseconds{200};
   constexpr Duration kPollRest = std::chrono::microseconds{20};
   constexpr Duration kPollRestMax = std::chrono::milliseconds{1};
   const auto stop = [&] { return stopping.load(std::memory_order_acquire); };
-  if (backend.ready(lane)) return true;
-  if (!stop() && expected - options.spin > clock.now()) {
-    spin_then_park(h.mu, h.cv, clock, Duration{0}, expected - options.spin, stop);
+  for (;;) {
+    if (backend.ready(lane)) return true;
+    const TimePoint now = clock.now();
+    if (stop() || now >= expected - options.spin) break;
+    spin_then_park(h.mu, h.cv, clock, Duration{0},
+                   std::min(now + kPollEarly, expected - options.spin), stop);
   }
   const TimePoint spin_end = clock.now() + options.spin;
   while (clock.now() < spin_end) {

@@ -114,10 +114,14 @@ void SyntheticBackend::abandon(int lane) {
   if (!options_.asynchronous) return;
   Worker& w = worker(lane);
   std::lock_guard lock(w.mu);
+  // The oldest unit: ended, running (its result is dropped when it returns), or not started
+  // (it never runs: its dispatch refers to the scheduler's graphs, which may be gone then).
   if (!w.done.empty()) {
     w.done.pop_front();
-  } else {
-    ++w.skip;
+  } else if (w.busy && w.skip == 0) {
+    w.skip = 1;
+  } else if (!w.queued.empty()) {
+    w.queued.pop_front();
   }
 }
 
@@ -128,6 +132,7 @@ void SyntheticBackend::worker_main(Worker& w) {
     if (w.queued.empty()) return;  // stopping, nothing left
     const Dispatch d = std::move(w.queued.front());
     w.queued.pop_front();
+    w.busy = true;
     lock.unlock();
     UnitDone u;
     u.started = std::chrono::steady_clock::now();
@@ -146,6 +151,7 @@ void SyntheticBackend::worker_main(Worker& w) {
     }
     u.ended = std::chrono::steady_clock::now();
     lock.lock();
+    w.busy = false;
     if (w.skip > 0) {
       --w.skip;
       continue;

@@ -68,7 +68,8 @@ class SyntheticBackend final : public Backend {
     std::condition_variable cv;
     std::deque<Dispatch> queued;
     std::deque<UnitDone> done;
-    std::size_t skip = 0;  // abandoned units still running: their results are dropped
+    bool busy = false;     // the worker is running a unit (taken from `queued`)
+    std::size_t skip = 0;  // 1: the running unit was abandoned, its result is dropped
     bool stop = false;
   };
   Worker& worker(int lane);
