@@ -66,6 +66,12 @@ git ls-files '*.cpp' '*.hpp' | xargs clang-format --dry-run -Werror
 phase "build (Release, every target)"
 scripts/build.sh -DRED_WERROR=ON
 
+# Newer LibTorch: every source that includes it, syntax only, against the headers of other
+# LibTorch versions given in RED_TORCH_HEADERS (docs/GPU.md, "Versions tried"); skipped,
+# saying so, where none are given. Nothing is downloaded.
+phase "newer LibTorch headers (scripts/check-torch-headers.py, RED_TORCH_HEADERS)"
+/usr/bin/python3 scripts/check-torch-headers.py build
+
 phase "test (Release, ctest)"
 ctest --test-dir build --output-on-failure -j"$JOBS"
 

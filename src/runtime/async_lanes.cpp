@@ -37,6 +37,11 @@ void Runtime::Impl::enqueue_unit(int lane, std::deque<Held>& held, const Dispatc
   }
   try {
     backend.enqueue(lane, u.d);
+  } catch (const DeviceLostError& e) {
+    u.enqueue_failed = true;
+    u.device_lost = true;
+    u.status = UnitStatus::Failed;
+    u.reason = e.what();
   } catch (const OutOfMemoryError& e) {
     u.enqueue_failed = true;
     u.status = UnitStatus::OutOfMemory;
@@ -61,6 +66,45 @@ TimePoint Runtime::Impl::expected_end(const std::deque<Held>& held) const {
   for (const Held& u : held)
     t += profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
   return t;
+}
+
+// Polls the backend until the lane's oldest unit has ended (Backend::ready()), spin-then-park
+// as every wait of the runtime: parked between polls every kPollEarly until a spin before the
+// unit's expected end (it may end early), polling back to back for options.spin, then parked
+// between polls for kPollRest, doubled each time up to kPollRestMax. A waiting lane thread
+// (SCHED_FIFO, pinned) thus leaves its cores to others, and a unit's times come from the
+// backend, not from when this saw it end. False when the run is stopping and the unit is still
+// not done at `limit` (its watchdog limit): the device hangs, and the unit is abandoned so that
+// the run can end.
+bool Runtime::Impl::await_unit(Handler& h, int lane, TimePoint expected, TimePoint limit) {
+  constexpr Duration kPollEarly = std::chrono::microseconds{200};
+  constexpr Duration kPollRest = std::chrono::microseconds{20};
+  constexpr Duration kPollRestMax = std::chrono::milliseconds{1};
+  const auto stop = [&] { return stopping.load(std::memory_order_acquire); };
+  for (;;) {
+    if (backend.ready(lane)) return true;
+    const TimePoint now = clock.now();
+    if (stop() || now >= expected - options.spin) break;
+    spin_then_park(h.mu, h.cv, clock, Duration{0},
+                   std::min(now + kPollEarly, expected - options.spin), stop);
+  }
+  const TimePoint spin_end = clock.now() + options.spin;
+  while (clock.now() < spin_end) {
+    if (backend.ready(lane)) return true;
+    std::this_thread::yield();
+  }
+  Duration rest = kPollRest;
+  for (;;) {
+    if (backend.ready(lane)) return true;
+    const bool stopping_now = stop();
+    const TimePoint now = clock.now();
+    if (stopping_now && now >= limit) return false;
+    TimePoint until = now + rest;
+    if (stopping_now) until = std::min(until, limit);
+    // Woken early only by the run starting to stop (then `limit` counts).
+    spin_then_park(h.mu, h.cv, clock, Duration{0}, until, [&] { return stop() != stopping_now; });
+    rest = std::min(rest * 2, kPollRestMax);
+  }
 }
 
 // On-demand, at a unit boundary of `lane` (caller holds sched_mu): the units the lane's
@@ -135,23 +179,41 @@ void Runtime::Impl::async_handler_main(int lane) {
     // Wait for the oldest, watched from now (the units before it have ended).
     Held& u = held.front();
     h.state.store(HandlerState::Running, std::memory_order_release);
+    const TimePoint watched = clock.now();
+    const TimePoint limit = watched + (watchdog_on() ? watchdog_limit(u.d) : options.watchdog_min);
     if (watchdog_on()) {
-      const TimePoint limit = clock.now() + watchdog_limit(u.d);
       h.limit_ns.store(limit.count(), std::memory_order_release);
       h.watch.store(kWatchRunning);
       if (limit.count() < global_wake_at.load()) wake_global();
     }
     UnitDone done;
+    bool abandoned = false;
     if (u.enqueue_failed) {
       done.status = u.status;
       done.reason = std::move(u.reason);
+      done.device_lost = u.device_lost;
     } else {
+      const TimePoint began = u.began == kNever ? watched : u.began;
+      const TimePoint expected =
+          began + profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
       try {
-        done = backend.wait(lane);
+        if (await_unit(h, lane, expected, limit)) {
+          done = backend.wait(lane);
+        } else {
+          backend.abandon(lane);
+          abandoned = true;
+          done.status = UnitStatus::Failed;
+          done.reason = "abandoned: the device had not finished it when the run ended";
+        }
       } catch (const std::exception& e) {  // the contract says report, not throw: still
         done.status = UnitStatus::Failed;
         done.reason = e.what();
       }
+    }
+    if (done.device_lost) done.reason = device_lost(lane, std::move(done.reason));
+    if (abandoned) {
+      std::lock_guard rl(report_mu);
+      ++report.abandoned;
     }
     const TimePoint end = std::min(clock.now(), on_clock(done.ended));
     const TimePoint started = on_clock(done.started);
@@ -165,9 +227,9 @@ void Runtime::Impl::async_handler_main(int lane) {
     if (!held.empty()) held.front().began = end;  // in the lane's order, it starts now
     if (timed_out) {
       // The watchdog failed this unit's jobs and took it off the lane towards the
-      // scheduler; its late result is ignored.
+      // scheduler; its late result (or its abandonment) is ignored.
       std::lock_guard rl(report_mu);
-      ++report.late_returns;
+      if (!abandoned) ++report.late_returns;
       report.out_of_service += end - TimePoint{h.timed_out_ns.load(std::memory_order_acquire)};
       prev_end = kNever;
       continue;

@@ -71,6 +71,22 @@ void Runtime::Impl::check_watchdog(TimePoint now) {
   }
 }
 
+std::string Runtime::Impl::device_lost(int lane, std::string reason) {
+  if (reason.rfind("device lost", 0) != 0) reason = "device lost: " + reason;
+  {
+    std::lock_guard rl(report_mu);
+    if (report.device_lost.empty()) {
+      report.device_lost = reason;
+      report.device_lost_lane = lane;
+    }
+  }
+  // Every later unit would fail the same way (and blame its own lane): the run ends now,
+  // its jobs in flight reported unfinished.
+  stop_now_requested.store(true, std::memory_order_release);
+  wake_global();
+  return reason;
+}
+
 // The earliest watchdog limit of a running unit, or kNever.
 TimePoint Runtime::Impl::next_watchdog() const {
   TimePoint t = kNever;
@@ -149,6 +165,9 @@ void Runtime::Impl::handler_main(int lane) {
     std::string reason;
     try {
       backend.run(lane, d);
+    } catch (const DeviceLostError& e) {
+      status = UnitStatus::Failed;
+      reason = device_lost(lane, e.what());
     } catch (const OutOfMemoryError& e) {
       status = UnitStatus::OutOfMemory;
       reason = std::string("out of memory: ") + e.what();

@@ -222,6 +222,9 @@ struct Runtime::Impl {
   bool await_assignment(Handler& h, std::uint64_t seen, bool& answer_due);
   void handler_main(int lane);
   Duration p99_of(const Dispatch& d) const;
+  // A lost device: the first report is kept, and the run stops now. Returns the unit's
+  // failure reason ("device lost: ...").
+  std::string device_lost(int lane, std::string reason);
   Duration watchdog_limit(const Dispatch& d) const;
   void check_watchdog(TimePoint now);
   TimePoint next_watchdog() const;
@@ -236,6 +239,7 @@ struct Runtime::Impl {
     TimePoint began = kNever;  // when it became the oldest (the one before it ended)
     bool queued = false;       // enqueued while the unit before it was still held
     bool enqueue_failed = false;
+    bool device_lost = false;  // enqueue_failed with DeviceLostError
     UnitStatus status = UnitStatus::Completed;
     std::string reason;
   };
@@ -243,6 +247,7 @@ struct Runtime::Impl {
   void enqueue_unit(int lane, std::deque<Held>& held, const Dispatch& d, TimePoint prev_end,
                     Duration& enqueue_cost);
   TimePoint expected_end(const std::deque<Held>& held) const;
+  bool await_unit(Handler& h, int lane, TimePoint expected, TimePoint limit);
   void decide_ahead(int lane, TimePoint now, std::vector<const Dispatch*>& out);
 
   // ---- intake.cpp: frames in.

@@ -11,6 +11,11 @@ SyntheticBackend::SyntheticBackend(const Scenario& s, const Profile& p, std::uin
     : sampler_(s, p, seed), options_(std::move(o)) {}
 
 SyntheticBackend::~SyntheticBackend() {
+  {
+    std::lock_guard lock(hang_mu_);
+    ending_ = true;
+  }
+  hang_cv_.notify_all();
   for (auto& w : workers_) {
     {
       std::lock_guard lock(w->mu);
@@ -27,8 +32,19 @@ void SyntheticBackend::run(int /*lane*/, const Dispatch& d) {
 
 void SyntheticBackend::spend(const Dispatch& d) {
   runs_.fetch_add(1, std::memory_order_relaxed);
+  if (lost_.load(std::memory_order_acquire))
+    throw DeviceLostError("injected device fault (seen earlier)");
   if (options_.inject) {
     const int what = options_.inject(d);
+    if (what == 4) {
+      std::unique_lock lock(hang_mu_);
+      hang_cv_.wait(lock, [this] { return ending_; });
+      return;
+    }
+    if (what == 5) {
+      lost_.store(true, std::memory_order_release);
+      throw DeviceLostError("injected device fault");
+    }
     if (what == 1) throw std::runtime_error("injected failure");
     if (what == 2) throw OutOfMemoryError("injected out-of-memory");
     if (what == 3) {
@@ -87,6 +103,28 @@ UnitDone SyntheticBackend::wait(int lane) {
   return u;
 }
 
+bool SyntheticBackend::ready(int lane) {
+  if (!options_.asynchronous) return true;
+  Worker& w = worker(lane);
+  std::lock_guard lock(w.mu);
+  return !w.done.empty();
+}
+
+void SyntheticBackend::abandon(int lane) {
+  if (!options_.asynchronous) return;
+  Worker& w = worker(lane);
+  std::lock_guard lock(w.mu);
+  // The oldest unit: ended, running (its result is dropped when it returns), or not started
+  // (it never runs: its dispatch refers to the scheduler's graphs, which may be gone then).
+  if (!w.done.empty()) {
+    w.done.pop_front();
+  } else if (w.busy && w.skip == 0) {
+    w.skip = 1;
+  } else if (!w.queued.empty()) {
+    w.queued.pop_front();
+  }
+}
+
 void SyntheticBackend::worker_main(Worker& w) {
   std::unique_lock lock(w.mu);
   for (;;) {
@@ -94,11 +132,16 @@ void SyntheticBackend::worker_main(Worker& w) {
     if (w.queued.empty()) return;  // stopping, nothing left
     const Dispatch d = std::move(w.queued.front());
     w.queued.pop_front();
+    w.busy = true;
     lock.unlock();
     UnitDone u;
     u.started = std::chrono::steady_clock::now();
     try {
       spend(d);
+    } catch (const DeviceLostError& e) {
+      u.status = UnitStatus::Failed;
+      u.reason = e.what();
+      u.device_lost = true;
     } catch (const OutOfMemoryError& e) {
       u.status = UnitStatus::OutOfMemory;
       u.reason = e.what();  // the runtime says "out of memory: "
@@ -108,6 +151,11 @@ void SyntheticBackend::worker_main(Worker& w) {
     }
     u.ended = std::chrono::steady_clock::now();
     lock.lock();
+    w.busy = false;
+    if (w.skip > 0) {
+      --w.skip;
+      continue;
+    }
     w.done.push_back(std::move(u));
     w.cv.notify_all();
   }

@@ -442,6 +442,15 @@ TEST_F(Cli, ADeviceThatIsNotThereIsAnErrorNeverACpuRun) {
                    "--device gpu");
 }
 
+// --debug-sync sets LibTorch's CUDA sync debug mode: with a backend that has no device it is
+// bad usage (exit 2, naming the option), before anything runs.
+TEST_F(Cli, DebugSyncWithoutTheTorchBackendIsBadUsage) {
+  const std::string tiny = quote(data("tiny.yaml"));
+  expect_bad_input("run " + tiny + " --backend synthetic --debug-sync",
+                   "--debug-sync: the synthetic backend has no device");
+  expect_bad_input("compare " + tiny + " --debug-sync", "--debug-sync: the sim backend");
+}
+
 // A real run says how many frames its sensors offered, how many it released and how late:
 // in summary.json (frames) and in a table after the comparison.
 TEST_F(Cli, RealRunCountsFramesOfferedAndReleased) {

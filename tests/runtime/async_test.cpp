@@ -181,6 +181,115 @@ TEST(AsyncLanesFaults, AHungUnitTimesOutAndItsLaneRecovers) {
   }
 }
 
+// A unit the device never finishes (the lane's later units wait behind it, as on a hung
+// stream): the watchdog fails its jobs, and when the run ends the handler gives up on what
+// its lane still holds instead of blocking the run's end on it.
+TEST(AsyncLanesFaults, AUnitHungForGoodIsAbandonedAndTheRunEnds) {
+  std::atomic<int> encoders{0};
+  SyntheticBackend::Options o;
+  o.time_scale = 0.3;
+  o.inject = [&encoders](const Dispatch& d) {
+    return d.kind == UnitKind::Encoder && encoders.fetch_add(1) == 3 ? 4 : 0;
+  };
+  RuntimeOptions ro;
+  ro.watchdog_min = std::chrono::milliseconds{150};
+  ro.drain_limit = std::chrono::milliseconds{300};
+  for (const char* policy : {"red", "red-ida"}) {
+    encoders = 0;
+    const AsyncRun r = run_async(policy, o, ro, 1);
+    expect_every_job_once(r);
+    EXPECT_EQ(r.report.timeouts, 1U) << policy;
+    EXPECT_EQ(r.report.late_returns, 0U) << policy << ": it never returned";
+    EXPECT_GE(r.report.abandoned, 1U) << policy;
+    EXPECT_GT(r.metrics.completed, 0) << policy;
+  }
+}
+
+// A fault that sticks to the device: the unit that saw it fails with "device lost", the run
+// stops at once instead of failing every later unit, and the report names the lane.
+TEST(AsyncLanesFaults, ALostDeviceStopsTheRunAndNamesTheLaneThatSawIt) {
+  auto s = parse_scenario(kScenario, "async.yaml");
+  ASSERT_TRUE(s.has_value());
+  s->duration = std::chrono::seconds{30};
+  const Profile p = default_profile();
+  std::atomic<int> encoders{0};
+  SyntheticBackend::Options o;
+  o.asynchronous = true;
+  o.time_scale = 0.3;
+  o.inject = [&encoders](const Dispatch& d) {
+    return d.kind == UnitKind::Encoder && encoders.fetch_add(1) == 4 ? 5 : 0;
+  };
+  SyntheticBackend backend(*s, p, 1, o);
+  RuntimeOptions ro;
+  ro.realtime = false;
+  Runtime rt(*s, p, make_policy("red"), backend, ro);
+  Watch watch;
+  rt.add_observer(&watch);
+  const RuntimeReport report = rt.run();
+  EXPECT_LT(report.end, std::chrono::seconds{10}) << "the run went on after the device was lost";
+  EXPECT_EQ(report.device_lost, "device lost: injected device fault");
+  EXPECT_TRUE(report.device_lost_lane == 0 || report.device_lost_lane == 1)
+      << report.device_lost_lane;
+  EXPECT_EQ(report.failure_reasons.count("device lost: injected device fault"), 1U);
+  ASSERT_FALSE(watch.released.empty());
+  EXPECT_EQ(watch.duplicate_ends, 0);
+  EXPECT_EQ(watch.ended.size(), watch.released.size());
+}
+
+// The handler polls Backend::ready() (spinning, then parked) and calls wait() only for a unit
+// that has ended: it never blocks in the backend, so it can give up on a hung unit.
+class Polled final : public Backend {
+ public:
+  explicit Polled(SyntheticBackend& inner) : inner_(inner) {}
+  [[nodiscard]] std::string_view name() const noexcept override { return inner_.name(); }
+  void init_lane(int lane) override { inner_.init_lane(lane); }
+  void on_frame(int sensor, std::uint64_t frame) override { inner_.on_frame(sensor, frame); }
+  void run(int lane, const Dispatch& d) override { inner_.run(lane, d); }
+  [[nodiscard]] bool asynchronous() const noexcept override { return inner_.asynchronous(); }
+  void enqueue(int lane, const Dispatch& d) override { inner_.enqueue(lane, d); }
+  UnitDone wait(int lane) override {
+    if (!inner_.ready(lane)) blocked_waits.fetch_add(1);
+    waits.fetch_add(1);
+    return inner_.wait(lane);
+  }
+  [[nodiscard]] bool ready(int lane) override {
+    polls.fetch_add(1);
+    return inner_.ready(lane);
+  }
+  void abandon(int lane) override { inner_.abandon(lane); }
+  std::atomic<int> polls{0};
+  std::atomic<int> waits{0};
+  std::atomic<int> blocked_waits{0};
+
+ private:
+  SyntheticBackend& inner_;
+};
+
+TEST(AsyncLanesPolling, TheHandlerWaitsOnlyForUnitsThatHaveEnded) {
+  auto s = parse_scenario(kScenario, "async.yaml");
+  ASSERT_TRUE(s.has_value());
+  const Profile p = default_profile();
+  SyntheticBackend::Options o;
+  o.asynchronous = true;
+  o.time_scale = 0.5;
+  SyntheticBackend inner(*s, p, 1, o);
+  Polled backend(inner);
+  for (const char* policy : {"red", "edf"}) {
+    RuntimeOptions ro;
+    ro.realtime = false;
+    ro.watchdog_x = 0;
+    Runtime rt(*s, p, make_policy(policy), backend, ro);
+    Watch watch;
+    rt.add_observer(&watch);
+    const RuntimeReport report = rt.run();
+    EXPECT_EQ(report.failures, 0U) << policy;
+    EXPECT_GT(backend.waits.load(), 0) << policy;
+    EXPECT_GE(backend.polls.load(), backend.waits.load()) << policy;
+    EXPECT_EQ(backend.blocked_waits.load(), 0) << policy << ": wait() called before ready()";
+    EXPECT_EQ(watch.ended.size(), watch.released.size()) << policy;
+  }
+}
+
 TEST(AsyncLanesFaults, StopNowReportsWhatIsInFlightUnfinished) {
   auto s = parse_scenario(kScenario, "async.yaml");
   ASSERT_TRUE(s.has_value());

@@ -343,6 +343,10 @@ int run_node(const NodeArgs& a) {
     if (node_json) return kRunFailure;
     std::cerr << "red node: " << wrote_message(*a.out, wrote) << ", node.json\n";
   }
+  if (!report.device_lost.empty()) {
+    print_error(Error{"", 0, report.device_lost + "; the run stopped there (docs/GPU.md)"});
+    return kRunFailure;
+  }
   return kOk;
 }
 

@@ -28,6 +28,7 @@
 #include "red/profile/profile.hpp"
 #include "red/profile/quality.hpp"
 #include "red/report/stream.hpp"
+#include "red/torch/lane_device.hpp"
 #include "red/torch/profiler.hpp"
 #endif
 
@@ -64,6 +65,7 @@ struct ProfileArgs {
   std::uint64_t seed = 1;
   bool no_separate = false;
   bool quiet = false;
+  bool debug_sync = false;  ///< LibTorch's CUDA sync debug mode on warn
   std::string out;
   // Calibration (docs/FIDELITY.md): real runs of a scenario after the isolated profile.
   std::string from;                         ///< calibrate this profile instead of measuring one
@@ -297,6 +299,7 @@ Expected<Profile> calibrate(const ProfileArgs& a, const Profile& isolated, int& 
   RealRunOptions real;
   real.seed = s->seed;
   real.keep_units = true;
+  real.debug_sync = false;  // set once for the process by run_profile
   real.device = calibration_device(a, isolated);
   real.threads = a.threads > 0 ? a.threads : 0;
   if (auto e = check_device(real)) return *e;
@@ -410,6 +413,7 @@ int run_profile(const ProfileArgs& a) {
     print_error(*e);
     return kRunFailure;
   }
+  if (a.debug_sync) std::cerr << "red profile: " << torchb::warn_on_device_sync() << '\n';
   if (!a.from.empty()) return run_calibrate_only(a);
   auto m = model_options(a);
   if (!m) {
@@ -480,6 +484,9 @@ void register_profile(CLI::App& app, int& exit_code) {
   cmd->add_option("--device", args->device,
                   "cpu, cuda or cuda:N (default: cpu; with --from, the device that profile was "
                   "measured on). A device that is not there is an error, never a CPU run");
+  cmd->add_flag("--debug-sync", args->debug_sync,
+                "LibTorch warns on stderr at every operation that makes the host wait for the "
+                "GPU (its CUDA sync debug mode); nothing on the CPU");
   cmd->add_option("--threads", args->threads,
                   "LibTorch intra-op threads. Default: the online CPUs less those busy with other "
                   "processes over 0.5 s at start, at least 1, so the measuring does not "

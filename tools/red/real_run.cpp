@@ -38,6 +38,10 @@ void add_device_options(CLI::App* cmd, RealRunOptions& o) {
                   "LibTorch intra-op threads per lane (0: the hardware threads shared among "
                   "the lanes)")
       ->check(whole_number(1024));
+  cmd->add_flag("--debug-sync", o.debug_sync,
+                "LibTorch warns on stderr at every operation that makes the host wait for the "
+                "GPU (its CUDA sync debug mode, torch.cuda.set_sync_debug_mode('warn')), so that "
+                "a hidden synchronization in a lane's path is named; nothing on the CPU");
   cmd->add_flag("--async", o.asynchronous,
                 "Run each lane asynchronously on the CPU too: units are enqueued on a lane's "
                 "worker and waited for, and an on-demand policy queues the next unit while "
@@ -45,6 +49,11 @@ void add_device_options(CLI::App* cmd, RealRunOptions& o) {
 }
 
 std::optional<Error> check_device(const RealRunOptions& o) {
+  if (o.debug_sync && o.backend != "torch")
+    return Error{"", 0,
+                 "--debug-sync: the " + o.backend +
+                     " backend has no device to synchronize with; --debug-sync is for "
+                     "--backend torch"};
   if (o.device == "cpu") return std::nullopt;
   if (o.backend != "torch")
     return Error{"", 0,
@@ -148,6 +157,7 @@ Expected<std::unique_ptr<Backend>> make_backend(const Scenario& s, const Profile
     // measures), so lanes running side by side do not oversubscribe the cores.
     const int hw = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
     const int threads = o.threads > 0 ? o.threads : std::max(1, hw / std::max(1, s.device.lanes));
+    if (o.debug_sync) std::cerr << "red: " << torchb::warn_on_device_sync() << '\n';
     return torchb::make_torch_backend(s, o.device, threads, o.asynchronous);
 #else
     return Error{"", 0,
@@ -247,6 +257,16 @@ Expected<PolicyRun> run_real(const Scenario& s, const Profile& p, const std::str
   if (auto w = costs_differed(run.metrics, o.label.empty() ? policy : o.label))
     std::cerr << "red: " << *w << '\n';
   if (auto w = releases_warning(run.metrics)) std::cerr << "red: warning: " << *w << '\n';
+  if (!report.device_lost.empty()) {
+    // Every later unit would have failed the same way: the run stopped, and so does red.
+    print_runtime_report(o.label.empty() ? policy : o.label, report);
+    return Error{"", 0,
+                 "policy " + (o.label.empty() ? policy : o.label) + ": " + report.device_lost +
+                     "; the run stopped there (reported by lane " +
+                     std::to_string(report.device_lost_lane) +
+                     "; the faulting kernel may have been on any lane: run again with "
+                     "CUDA_LAUNCH_BLOCKING=1 to place it, docs/GPU.md)"};
+  }
   run.jobs = metrics.take_jobs();
   run.units = metrics.take_units();
   run.result.end = report.end;
@@ -307,6 +327,11 @@ void print_runtime_report(const std::string& policy, const RuntimeReport& r) {
     std::cerr << fmt::format(
         "red:   {} timed-out unit(s) returned late; lanes out of service {:.1f} ms\n",
         r.late_returns, to_ms(r.out_of_service));
+  if (r.abandoned > 0)
+    std::cerr << fmt::format(
+        "red:   {} unit(s) abandoned at the end of the run: the device had not finished them "
+        "past their watchdog limit (a hung device)\n",
+        r.abandoned);
   for (const auto& [reason, n] : r.failure_reasons)
     std::cerr << fmt::format("red:   {} unit(s) failed: {}\n", n, reason);
   for (const std::string& line : r.realtime) std::cerr << "red:   " << line << '\n';

@@ -46,6 +46,8 @@ struct RealRunOptions {
   /// Asynchronous lanes on the CPU (enqueue, then wait: the stand-in of a GPU lane); a GPU
   /// always runs them so.
   bool asynchronous = false;
+  /// LibTorch's CUDA sync debug mode on warn (`--debug-sync`).
+  bool debug_sync = false;
   bool realtime = true;
   std::uint64_t seed = 1;
   std::optional<SyncMode> sync;                     ///< overrides the policy's synchronization mode
@@ -59,8 +61,8 @@ struct RealRunOptions {
   std::string label;
 };
 
-/// Registers --device and --threads on a command that makes a backend (run, compare, node),
-/// with one wording everywhere.
+/// Registers --device, --threads, --debug-sync and --async on a command that makes a backend (run,
+/// compare, node), with one wording everywhere.
 void add_device_options(CLI::App* cmd, RealRunOptions& o);
 
 /// Whether the device `o` asks for is there for its backend in this build: cpu always;

@@ -3,6 +3,7 @@
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
 #include <c10/core/Allocator.h>
+#include <c10/core/impl/DeviceGuardImplInterface.h>
 #include <c10/util/ThreadLocalDebugInfo.h>
 #include <torch/cuda.h>
 #include <torch/version.h>
@@ -150,7 +151,10 @@ class Profiler {
     if (progress_) progress_(message);
   }
 
-  void set_device(const c10::Device& d) { timer_ = UnitTimer(d); }
+  void set_device(const c10::Device& d) {
+    timer_ = UnitTimer(
+        d.is_cpu() || !c10::impl::hasDeviceGuardImpl(d.type()) ? nullptr : make_lane_device(d));
+  }
 
   /// How the units were measured, for the profile.
   [[nodiscard]] Measurement measurement(double device_warmup_s) const {
@@ -174,7 +178,7 @@ class Profiler {
 
   ProfileOptions options_;
   const ProgressFn& progress_;
-  UnitTimer timer_{c10::Device(c10::kCPU)};
+  UnitTimer timer_;
   int unstable_ = 0;
 };
 

@@ -28,18 +28,29 @@ class OutOfMemoryError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Thrown by a backend when its device is lost (a fault that every later call on the device
+/// reports again, such as a CUDA kernel's illegal memory access): the unit fails, and the
+/// runtime stops the run rather than fail every later unit (RuntimeReport::device_lost).
+class DeviceLostError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 class LazyFrame;
 
 /// How a unit enqueued on an asynchronous lane ended (Backend::wait()).
 struct UnitDone {
   UnitStatus status = UnitStatus::Completed;  ///< Completed, Failed or OutOfMemory
   std::string reason;                         ///< a failure's message
-  /// When the device started and ended the unit, on std::chrono::steady_clock (a GPU: the
-  /// end observed by the host, and the start that much earlier as the device's events
-  /// timed it). Left at the epoch, the runtime takes the unit's start as the later of its
+  /// When the device started and ended the unit, on std::chrono::steady_clock (a GPU: its
+  /// events' times on the device's clock, placed on the host's by a reference event of the
+  /// lane). Left at the epoch, the runtime takes the unit's start as the later of its
   /// enqueue and the end of the unit before it, and its end as when wait() returned.
   std::chrono::steady_clock::time_point started{};
   std::chrono::steady_clock::time_point ended{};
+  /// The unit failed because the device is lost (as DeviceLostError says): the runtime
+  /// stops the run.
+  bool device_lost = false;
 };
 
 /// Pixels of an external frame (e.g. received over DDS), already at the model's input height
@@ -160,8 +171,20 @@ class Backend {
   virtual void enqueue(int lane, const Dispatch& d) { run(lane, d); }
   /// Asynchronous lanes: waits for the oldest unit enqueued on `lane` to end and says how
   /// (a unit's own failure is reported, not thrown). Called from the lane's thread, once
-  /// per enqueued unit. The default (for the default enqueue()) reports Completed.
+  /// per enqueued unit that was not abandoned. The default (for the default enqueue())
+  /// reports Completed.
   virtual UnitDone wait(int /*lane*/) { return {}; }
+  /// Asynchronous lanes: whether the oldest unit enqueued on `lane` has ended, so that
+  /// wait() returns without waiting. Never blocks and never throws (a device error makes
+  /// it true: wait() reports it). The runtime polls it, spinning then parking, so that a
+  /// waiting lane does not hold its core, and so that it can give up on a hung unit.
+  /// Called from the lane's thread. The default, true, leaves the waiting to wait().
+  [[nodiscard]] virtual bool ready(int /*lane*/) { return true; }
+  /// Asynchronous lanes: gives up on the oldest unit enqueued on `lane` without waiting
+  /// for it (the device hangs at the end of a run): wait() will not report it, and what it
+  /// holds is let go once the device has finished with it. Called from the lane's thread.
+  /// The default waits for it.
+  virtual void abandon(int lane) { (void)wait(lane); }
   /// Runs what a unit runs once, off the clock and outside any job, so that the memory a
   /// run touches is mapped and resident before the runtime locks its pages (mlockall with
   /// MCL_ONFAULT) and the first jobs do not pay for page faults. Called on each lane's

@@ -121,7 +121,14 @@ struct RuntimeReport {
   std::uint64_t failures = 0;         ///< units that ended Failed, OutOfMemory or timed out
   std::map<std::string, std::uint64_t> failure_reasons;  ///< failed units by reason
   std::uint64_t timeouts = 0;                            ///< units failed by the watchdog
-  std::uint64_t late_returns = 0;          ///< timed-out backend calls that returned later
+  std::uint64_t late_returns = 0;  ///< timed-out backend calls that returned later
+  /// Units an asynchronous lane gave up on at the end of the run because the device had not
+  /// finished them past their watchdog limit (a hung device; Backend::abandon).
+  std::uint64_t abandoned = 0;
+  /// The device was lost (Backend's DeviceLostError, UnitDone::device_lost): what the first
+  /// unit to see it said, and its lane (-1: none). The run stopped there, as stop_now().
+  std::string device_lost;
+  int device_lost_lane = -1;
   Duration out_of_service{0};              ///< lane time spent waiting for timed-out calls
   std::vector<RuntimeSample> samples;      ///< one per sample_period, and one at the end
   std::int64_t resident_bytes_before = 0;  ///< process RSS before the runtime's threads start

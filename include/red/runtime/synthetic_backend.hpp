@@ -31,8 +31,10 @@ class SyntheticBackend final : public Backend {
     double time_scale = 1.0;  ///< multiplies every sampled time (0: return at once)
     bool spin = false;        ///< spin instead of sleeping (keeps a core busy like compute)
     /// Decides whether a dispatch fails: 0 ok, 1 throws std::runtime_error, 2 throws
-    /// OutOfMemoryError, 3 hangs for `hang` before returning normally. Called on the
-    /// lane's thread.
+    /// OutOfMemoryError, 3 hangs for `hang` before returning normally, 4 hangs until the
+    /// backend is destroyed (a hung device: on an asynchronous lane the units behind it
+    /// wait too), 5 loses the device (DeviceLostError; every later unit fails so too).
+    /// Called on the lane's thread (an asynchronous lane's worker).
     std::function<int(const Dispatch&)> inject;
     Duration hang = std::chrono::seconds{1};  ///< how long an injected hang lasts
     /// Lanes are worker threads fed through enqueue() and wait() (a GPU lane's stand-in).
@@ -51,6 +53,8 @@ class SyntheticBackend final : public Backend {
   [[nodiscard]] bool asynchronous() const noexcept override { return options_.asynchronous; }
   void enqueue(int lane, const Dispatch& d) override;
   UnitDone wait(int lane) override;
+  [[nodiscard]] bool ready(int lane) override;
+  void abandon(int lane) override;
 
   /// Units run so far (all lanes).
   [[nodiscard]] std::uint64_t runs() const noexcept { return runs_.load(); }
@@ -64,6 +68,8 @@ class SyntheticBackend final : public Backend {
     std::condition_variable cv;
     std::deque<Dispatch> queued;
     std::deque<UnitDone> done;
+    bool busy = false;     // the worker is running a unit (taken from `queued`)
+    std::size_t skip = 0;  // 1: the running unit was abandoned, its result is dropped
     bool stop = false;
   };
   Worker& worker(int lane);
@@ -74,6 +80,10 @@ class SyntheticBackend final : public Backend {
   CostSampler sampler_;
   Options options_;
   std::atomic<std::uint64_t> runs_{0};
+  std::atomic<bool> lost_{false};  // an injected device fault happened (5)
+  std::mutex hang_mu_;             // injected endless hangs (4) wait on hang_cv_
+  std::condition_variable hang_cv_;
+  bool ending_ = false;  // under hang_mu_: the destructor releases the hangs
   std::mutex workers_mu_;
   std::vector<std::unique_ptr<Worker>> workers_;  // by lane, made on a lane's first enqueue
 };
