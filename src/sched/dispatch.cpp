@@ -284,6 +284,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
         // outside the batch, or a more critical member of it.
         if (guarding) {
           const TimePoint begin = dispatch_begin(lane_index, now) + rt;
+          if (!guard_join(batch, t, begin, cb, batch_estimate(k, b - 1))) break;
           batch.push_back(t);
           const bool blocks = guard(batch, lane_index, now, begin).blocks;
           batch.pop_back();

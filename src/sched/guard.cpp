@@ -164,4 +164,25 @@ Scheduler::Impl::GuardVerdict Scheduler::Impl::guard(std::span<const int> run, i
   return v;
 }
 
+bool Scheduler::Impl::guard_join(std::span<const int> members, int joining, TimePoint begin,
+                                 Duration with, Duration without) {
+  int crit = std::numeric_limits<int>::min();
+  for (const auto& [slot, unit] : task(joining).members)
+    crit = std::max(crit, ops[static_cast<std::size_t>(job(slot).op)].criticality);
+  if (crit >= top_criticality) return true;
+  // A batch of frames costs more than one frame, and on a busy machine a larger run overran its
+  // estimate more: a less critical frame joins a more critical job's run only where that job
+  // still makes its deadline with the margin (else the frame runs after, in a run of its own).
+  for (int t : members)
+    for (const auto& [slot, unit] : task(t).members) {
+      const Job& m = job(slot);
+      if (ops[static_cast<std::size_t>(m.op)].criticality <= crit) continue;
+      const Duration after = path_after(m, unit);
+      if (begin + without + after <= m.deadline &&
+          begin + padded(with, kMargin) + after > m.deadline)
+        return false;
+    }
+  return true;
+}
+
 }  // namespace red

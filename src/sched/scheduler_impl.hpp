@@ -540,6 +540,12 @@ struct Scheduler::Impl {
     TimePoint until = kNever;
   };
   GuardVerdict guard(std::span<const int> run, int lane, TimePoint now, TimePoint begin);
+  // The guard on a batch (guard.cpp): whether task `joining` may join the tasks `members` of
+  // the batch being formed, its run then costing `with` instead of `without` from `begin`: a
+  // member more critical than it that makes its deadline without the join must still make it,
+  // by the plan's estimate with the guard's margin, after the larger batch.
+  bool guard_join(std::span<const int> members, int joining, TimePoint begin, Duration with,
+                  Duration without);
   // When a lane is free to start more work, by the plan's estimates of what it holds.
   TimePoint lane_free_at(const Lane& l, TimePoint now) const;
   // When a dispatch picked now for lane `lane` begins: now, or after what the lane holds when
