@@ -29,6 +29,17 @@ using test::read_text;
 using Result = test::RunResult;
 
 // The delivery robot: two cameras, an operation added at 4 s and removed at 7 s.
+// The built-in profile with every figure doubled, written under `dir`: units that cost twice
+// what the plan's profile says (--costs).
+fs::path slow_profile(const fs::path& dir) {
+  Profile slow = default_profile();
+  for (auto& [name, u] : slow.units)
+    for (LatencyStats& st : u.by_batch) st = st.scaled(2.0);
+  const fs::path costs = dir / "slow.json";
+  std::ofstream(costs) << profile_to_json(slow);
+  return costs;
+}
+
 std::string delivery() {
   return quote(std::string(RED_TEST_DATA) + "/scenarios/delivery-robot.yaml");
 }
@@ -280,11 +291,7 @@ TEST_F(ReportCli, WhyTellsOneJobsStory) {
 // profile, --costs) follows them with online estimates, and says so: summary.json's costs
 // per unit and batch size, index.html's costs table, both kept by `red report DIR`.
 TEST_F(ReportCli, TheCostsARunMetAreSavedShownAndRedrawn) {
-  Profile slow = default_profile();
-  for (auto& [name, u] : slow.units)
-    for (LatencyStats& st : u.by_batch) st = st.scaled(2.0);
-  const fs::path costs = dir_ / "slow.json";
-  std::ofstream(costs) << profile_to_json(slow);
+  const fs::path costs = slow_profile(dir_);
   const fs::path out = compare("costs", "--costs " + quote(costs.string()));
   const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
   for (const auto& p : summary.at("policies")) {
@@ -320,11 +327,7 @@ TEST_F(ReportCli, TheCostsARunMetAreSavedShownAndRedrawn) {
 // by the trace's "merge wait" counter) is redrawn: the counter, a "C" event of the same name as
 // the waits' instants, once aborted `red report` on its missing until_ms.
 TEST_F(ReportCli, RedrawsARunWhoseTraceCountsWaitingTasks) {
-  Profile slow = default_profile();
-  for (auto& [name, u] : slow.units)
-    for (LatencyStats& st : u.by_batch) st = st.scaled(2.0);
-  const fs::path costs = dir_ / "slow.json";
-  std::ofstream(costs) << profile_to_json(slow);
+  const fs::path costs = slow_profile(dir_);
   const fs::path out = dir_ / "warehouse";
   const Result run = red(
       "compare " + quote(std::string(RED_TEST_DATA) + "/workloads/warehouse/warehouse.yaml") +

@@ -217,9 +217,16 @@ bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
 }
 
-TEST(TorchLanesStandIn, IsAsynchronousAndBindsOneStreamPerLane) {
+// A backend on the stand-in device: each test's scenario, graph and device (a test may set the
+// device up before it makes the backend).
+class TorchLanesStandIn : public ::testing::Test {
+ protected:
   const Scenario s = small_scenario();
-  auto dev = std::make_shared<FakeDevice>();
+  const RefinedGraph g = fine_graph();
+  std::shared_ptr<FakeDevice> dev = std::make_shared<FakeDevice>();
+};
+
+TEST_F(TorchLanesStandIn, IsAsynchronousAndBindsOneStreamPerLane) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   EXPECT_TRUE(b->asynchronous());
@@ -232,10 +239,7 @@ TEST(TorchLanesStandIn, IsAsynchronousAndBindsOneStreamPerLane) {
 
 // Item 2: a unit's start and end are its events' device times placed on the host's clock by
 // the lane's reference event, however late the host waits for it.
-TEST(TorchLanesStandIn, UnitTimesAreTheEventsNotWhenTheHostWaited) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, UnitTimesAreTheEventsNotWhenTheHostWaited) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   dev->device_ms = {100.0};  // the reference event
@@ -258,10 +262,7 @@ TEST(TorchLanesStandIn, UnitTimesAreTheEventsNotWhenTheHostWaited) {
 
 // The reference event is recorded again when the lane is idle and it is over a second old,
 // and kept when the new one is not seen at once (the stream was not idle).
-TEST(TorchLanesStandIn, TheReferenceEventIsRenewedOnlyOnAnIdleStream) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, TheReferenceEventIsRenewedOnlyOnAnIdleStream) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   dev->device_ms = {100.0};
@@ -287,10 +288,7 @@ TEST(TorchLanesStandIn, TheReferenceEventIsRenewedOnlyOnAnIdleStream) {
   EXPECT_GT(renewed.started - (enqueued + 10ms), -100us);
 }
 
-TEST(TorchLanesStandIn, WithoutEventTimingTheEndIsWhenTheHostSawIt) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, WithoutEventTimingTheEndIsWhenTheHostSawIt) {
   dev->timing = false;  // a LibTorch before 2.6
   auto b = make(s, dev);
   ASSERT_TRUE(b);
@@ -305,10 +303,7 @@ TEST(TorchLanesStandIn, WithoutEventTimingTheEndIsWhenTheHostSawIt) {
 }
 
 // Item 4: waiting polls the end event and rests between polls; ready() never waits.
-TEST(TorchLanesStandIn, WaitingPollsAndRestsInsteadOfSpinning) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, WaitingPollsAndRestsInsteadOfSpinning) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   b->init_lane(0);
@@ -329,8 +324,7 @@ TEST(TorchLanesStandIn, WaitingPollsAndRestsInsteadOfSpinning) {
 
 // Item 5: a unit the device never finishes is abandoned; its tensors go only when its event
 // completes, and ending the run does not block on it.
-TEST(TorchLanesStandIn, AHungUnitIsAbandonedAndLetGoWhenTheDeviceFinishesIt) {
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, AHungUnitIsAbandonedAndLetGoWhenTheDeviceFinishesIt) {
   DeviceLanes lanes(dev);
   lanes.init(0);
   const at::Tensor t = at::zeros({4});
@@ -358,10 +352,7 @@ TEST(TorchLanesStandIn, AHungUnitIsAbandonedAndLetGoWhenTheDeviceFinishesIt) {
   EXPECT_EQ(t.use_count(), held - 1);
 }
 
-TEST(TorchLanesStandIn, TheBackendAbandonsAHungUnitAndEndsTheRun) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, TheBackendAbandonsAHungUnitAndEndsTheRun) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   b->init_lane(0);
@@ -382,10 +373,7 @@ TEST(TorchLanesStandIn, TheBackendAbandonsAHungUnitAndEndsTheRun) {
 
 // Item 6: a fault that sticks to the device is recognised as a lost device, named with the
 // lane and unit that saw it first; every later unit says so without running.
-TEST(TorchLanesStandIn, AStickyFaultIsADeviceLostFirstSeenByOneUnit) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, AStickyFaultIsADeviceLostFirstSeenByOneUnit) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   b->init_lane(0);
@@ -408,10 +396,7 @@ TEST(TorchLanesStandIn, AStickyFaultIsADeviceLostFirstSeenByOneUnit) {
   }
 }
 
-TEST(TorchLanesStandIn, AFailureThatDoesNotStickFailsOnlyItsUnit) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, AFailureThatDoesNotStickFailsOnlyItsUnit) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   b->init_lane(0);
@@ -439,10 +424,7 @@ TEST(TorchLanesStandIn, AFailureThatDoesNotStickFailsOnlyItsUnit) {
 
 // Item 7: a plain (CPU) unit queued behind device work is run and timed on the host once
 // the units before it have ended; it records no device event.
-TEST(TorchLanesStandIn, PlainUnitsAreTimedOnTheHost) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, PlainUnitsAreTimedOnTheHost) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   b->init_lane(0);
@@ -463,10 +445,7 @@ TEST(TorchLanesStandIn, PlainUnitsAreTimedOnTheHost) {
 
 // Item 9: the lane's stream belongs to the backend instance, not to the thread; a backend
 // whose lane was never initialised still queues on a stream of its own and run() waits.
-TEST(TorchLanesStandIn, TwoBackendsOnOneThreadKeepTheirOwnStreams) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, TwoBackendsOnOneThreadKeepTheirOwnStreams) {
   auto a = make(s, dev);
   auto c = make(s, dev);
   ASSERT_TRUE(a && c);
@@ -482,10 +461,7 @@ TEST(TorchLanesStandIn, TwoBackendsOnOneThreadKeepTheirOwnStreams) {
   EXPECT_EQ(a->wait(0).status, UnitStatus::Completed);
 }
 
-TEST(TorchLanesStandIn, RunWithoutInitLaneWaitsForTheDevice) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, RunWithoutInitLaneWaitsForTheDevice) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   b->on_frame(0, 1);
@@ -500,10 +476,7 @@ TEST(TorchLanesStandIn, RunWithoutInitLaneWaitsForTheDevice) {
 // Items 1 and 10: a received frame is copied to the device by the unit that first reads it,
 // from host memory, before its start event; an input made on another lane's stream (a
 // converted frame, an encoder output) is waited for by the reading lane's stream.
-TEST(TorchLanesStandIn, FramesAndOutputsFromAnotherLaneAreWaitedForOnTheDevice) {
-  const Scenario s = small_scenario();
-  const RefinedGraph g = fine_graph();
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, FramesAndOutputsFromAnotherLaneAreWaitedForOnTheDevice) {
   auto b = make(s, dev);
   ASSERT_TRUE(b);
   b->init_lane(0);
@@ -544,8 +517,7 @@ TEST(TorchLanesStandIn, FramesAndOutputsFromAnotherLaneAreWaitedForOnTheDevice) 
 }
 
 // Item 8: on a device the profiler times a second call, queued behind an untimed first.
-TEST(TorchLanesStandIn, TheProfilerTimesASecondCallBehindAnUntimedFirst) {
-  auto dev = std::make_shared<FakeDevice>();
+TEST_F(TorchLanesStandIn, TheProfilerTimesASecondCallBehindAnUntimedFirst) {
   const UnitTimer timer(dev);
   std::vector<std::size_t> events_at_call;
   dev->device_ms = {3.0, 7.5};
