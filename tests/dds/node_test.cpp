@@ -242,8 +242,23 @@ TEST(DdsNode, CameraToNodeToListenersWithMatchingStampsAndDiagnostics) {
   ASSERT_FALSE(last_diag.empty()) << "no diagnostics";
   EXPECT_GT(std::stoi(last_diag["red: drive/jobs"]), 0);
   EXPECT_GT(std::stoi(last_diag["red: detect/jobs"]), 0);
-  for (const std::string k : {"miss_rate", "drop_rate", "qoe", "latency_p50_ms", "latency_p99_ms"})
+  for (const std::string k :
+       {"miss_rate", "drop_rate", "qoe", "latency_p50_ms", "latency_p99_ms", "not_met"})
     EXPECT_EQ(last_diag.count("red: drive/" + k), 1U) << k;
+  // The jobs not met by cause add up to the misses the rate counts.
+  for (const std::string op : {"drive", "detect"}) {
+    const std::string text = last_diag["red: " + op + "/not_met"];
+    std::uint64_t counted = 0;
+    for (std::size_t at = 0; at < text.size();) {
+      const std::size_t end = std::min(text.find(", ", at), text.size());
+      const std::string part = text.substr(at, end - at);
+      counted += std::stoull(part.substr(part.rfind(' ') + 1));
+      at = end + 2;
+    }
+    const double jobs = std::stod(last_diag["red: " + op + "/jobs"]);
+    const double rate = std::stod(last_diag["red: " + op + "/miss_rate"]);
+    EXPECT_NEAR(static_cast<double>(counted), jobs * rate, 0.5) << op << ": " << text;
+  }
   EXPECT_EQ(last_diag.count("red: node/decision_p99_us"), 1U);
   ASSERT_TRUE(bad_sent) << "the node produced no output, so no bad image was sent";
   EXPECT_EQ(last_diag["red: node/rejected_unknown_encoding"], "1");

@@ -1,6 +1,10 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "node_impl.hpp"
 #include "red/metrics/metrics.hpp"
@@ -13,6 +17,17 @@ std::string fmt_double(double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.6g", v);
   return buf;
+}
+
+// Jobs not met by cause, most first: "late 3, hopeless 2" (empty when none).
+std::string not_met_text(const std::map<std::string, std::uint64_t>& by_cause) {
+  std::vector<std::pair<std::string, std::uint64_t>> v(by_cause.begin(), by_cause.end());
+  std::stable_sort(v.begin(), v.end(),
+                   [](const auto& a, const auto& b) { return a.second > b.second; });
+  std::string out;
+  for (const auto& [cause, n] : v)
+    out += (out.empty() ? "" : ", ") + cause + " " + std::to_string(n);
+  return out;
 }
 
 }  // namespace
@@ -52,7 +67,8 @@ void Node::Impl::publish_diagnostics() {
            {"drop_rate", fmt_double(t.drop_rate())},
            {"qoe", fmt_double(t.qoe())},
            {"latency_p50_ms", fmt_double(percentile_sorted(lat, 0.5))},
-           {"latency_p99_ms", fmt_double(percentile_sorted(lat, 0.99))}});
+           {"latency_p99_ms", fmt_double(percentile_sorted(lat, 0.99))},
+           {"not_met", not_met_text(st.not_met)}});
     }
   }
   std::string silent;

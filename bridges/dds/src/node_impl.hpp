@@ -61,6 +61,11 @@ struct SensorState {
 // module's (OutcomeTally, as in red run's summary); the latencies are the node's own window.
 struct OpStats {
   OutcomeTally tally;
+  // Jobs not met, by cause as a job's end tells it: "late" (it finished after its deadline), or
+  // the rule that shed it (its reason: "rejected at release", "hopeless", "max_inflight",
+  // "deadline passed", a failure's). Why a late job was late (the lane time before it) is in
+  // jobs.csv's cause at the end (--out).
+  std::map<std::string, std::uint64_t> not_met;
   std::vector<double> latency_ms;  // the newest kLatencyWindow (keep_newest)
   std::uint64_t completed = 0;     // latencies offered to it
 };

@@ -45,6 +45,10 @@ void Node::Impl::on_job_end(const JobRecord& j) {
       keep_newest(st.latency_ms, st.completed++, kLatencyWindow, ms);
     }
     st.tally.add(j.outcome, qoe);
+    if (j.outcome != JobOutcome::Met && j.outcome != JobOutcome::Unfinished)
+      ++st.not_met[j.outcome == JobOutcome::Missed ? std::string("late")
+                   : j.reason.empty()              ? std::string(to_string(j.outcome))
+                                                   : std::string(j.reason)];
   }
   // A finished job publishes what it computed; a dropped one (strict) nothing (docs/ROS2.md).
   if (!completed) {
