@@ -212,6 +212,52 @@ TEST(CriticalityGuard, TheMostCriticalOperationMissesLeastInTheWarehouseAtSlower
   EXPECT_GT(violated_without, 0);
 }
 
+// A less critical frame joins a more critical job's batch only where that job still makes its
+// deadline after the larger run with the guard's 5 % margin. One lane, two cameras at 10 Hz, their
+// frames at the same instants: `critical` (criticality 1) runs a steer head (p99 0.75 ms) on
+// camera a within 23.2 ms; `lax` a seg head on camera b within 200 ms. The built-in profile's
+// encoder costs 14 ms (p99) alone and 21.7 ms for a batch of two: the batch makes the critical
+// deadline by estimate (21.7 + 0.75 <= 23.2, and the encoder's intermediate deadline, 14 / 14.75
+// of the job's, allows it) but not with the margin (22.785 + 0.75 > 23.2). Without the guard the
+// two frames' encoder runs are batched; with it each runs alone.
+TEST(CriticalityGuard, ALessCriticalFrameJoinsACriticalBatchOnlyWithTheMargin) {
+  const std::string yaml = R"(
+name: guard-join
+duration_s: 3
+seed: 3
+device: {lanes: 1, sync_cost_us: 0}
+model: {builtin: mimonet, heads: [lane, seg, steer, det]}
+sensors:
+  a: {rate_hz: 10}
+  b: {rate_hz: 10}
+operations:
+  - name: critical
+    trigger: a
+    deadline_ms: 23.2
+    criticality: 1
+    nodes:
+      S: {head: steer, sensor: a}
+  - name: lax
+    trigger: b
+    deadline_ms: 200
+    nodes:
+      L: {head: seg, sensor: b}
+)";
+  auto s = parse_scenario(yaml, "guard-join.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().to_string();
+  std::map<std::string, std::map<int, int>> encoder_runs;  // guard -> batch size -> runs
+  for (const char* with : {"guard=yes", "guard=no"}) {
+    s->scheduler.policy_with = with;
+    auto r = simulate_policy(*s, default_profile(), "red-robust", 3);
+    ASSERT_TRUE(r.has_value());
+    for (const UnitRow& u : r->units)
+      if (u.kind == UnitKind::Encoder) ++encoder_runs[with][u.batch];
+  }
+  EXPECT_GT(encoder_runs["guard=no"][2], 0) << "the frames no longer batch without the guard";
+  EXPECT_EQ(encoder_runs["guard=yes"][2], 0);
+  EXPECT_GT(encoder_runs["guard=yes"][1], 0);
+}
+
 // A more critical operation that waits on a less critical one (depends_on, use: latest) is not
 // protected from the work it waits on: holding that work would hold the critical operation too.
 // One lane; `sense` (criticality 0) runs a 30 ms plain node (p99 36 ms) at 10 Hz; `act`
