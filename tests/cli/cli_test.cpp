@@ -5,6 +5,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -480,6 +482,92 @@ TEST_F(Cli, RealRunCountsFramesOfferedAndReleased) {
   const fs::path sim = dir_ / "frames-sim";
   ASSERT_EQ(red("simulate " + quote(data("tiny.yaml")) + " --out " + quote(sim.string())).code, 0);
   EXPECT_FALSE(json::parse(read_text(sim / "summary.json")).at("policies")[0].contains("frames"));
+}
+
+// Issue 57: a real run checks the prediction it was given. The check's gaps are the
+// simulated figures minus the real ones (points of miss rate, percent of mean latency), each
+// held to the target (5 points, 10 %), and counted; --write-profile writes the costs the run's
+// units met as a calibrated profile that the next run (or the simulator) takes as --profile.
+TEST_F(Cli, RealRunChecksItsPredictionAndWritesItsOwnCostsAsTheNextProfile) {
+  const fs::path out = dir_ / "check";
+  const fs::path own = dir_ / "own-costs.json";
+  const RunResult r = red("compare " + scenario("case-async.yaml") +
+                              " --backend synthetic --no-realtime --set duration_s=2 "
+                              "--policies edf,red --out " +
+                              quote(out.string()) + " --write-profile " + quote(own.string()),
+                          "timeout 300");
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "prediction check")) << r.out;
+  EXPECT_TRUE(contains(r.out, "within the target")) << r.out;
+  EXPECT_TRUE(contains(r.out, "reading: ")) << r.out;
+  EXPECT_TRUE(contains(r.out, "wrote " + own.string())) << r.out;
+
+  const json j = json::parse(read_text(out / "prediction.json"));
+  const json& check = j.at("check");
+  EXPECT_EQ(check.at("policies").get<int>(), 2);
+  int ahead_within = 0, own_within = 0;
+  const auto expect_gap = [](const json& real, const json& sim, const json& gap) -> int {
+    const double miss = sim.at("miss_pct").get<double>() - real.at("miss_pct").get<double>();
+    EXPECT_NEAR(gap.at("miss_pts").get<double>(), miss, 1e-9);
+    const double real_mean = real.at("mean_ms").get<double>();
+    EXPECT_GT(real_mean, 0.0);  // jobs completed
+    if (real_mean <= 0.0) return 0;
+    const double pct = 100.0 * (sim.at("mean_ms").get<double>() - real_mean) / real_mean;
+    EXPECT_NEAR(gap.at("mean_pct").get<double>(), pct, 1e-9);
+    EXPECT_EQ(gap.at("within_target").get<bool>(), std::abs(miss) <= 5.0 && std::abs(pct) <= 10.0);
+    return gap.at("within_target").get<bool>() ? 1 : 0;
+  };
+  for (const json& p : j.at("policies")) {
+    SCOPED_TRACE(p.at("policy").get<std::string>());
+    ahead_within += expect_gap(p.at("real"), p.at("sim"), p.at("gap").at("ahead"));
+    own_within += expect_gap(p.at("real"), p.at("sim_run_costs"), p.at("gap").at("own"));
+  }
+  EXPECT_EQ(check.at("ahead_within").get<int>(), ahead_within);
+  EXPECT_EQ(check.at("own_within").get<int>(), own_within);
+  EXPECT_GT(check.at("unit_cost_ratio").get<double>(), 0.0);
+  EXPECT_TRUE(check.at("unit_cost_ratio_by_kind").contains("encoder"));
+
+  // The written profile holds what the units cost in this run: the encoder's in-run mean at
+  // batch 1 is the mean of the run's encoder rows after the warm-up (0.5 s), over both
+  // policies' units.
+  const json prof = json::parse(read_text(own));
+  ASSERT_TRUE(prof.contains("calibration"));
+  EXPECT_EQ(prof.at("calibration").at("policies"), json::array({"edf", "red"}));
+  const std::vector<std::string> rows = lines_of(read_text(out / "units.csv"));
+  ASSERT_GT(rows.size(), 1u);
+  const std::vector<std::string> header = split_csv(rows.front());
+  const auto col = [&](const char* name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  double sum = 0.0;
+  int n = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    if (rows[i].empty()) continue;
+    const std::vector<std::string> f = split_csv(rows[i]);
+    if (f[col("kind")] != "encoder" || f[col("batch")] != "1" || f[col("status")] != "completed")
+      continue;
+    const double start = std::stod(f[col("start_ms")]);
+    if (start < 500.0) continue;
+    sum += std::stod(f[col("end_ms")]) - start;
+    ++n;
+  }
+  ASSERT_GT(n, 0);
+  double written = -1.0;
+  for (const json& u : prof.at("units").at("encoder"))
+    if (u.at("batch").get<int>() == 1) written = u.at("mean_us").get<double>() / 1000.0;
+  EXPECT_NEAR(written, sum / n, 1e-3 * (sum / n)) << n << " encoder runs";
+
+  // It is a profile the simulator (and the next real run) takes.
+  const RunResult next = red("compare " + scenario("case-async.yaml") + " --profile " +
+                             quote(own.string()) + " --policies red --set duration_s=2");
+  ASSERT_EQ(next.code, 0) << next.err;
+  EXPECT_TRUE(contains(next.out, "profile calibrated")) << next.out;
+  // The simulator's costs are the profile's: nothing to write.
+  expect_bad_input("compare " + scenario("case-async.yaml") + " --write-profile " +
+                       quote((dir_ / "sim.json").string()),
+                   "--write-profile");
+  EXPECT_FALSE(fs::exists(dir_ / "sim.json"));
 }
 
 // Plain nodes cost what the scenario says: there is nothing to fit from the run's units, so

@@ -5,6 +5,7 @@
 #include "drivers.hpp"
 
 #include "commands.hpp"
+#include "prediction_check.hpp"
 
 #include <algorithm>
 #include <iostream>
@@ -119,11 +120,16 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
   doc["seeds"] = seeds;
   nlohmann::ordered_json policies = nlohmann::ordered_json::array();
   std::vector<std::optional<Predicted>> own(real.size());
+  std::vector<PredictionCheck> checks;
   for (std::size_t i = 0; i < real.size(); ++i) {
     const PolicyRun& r = real[i];
     const Predicted x = predict(r.metrics.name, seeds, nullptr);
     if (x.miss.empty()) continue;
     print_row(r, x, seeds, ahead);
+    checks.push_back({r.metrics.name,
+                      prediction_gap(100 * r.metrics.miss_rate, r.metrics.latency.mean,
+                                     median(x.miss), median(x.mean)),
+                      std::nullopt});
     nlohmann::ordered_json row{{"policy", r.metrics.name},
                                {"real",
                                 {{"miss_pct", 100 * r.metrics.miss_rate},
@@ -135,6 +141,8 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
       Predicted y = predict(r.metrics.name, kCalibratedSeeds, &*c);
       if (!y.miss.empty()) {
         row["sim_run_costs"] = to_json(y);
+        checks.back().own = prediction_gap(100 * r.metrics.miss_rate, r.metrics.latency.mean,
+                                           median(y.miss), median(y.mean));
         own[i] = std::move(y);
       }
     }
@@ -157,6 +165,7 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     html.push_back(std::move(t));
   }
   doc["policies"] = std::move(policies);
+  fmt::print("{}", prediction_check(checks, cost_drift(real), html, doc));
   return doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
@@ -234,6 +243,10 @@ class RealDriver final : public Driver {
   }
   std::string predict(const std::vector<PolicyRun>& runs, std::vector<HtmlTable>& html) override {
     return print_prediction(s_, p_, seed_, runs, handoffs_, real_.sync, html);
+  }
+  [[nodiscard]] Expected<Profile> own_costs_profile(
+      const std::vector<PolicyRun>& runs) const override {
+    return run_profile(s_, p_, runs, handoffs_, real_.sync);
   }
   void more_files(OutputOptions& o, const std::string& prediction) const override {
     o.more_files.emplace_back("rss.csv");

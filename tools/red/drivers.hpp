@@ -46,6 +46,11 @@ class Driver {
                               std::vector<HtmlTable>& /*html*/) {
     return {};
   }
+  /// The run's own costs as a calibrated profile (`--write-profile`; a real backend only).
+  [[nodiscard]] virtual Expected<Profile> own_costs_profile(
+      const std::vector<PolicyRun>& /*runs*/) const {
+    return Error{"", 0, "--write-profile is for a real run (--backend torch or synthetic)"};
+  }
   /// The files write_more writes (index.html links them).
   virtual void more_files(OutputOptions& /*o*/, const std::string& /*prediction*/) const {}
   /// Writes the files besides write_outputs' through `put(name, text)`.

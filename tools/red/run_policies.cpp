@@ -16,6 +16,7 @@
 #include <optional>
 
 #include "red/core/clock.hpp"
+#include "red/core/output_file.hpp"
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -88,13 +89,20 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
     }
     timeline = *w;
   }
+  if (a.write_profile && a.backend == "sim") {
+    print_error(Error{"", 0,
+                      "--write-profile writes the costs a real run's units met: it needs a real "
+                      "backend (--backend torch or synthetic); the simulator's are the profile's"});
+    return kBadInput;
+  }
   const std::uint64_t seed = a.seed ? *a.seed : s.seed;
   RealRunOptions real = a.real;
   real.backend = a.backend;
   real.realtime = !a.no_realtime;
   real.seed = seed;
   real.sync = parse_sync(a.sync);
-  real.keep_units = a.out.has_value();  // units.csv and the plots are written only with --out
+  // units.csv and the plots are written only with --out; --write-profile fits the units.
+  real.keep_units = a.out.has_value() || a.write_profile.has_value();
   // A real run streams its rows to jobs.csv and units.csv as jobs end, so that its memory
   // does not grow with its length (docs/REPORTS.md, "Streamed rows"); without --out only
   // the summary's bounded state is kept (the rows too for --phases).
@@ -231,6 +239,21 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   std::string prediction;
   std::vector<HtmlTable> prediction_html;
   if (stop_signal() == 0) prediction = driver.predict(runs, prediction_html);
+  if (a.write_profile && stop_signal() == 0) {
+    // The run's own costs, the next run's profile (docs/FIDELITY.md, "The check at the end of
+    // a run").
+    auto own = driver.own_costs_profile(runs);
+    if (!own) {
+      failed(own.error());
+    } else if (auto e = write_file_atomically(*a.write_profile, profile_to_json(*own))) {
+      failed(*e);
+    } else {
+      fmt::print(
+          "wrote {}: this run's own unit costs as a calibrated profile (--profile for the "
+          "next run)\n",
+          *a.write_profile);
+    }
+  }
   if (a.phases) {
     std::vector<std::string> names_run;
     std::vector<std::vector<PhaseMetrics>> phases;
@@ -338,6 +361,10 @@ void add_real(CLI::App* cmd, RunArgs& a) {
                   "'timeout' (0: no watchdog)")
       ->check(finite_non_negative())
       ->capture_default_str();
+  cmd->add_option("--write-profile", a.write_profile,
+                  "Write the costs this run's units met (after the warm-up) as a calibrated "
+                  "profile, the next run's --profile: the run's profile with their in-run "
+                  "figures and the simulator's model of the run (docs/FIDELITY.md)");
 }
 
 }  // namespace red::cli

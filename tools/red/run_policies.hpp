@@ -29,6 +29,8 @@ struct RunArgs {
   std::optional<std::string> costs;     ///< --costs F.json: the simulator's unit costs
   std::optional<std::string> timeline;  ///< --timeline FROM:TO (seconds)
   bool phases = false;                  ///< --phases: print the figures per workload phase
+  /// --write-profile F.json: the run's own costs as a calibrated profile (a real run)
+  std::optional<std::string> write_profile;
 };
 
 /// The options every one of the three takes: scenario, profile, overrides, seed, --out, ...
