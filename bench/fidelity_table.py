@@ -38,8 +38,10 @@ def gap_table(out, scenarios):
                 ahead = g.get("ahead") or gap(p["real"], p["sim"])
                 own = g.get("own") or (gap(p["real"], p["sim_run_costs"])
                                        if "sim_run_costs" in p else None)
+                # The policy's own units against the profile where the check wrote it.
                 rows.append({"scenario": name, "run": run, "policy": p["policy"],
-                             "ahead": ahead, "own": own, "unit_cost_ratio": ratio})
+                             "ahead": ahead, "own": own,
+                             "unit_cost_ratio": g.get("unit_cost_ratio", ratio)})
     return rows
 
 

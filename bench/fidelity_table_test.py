@@ -49,6 +49,8 @@ class FidelityTable(unittest.TestCase):
                                     "own": {"miss_pts": own_miss - miss,
                                             "mean_pct": (own_mean - mean) / mean * 100,
                                             "within_target": True}}
+                        if name == "red":
+                            p["gap"]["unit_cost_ratio"] = 0.9  # the policy's own units
                     pols.append(p)
                 doc = {"policies": pols}
                 if with_gap:
@@ -70,6 +72,8 @@ class FidelityTable(unittest.TestCase):
         self.assertTrue(all(r["own"]["within_target"] for r in rows))
         self.assertIn("| s | run1 | edf | +20.0 * | +4.0 | +1.0 | +1.0 | 0.80x |", text)
         self.assertIn("| s | run2 | red | +0.0 | +13.3 * | +0.0 | +1.0 | — |", text)
+        # A policy's own units' ratio where the check wrote it, else the run's over all.
+        self.assertIn("| s | run1 | red | +0.0 | +13.3 * | +0.0 | +1.0 | 0.90x |", text)
         self.assertIn("fidelity: ahead 0 of 4 within the target, from the run's own costs 4 of 4",
                       text)
 

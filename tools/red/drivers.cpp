@@ -129,7 +129,9 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     checks.push_back({r.metrics.name,
                       prediction_gap(100 * r.metrics.miss_rate, r.metrics.latency.mean,
                                      median(x.miss), median(x.mean)),
-                      std::nullopt});
+                      std::nullopt, std::nullopt});
+    if (const CostDrift d = cost_drift({&r.metrics}); d.runs > 0)
+      checks.back().unit_ratio = d.ratio;
     nlohmann::ordered_json row{{"policy", r.metrics.name},
                                {"real",
                                 {{"miss_pct", 100 * r.metrics.miss_rate},
@@ -165,7 +167,9 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     html.push_back(std::move(t));
   }
   doc["policies"] = std::move(policies);
-  fmt::print("{}", prediction_check(checks, cost_drift(real), html, doc));
+  std::vector<const PolicyMetrics*> all;
+  for (const PolicyRun& r : real) all.push_back(&r.metrics);
+  fmt::print("{}", prediction_check(checks, cost_drift(all), html, doc));
   return doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 

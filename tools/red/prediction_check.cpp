@@ -50,7 +50,7 @@ nlohmann::ordered_json gap_json(const PredictionGap& g) {
 
 }  // namespace
 
-CostDrift cost_drift(const std::vector<PolicyRun>& runs) {
+CostDrift cost_drift(const std::vector<const PolicyMetrics*>& runs) {
   // Per unit and batch size, the largest count seen over the policies would double-count a
   // unit two policies ran; every policy's runs count, each at its own mean.
   struct Sum {
@@ -60,8 +60,8 @@ CostDrift cost_drift(const std::vector<PolicyRun>& runs) {
   std::map<std::string, Sum> by_kind;
   std::vector<std::string> order;
   CostDrift d;
-  for (const PolicyRun& r : runs)
-    for (const UnitCostFigures& f : r.metrics.costs) {
+  for (const PolicyMetrics* m : runs)
+    for (const UnitCostFigures& f : m->costs) {
       // Coarse units count through their own "coarse/<head>" figures; their model parts'
       // entries (encoder and head at batch 1) hold the same runs again only as ratios.
       if (f.runs <= 0 || f.profile_mean <= Duration{0}) continue;
@@ -88,22 +88,23 @@ std::string prediction_check(const std::vector<PredictionCheck>& checks, const C
       "prediction check (simulated - real; target: miss rate within {:g} points, mean latency "
       "within {:g} %):\n",
       kMissTargetPts, kMeanTargetPct);
-  out += fmt::format("{:<10} {:>26} {:>26}\n", "policy", "ahead (this profile)",
-                     "from the run's own costs");
+  out += fmt::format("{:<10} {:>26} {:>26} {:>16}\n", "policy", "ahead (this profile)",
+                     "from the run's own costs", "units / profile");
   HtmlTable t{fmt::format("Prediction check: simulated minus real (target: miss rate within {:g} "
                           "points, mean latency within {:g} %; docs/FIDELITY.md)",
                           kMissTargetPts, kMeanTargetPct),
               {"policy", "ahead: miss pts, latency %", "within", "own costs: miss pts, latency %",
-               "within"},
+               "within", "units / profile"},
               {}};
   int ahead_in = 0, own_in = 0, owns = 0;
   for (const PredictionCheck& c : checks) {
     const std::string a = gap_cells(c.ahead) + (c.ahead.within ? "" : " *");
     const std::string o = c.own ? gap_cells(*c.own) + (c.own->within ? "" : " *") : "-";
-    out += fmt::format("{:<10} {:>26} {:>26}\n", c.policy, a, o);
+    const std::string u = c.unit_ratio ? fmt::format("{:.2f}x", *c.unit_ratio) : "-";
+    out += fmt::format("{:<10} {:>26} {:>26} {:>16}\n", c.policy, a, o, u);
     t.rows.push_back({c.policy, gap_cells(c.ahead), c.ahead.within ? "yes" : "no",
-                      c.own ? gap_cells(*c.own) : "-",
-                      c.own ? (c.own->within ? "yes" : "no") : "-"});
+                      c.own ? gap_cells(*c.own) : "-", c.own ? (c.own->within ? "yes" : "no") : "-",
+                      u});
     ahead_in += c.ahead.within ? 1 : 0;
     if (c.own) {
       ++owns;
@@ -118,19 +119,25 @@ std::string prediction_check(const std::vector<PredictionCheck>& checks, const C
   for (const auto& [k, r] : drift.kinds)
     kinds += fmt::format("{}{} {:.2f}x", kinds.empty() ? "" : ", ", k, r);
   if (drift.runs > 0)
-    out +=
-        fmt::format("units in this run against the profile (time-weighted means): {:.2f}x ({})\n",
-                    drift.ratio, kinds);
+    out += fmt::format(
+        "units in this run against the profile (time-weighted means, every policy): {:.2f}x "
+        "({})\n",
+        drift.ratio, kinds);
   // What the two predictions together say (docs/FIDELITY.md, "The run's own costs").
   std::string reading;
   if (ahead_in == n) {
     reading = "the prediction made with this profile holds for this run";
   } else if (owns > 0 && own_in == owns) {
+    std::string outside;
+    for (const PredictionCheck& c : checks)
+      if (!c.ahead.within)
+        outside += (outside.empty() ? "" : ", ") + c.policy +
+                   (c.unit_ratio ? fmt::format(" (its units {:.2f}x)", *c.unit_ratio) : "");
     reading = fmt::format(
         "the simulator's model holds (fed the run's own costs it is within the target), but the "
-        "machine ran at another speed than the profile says{}: calibrate closer to the run, or "
-        "write this run's costs as the next profile (--write-profile)",
-        drift.runs > 0 ? fmt::format(" (units {:.2f}x its means)", drift.ratio) : "");
+        "machine ran at another speed than the profile says for {}: calibrate closer to the run, "
+        "or write this run's costs as the next profile (--write-profile)",
+        outside);
   } else if (owns > 0) {
     std::string names;
     for (const PredictionCheck& c : checks)
@@ -167,6 +174,7 @@ std::string prediction_check(const std::vector<PredictionCheck>& checks, const C
         if (row.value("policy", "") == c.policy) {
           nlohmann::ordered_json g{{"ahead", gap_json(c.ahead)}};
           if (c.own) g["own"] = gap_json(*c.own);
+          if (c.unit_ratio) g["unit_cost_ratio"] = *c.unit_ratio;
           row["gap"] = std::move(g);
         }
   return out;

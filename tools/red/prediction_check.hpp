@@ -43,6 +43,8 @@ struct PredictionCheck {
   std::string policy;
   PredictionGap ahead;
   std::optional<PredictionGap> own;
+  /// The policy's units against the profile (cost_drift of its run; nullopt: no model unit).
+  std::optional<double> unit_ratio;
 };
 
 /// The run's units against the profile's means, weighted by the time the profile gives them
@@ -54,7 +56,7 @@ struct CostDrift {
   std::vector<std::pair<std::string, double>> kinds;  ///< kind, ratio (kinds run, in order)
 };
 
-CostDrift cost_drift(const std::vector<PolicyRun>& runs);
+CostDrift cost_drift(const std::vector<const PolicyMetrics*>& runs);
 
 /// The printed check: a table of the gaps, the count within the target, the cost drift and
 /// what the two together say. Appends its table to `html` and its figures to `doc`
