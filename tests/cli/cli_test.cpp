@@ -563,6 +563,15 @@ TEST_F(Cli, RealRunChecksItsPredictionAndWritesItsOwnCostsAsTheNextProfile) {
                              quote(own.string()) + " --policies red --set duration_s=2");
   ASSERT_EQ(next.code, 0) << next.err;
   EXPECT_TRUE(contains(next.out, "profile calibrated")) << next.out;
+  // `red run` without --out keeps the units it needs for the fit.
+  const fs::path alone = dir_ / "run-own-costs.json";
+  const RunResult single = red("run " + scenario("case-async.yaml") +
+                                   " --policy red --backend synthetic --no-realtime "
+                                   "--set duration_s=2 --write-profile " +
+                                   quote(alone.string()),
+                               "timeout 300");
+  ASSERT_EQ(single.code, 0) << single.err;
+  EXPECT_EQ(json::parse(read_text(alone)).at("calibration").at("policies"), json::array({"red"}));
   // The simulator's costs are the profile's: nothing to write.
   expect_bad_input("compare " + scenario("case-async.yaml") + " --write-profile " +
                        quote((dir_ / "sim.json").string()),

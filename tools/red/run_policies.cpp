@@ -105,8 +105,9 @@ int run_policies(const RunArgs& a, const std::vector<std::string>& names, bool t
   real.keep_units = a.out.has_value() || a.write_profile.has_value();
   // A real run streams its rows to jobs.csv and units.csv as jobs end, so that its memory
   // does not grow with its length (docs/REPORTS.md, "Streamed rows"); without --out only
-  // the summary's bounded state is kept (the rows too for --phases).
-  real.keep_rows = !a.out && a.phases;
+  // the summary's bounded state is kept (the rows too for --phases, and for --write-profile,
+  // which fits the units).
+  real.keep_rows = !a.out && (a.phases || a.write_profile);
   auto made = make_driver(a, s, p, seed, real);
   if (!made) {
     print_error(made.error());
