@@ -86,104 +86,117 @@ struct Readers {
   double rate_sum = 0;  // of the operations reading it (the encoder's work is shared by rate)
 };
 
+// The least time before (`start`) and after (`post`) each node of one job given each node's own
+// time, relaxed along the edges until nothing changes (at most a round per node).
+void relax_paths(const OperationSpec& op, const std::vector<double>& own,
+                 std::vector<double>& start, std::vector<double>& post) {
+  const std::size_t n = op.nodes.size();
+  for (std::size_t round = 0; round < n; ++round) {
+    bool changed = false;
+    for (const EdgeSpec& e : op.edges) {
+      const auto f = static_cast<std::size_t>(e.from), t = static_cast<std::size_t>(e.to);
+      if (start[f] + own[f] > start[t] + 1e-15) {
+        start[t] = start[f] + own[f];
+        changed = true;
+      }
+      if (own[t] + post[t] > post[f] + 1e-15) {
+        post[f] = own[t] + post[t];
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+}
+
 }  // namespace
+
+// What estimate gathers from a workload before it picks the batches.
+struct WorkModel::Demand {
+  std::vector<std::vector<Offer>> offers;  // by slot: the runs offered to its batches
+  std::map<int, Readers> readers;          // by sensor
+  std::vector<double> plain;               // by operation: its plain nodes' lane time per second
+  std::map<int, double> frames_hz;         // by sensor: frames to encode per second
+};
 
 double WorkModel::floor_load(const WorkInput& in) const {
   return estimate(in, true).load;
 }
 
-WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
-  const std::size_t slots = units_.size();
+// Operation i's runs of each head, offered to the head's batches, its plain nodes' time and,
+// per sensor it reads, what it asks of the sensor's encoder runs.
+void WorkModel::offer_operation(const WorkInput& in, std::size_t i, Demand& d,
+                                WorkEstimate& w) const {
+  const OperationSpec* op = in.ops[i].op;
+  const double hz = in.ops[i].rate_hz;
+  if (op == nullptr || hz <= 0) return;
   const CostModel resolve{profile_, model_, resolve_};
-  WorkEstimate w;
-  w.units.resize(slots);
-  w.op_load.assign(in.ops.size(), 0.0);
-  w.encoder_runs_per_job.assign(in.ops.size(), 0.0);
-  std::vector<std::vector<Offer>> offers(slots);
-  std::map<int, Readers> readers;
-  std::vector<double> plain(in.ops.size(), 0.0);
   const double enc_least = to_s(least(kEncoder));
-
-  for (std::size_t i = 0; i < in.ops.size(); ++i) {
-    const OperationSpec* op = in.ops[i].op;
-    const double hz = in.ops[i].rate_hz;
-    if (op == nullptr || hz <= 0) continue;
-    const double deadline = to_s(resolve_deadline(*op, resolve));
-    // The least time before and after each node on the fine graph: an inference node starts
-    // after its frame's encoder run and its predecessors; every unit at its cheapest batch.
-    const std::size_t n = op->nodes.size();
-    std::vector<double> own(n), start(n), post(n, 0.0);
-    for (std::size_t k = 0; k < n; ++k) {
-      const NodeSpec& nd = op->nodes[k];
-      own[k] = nd.is_plain() ? to_s(CostModel::plain(*nd.cost, EstimateKind::Mean)) * slowdown_
-                             : to_s(least(head_slot(nd.head)));
-      start[k] = nd.is_plain() ? 0.0 : enc_least;
-    }
-    for (std::size_t round = 0; round < n; ++round) {
-      bool changed = false;
-      for (const EdgeSpec& e : op->edges) {
-        const auto f = static_cast<std::size_t>(e.from), t = static_cast<std::size_t>(e.to);
-        if (start[f] + own[f] > start[t] + 1e-15) {
-          start[t] = start[f] + own[f];
-          changed = true;
-        }
-        if (own[t] + post[t] > post[f] + 1e-15) {
-          post[f] = own[t] + post[t];
-          changed = true;
-        }
-      }
-      if (!changed) break;
-    }
-    std::map<int, double> tail;  // per sensor read: the least time after its encoder run
-    for (std::size_t k = 0; k < n; ++k) {
-      const NodeSpec& nd = op->nodes[k];
-      if (nd.is_plain()) {
-        plain[i] += hz * own[k];
-        continue;
-      }
-      const std::size_t slot = head_slot(nd.head);
-      offers[slot].push_back({hz, deadline - start[k] - post[k], op->max_inflight});
-      w.units[slot].runs_hz += hz;
-      double& t = tail[nd.sensor];
-      t = std::max(t, own[k] + post[k]);
-    }
-    for (const auto& [sensor, after] : tail) {
-      Readers& r = readers[sensor];
-      const double frames = in.sensor_hz[static_cast<std::size_t>(sensor)];
-      if (op->trigger_sensor == sensor) {
-        r.triggered = true;
-        r.trigger_window_s = std::min(r.trigger_window_s, deadline - after);
-        r.trigger_cap = std::min(r.trigger_cap, std::max(1, op->max_inflight));
-      } else {
-        // Its releases within γ of each other may share one run (at most max_inflight jobs).
-        const double sharing =
-            std::min<double>(std::max(1, op->max_inflight), std::floor(gamma_s_ * hz + 1e-9) + 1);
-        r.sampled_hz = std::max(r.sampled_hz, std::min(hz / sharing, frames));
-        r.sample_window_s = std::max(r.sample_window_s, deadline - after);
-        r.sample_cap += op->max_inflight;
-      }
-      r.rate_sum += hz;
-    }
+  const double deadline = to_s(resolve_deadline(*op, resolve));
+  // The least time before and after each node on the fine graph: an inference node starts
+  // after its frame's encoder run and its predecessors; every unit at its cheapest batch.
+  const std::size_t n = op->nodes.size();
+  std::vector<double> own(n), start(n), post(n, 0.0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const NodeSpec& nd = op->nodes[k];
+    own[k] = nd.is_plain() ? to_s(CostModel::plain(*nd.cost, EstimateKind::Mean)) * slowdown_
+                           : to_s(least(head_slot(nd.head)));
+    start[k] = nd.is_plain() ? 0.0 : enc_least;
   }
-  // Frames to encode: every frame of a sensor that triggers an operation reading it, else one
-  // per release of the fastest operation sampling it.
-  std::map<int, double> frames_hz;
-  for (const auto& [sensor, r] : readers) {
+  relax_paths(*op, own, start, post);
+  std::map<int, double> tail;  // per sensor read: the least time after its encoder run
+  for (std::size_t k = 0; k < n; ++k) {
+    const NodeSpec& nd = op->nodes[k];
+    if (nd.is_plain()) {
+      d.plain[i] += hz * own[k];
+      continue;
+    }
+    const std::size_t slot = head_slot(nd.head);
+    d.offers[slot].push_back({hz, deadline - start[k] - post[k], op->max_inflight});
+    w.units[slot].runs_hz += hz;
+    double& t = tail[nd.sensor];
+    t = std::max(t, own[k] + post[k]);
+  }
+  for (const auto& [sensor, after] : tail) {
+    Readers& r = d.readers[sensor];
+    const double frames = in.sensor_hz[static_cast<std::size_t>(sensor)];
+    if (op->trigger_sensor == sensor) {
+      r.triggered = true;
+      r.trigger_window_s = std::min(r.trigger_window_s, deadline - after);
+      r.trigger_cap = std::min(r.trigger_cap, std::max(1, op->max_inflight));
+    } else {
+      // Its releases within γ of each other may share one run (at most max_inflight jobs).
+      const double sharing =
+          std::min<double>(std::max(1, op->max_inflight), std::floor(gamma_s_ * hz + 1e-9) + 1);
+      r.sampled_hz = std::max(r.sampled_hz, std::min(hz / sharing, frames));
+      r.sample_window_s = std::max(r.sample_window_s, deadline - after);
+      r.sample_cap += op->max_inflight;
+    }
+    r.rate_sum += hz;
+  }
+}
+
+// Frames to encode: every frame of a sensor that triggers an operation reading it, else one
+// per release of the fastest operation sampling it.
+void WorkModel::offer_frames(const WorkInput& in, Demand& d, WorkEstimate& w) const {
+  for (const auto& [sensor, r] : d.readers) {
     const double f = r.triggered ? in.sensor_hz[static_cast<std::size_t>(sensor)] : r.sampled_hz;
-    frames_hz[sensor] = f;
+    d.frames_hz[sensor] = f;
     if (r.triggered)
-      offers[kEncoder].push_back({f, r.trigger_window_s, r.trigger_cap});
+      d.offers[kEncoder].push_back({f, r.trigger_window_s, r.trigger_cap});
     else
-      offers[kEncoder].push_back({f, r.sample_window_s, r.sample_cap});
+      d.offers[kEncoder].push_back({f, r.sample_window_s, r.sample_cap});
     w.units[kEncoder].runs_hz += f;
   }
+}
 
-  for (std::size_t slot = 0; slot < slots; ++slot) {
+// Per unit, the batch size whose cost per on-time run is least, and the lane time per run.
+void WorkModel::choose_batches(const Demand& d, bool unbounded, WorkEstimate& w) const {
+  for (std::size_t slot = 0; slot < units_.size(); ++slot) {
     UnitWork& u = w.units[slot];
     double best = to_s(cost(slot, 1, EstimateKind::Mean));
     for (int b = 1; b <= top_batch(slot); ++b) {
       const double c = to_s(cost(slot, b, EstimateKind::Mean));
-      const int held = unbounded ? b : std::min(b, on_time_members(offers[slot], c));
+      const int held = unbounded ? b : std::min(b, on_time_members(d.offers[slot], c));
       if (held < 1) continue;
       if (c / held < best - 1e-12) {
         best = c / held;
@@ -196,13 +209,17 @@ WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
       u.per_run[k] = std::min(cost(slot, u.batch, kind) / u.serves, cost(slot, 1, kind));
     }
   }
+}
 
+// Each operation's share of the lanes' time: its plain nodes, its head runs and its share by
+// rate of the encoder runs of each sensor it reads; and the device's load.
+void WorkModel::share_loads(const WorkInput& in, Demand& d, WorkEstimate& w) const {
   const double lanes = lanes_;
   for (std::size_t i = 0; i < in.ops.size(); ++i) {
     const OperationSpec* op = in.ops[i].op;
     const double hz = in.ops[i].rate_hz;
     if (op == nullptr || hz <= 0) continue;
-    double s = plain[i];
+    double s = d.plain[i];
     std::map<int, bool> sensors;
     for (const NodeSpec& nd : op->nodes) {
       if (nd.is_plain()) continue;
@@ -211,14 +228,29 @@ WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
     }
     const double enc = to_s(w.units[kEncoder].per_run[0]);
     for (const auto& [sensor, _] : sensors) {
-      const Readers& r = readers[sensor];
+      const Readers& r = d.readers[sensor];
       if (r.rate_sum <= 0) continue;
-      s += frames_hz[sensor] * enc * hz / r.rate_sum;
-      w.encoder_runs_per_job[i] += frames_hz[sensor] / r.rate_sum;
+      s += d.frames_hz[sensor] * enc * hz / r.rate_sum;
+      w.encoder_runs_per_job[i] += d.frames_hz[sensor] / r.rate_sum;
     }
     w.op_load[i] = s / lanes;
     w.load += w.op_load[i];
   }
+}
+
+WorkEstimate WorkModel::estimate(const WorkInput& in, bool unbounded) const {
+  WorkEstimate w;
+  w.units.resize(units_.size());
+  w.op_load.assign(in.ops.size(), 0.0);
+  w.encoder_runs_per_job.assign(in.ops.size(), 0.0);
+  Demand d{std::vector<std::vector<Offer>>(units_.size()),
+           {},
+           std::vector<double>(in.ops.size(), 0.0),
+           {}};
+  for (std::size_t i = 0; i < in.ops.size(); ++i) offer_operation(in, i, d, w);
+  offer_frames(in, d, w);
+  choose_batches(d, unbounded, w);
+  share_loads(in, d, w);
   return w;
 }
 

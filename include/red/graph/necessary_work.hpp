@@ -98,6 +98,13 @@ class WorkModel {
 
  private:
   [[nodiscard]] WorkEstimate estimate(const WorkInput& in, bool unbounded) const;
+  // The steps of estimate (necessary_work.cpp): each operation's runs offered to the units'
+  // batches, the frames to encode, the batch size of each unit, each operation's share.
+  struct Demand;
+  void offer_operation(const WorkInput& in, std::size_t i, Demand& d, WorkEstimate& w) const;
+  void offer_frames(const WorkInput& in, Demand& d, WorkEstimate& w) const;
+  void choose_batches(const Demand& d, bool unbounded, WorkEstimate& w) const;
+  void share_loads(const WorkInput& in, Demand& d, WorkEstimate& w) const;
   [[nodiscard]] Duration cost(std::size_t slot, int batch, EstimateKind k) const;
   [[nodiscard]] Duration least(std::size_t slot) const;  // the least mean over batch sizes
   [[nodiscard]] int top_batch(std::size_t slot) const;
