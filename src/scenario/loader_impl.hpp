@@ -74,6 +74,12 @@ class Loader {
   int need_active(const Val& v, Duration t) const;
   void parse_events(const Val& v);
   EventSpec parse_event(const Val& v, Duration& last_at, int& last_line);
+  /// The actions of an event (events.cpp), each applied to the workload at `ev.at` (`t`
+  /// seconds, as written) and recorded in `ev`: add_operation; set_rate; every other, which
+  /// names an existing operation and changes only it.
+  void add_operation_event(const Val& a, double t, EventSpec& ev);
+  void set_rate_event(const Val& a, EventSpec& ev);
+  void change_operation_event(const Val& v, const Val& a, double t, EventSpec& ev);
 
   std::string file_;
   Scenario s_;
