@@ -457,12 +457,14 @@ std::optional<Error> read_waits(const std::string& path, SavedRun& run) {
   return std::nullopt;
 }
 
-}  // namespace
+// Whether the run's manifest lists file `f`.
+bool lists(const SavedRun& run, const std::string& f) {
+  return std::find(run.files.begin(), run.files.end(), f) != run.files.end();
+}
 
-Expected<SavedRun> read_saved_run(const std::string& dir) {
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return Error{dir, 0, "no such directory"};
-  SavedRun run;
+// manifest.json: the run is complete, its command and files, and it lists the files red report
+// reads.
+std::optional<Error> read_manifest(const std::string& dir, SavedRun& run) {
   const std::string manifest = (fs::path(dir) / kManifestName).string();
   auto man = read_json(manifest);
   if (!man)
@@ -481,13 +483,99 @@ Expected<SavedRun> read_saved_run(const std::string& dir) {
   }
   for (const std::string& f : run.files)
     if (f.rfind("plots/", 0) != 0 && f != "index.html") run.data_files.push_back(f);
-  auto listed = [&](const std::string& f) {
-    return std::find(run.files.begin(), run.files.end(), f) != run.files.end();
-  };
   for (const char* f : {"summary.json", "jobs.csv", "units.csv"})
-    if (!listed(f))
+    if (!lists(run, f))
       return Error{manifest, 0, std::string("does not list ") + f + ", which red report reads"};
+  return std::nullopt;
+}
 
+// The scenario as summary.json's "page" keeps it (all the page uses): names, warm-up, duration,
+// criticality, heads, lanes, sensors and events. Throws what nlohmann::json throws on a missing
+// field.
+std::optional<Error> scenario_from_page(const ojson& pg, const std::string& summary,
+                                        SavedRun& run) {
+  Scenario& s = run.scenario;
+  s.name = run.header.scenario;
+  s.duration = Duration{pg.at("duration_ns").get<std::int64_t>()};
+  s.warmup = Duration{pg.at("warmup_ns").get<std::int64_t>()};
+  s.names_ = pg.at("operations").get<std::vector<std::string>>();
+  s.initial.resize(s.names_.size());
+  // Definitions that carry only the criticality (all the causes read of them); a page
+  // written before it was kept has none: every operation then counts as criticality 0.
+  auto with_criticality = [](const std::string& name, int c) {
+    auto op = std::make_shared<OperationSpec>();
+    op->name = name;
+    op->criticality = c;
+    return std::shared_ptr<const OperationSpec>(std::move(op));
+  };
+  if (pg.contains("criticality")) {
+    const auto& crit = pg.at("criticality");
+    for (std::size_t i = 0; i < s.initial.size() && i < crit.size(); ++i)
+      if (!crit[i].is_null()) s.initial[i] = with_criticality(s.names_[i], crit[i].get<int>());
+  }
+  s.model.heads = pg.at("heads").get<std::vector<std::string>>();
+  s.device.lanes = pg.at("lanes").get<int>();
+  for (const auto& x : pg.at("sensors")) {
+    SensorSpec sensor;
+    sensor.name = x.get<std::string>();
+    s.sensors.push_back(std::move(sensor));
+  }
+  for (const auto& e : pg.at("events")) {
+    EventSpec ev;
+    ev.at = Duration{e.at("at_ns").get<std::int64_t>()};
+    ev.kind = e.at("kind").get<std::string>();
+    if (e.contains("criticality"))
+      for (const auto& c : e.at("criticality")) {
+        const auto op = c.at(0).get<int>();
+        if (op < 0 || static_cast<std::size_t>(op) >= s.names_.size())
+          return Error{
+              summary, line_of(summary, "criticality"),
+              fmt::format("an event changes operation {}, which \"operations\" lacks", op)};
+        ev.changes.emplace_back(
+            op, with_criticality(s.names_[static_cast<std::size_t>(op)], c.at(1).get<int>()));
+      }
+    s.events.push_back(std::move(ev));
+  }
+  return std::nullopt;
+}
+
+// Each policy's figures (summary.json's "policies"), its run's end and its figures per phase.
+// Throws what nlohmann::json throws on a missing field.
+std::optional<Error> policies_from(const ojson& sj, const ojson& pg, const std::string& summary,
+                                   SavedRun& run) {
+  const auto& pols = sj.at("policies");
+  const auto& ends = pg.at("runs");
+  if (ends.size() != pols.size())
+    return Error{
+        summary, line_of(summary, "runs"),
+        fmt::format("\"page\" lists {} runs and \"policies\" {}", ends.size(), pols.size())};
+  for (std::size_t i = 0; i < pols.size(); ++i) {
+    run.metrics.push_back(metrics_from(pols[i]));
+    run.ends.push_back(TimePoint{ends[i].at("end_ns").get<std::int64_t>()});
+    std::vector<PhaseMetrics> phases;
+    if (pols[i].contains("phases") && !pols[i]["phases"].empty()) {
+      const auto spans = workload_phases(run.scenario, run.ends.back());
+      const auto& ph = pols[i]["phases"];
+      if (ph.size() != spans.size())
+        return Error{summary, line_of(summary, "phases"),
+                     fmt::format("policy {}: {} phases, the events give {}",
+                                 run.metrics.back().name, ph.size(), spans.size())};
+      for (std::size_t k = 0; k < spans.size(); ++k) {
+        PhaseMetrics m;
+        m.span = spans[k];
+        m.all = figures_from(ph[k]);
+        for (const auto& [name, f] : ph[k].at("operations").items())
+          m.operations.emplace_back(name, figures_from(f));
+        phases.push_back(std::move(m));
+      }
+    }
+    run.phases.push_back(std::move(phases));
+  }
+  return std::nullopt;
+}
+
+// summary.json: the header, the page's scenario and tables, and each policy's figures.
+std::optional<Error> read_summary(const std::string& dir, SavedRun& run) {
   const std::string summary = (fs::path(dir) / "summary.json").string();
   auto sj = read_json(summary);
   if (!sj) return sj.error();
@@ -507,91 +595,23 @@ Expected<SavedRun> read_saved_run(const std::string& dir) {
     run.header.profile_source = sj->at("profile").get<std::string>();
     run.header.run_id = sj->value("run_id", "");
     key = "page";
-    Scenario& s = run.scenario;
-    s.name = run.header.scenario;
-    s.duration = Duration{pg.at("duration_ns").get<std::int64_t>()};
-    s.warmup = Duration{pg.at("warmup_ns").get<std::int64_t>()};
-    s.names_ = pg.at("operations").get<std::vector<std::string>>();
-    s.initial.resize(s.names_.size());
-    // Definitions that carry only the criticality (all the causes read of them); a page
-    // written before it was kept has none: every operation then counts as criticality 0.
-    auto with_criticality = [](const std::string& name, int c) {
-      auto op = std::make_shared<OperationSpec>();
-      op->name = name;
-      op->criticality = c;
-      return std::shared_ptr<const OperationSpec>(std::move(op));
-    };
-    if (pg.contains("criticality")) {
-      const auto& crit = pg.at("criticality");
-      for (std::size_t i = 0; i < s.initial.size() && i < crit.size(); ++i)
-        if (!crit[i].is_null()) s.initial[i] = with_criticality(s.names_[i], crit[i].get<int>());
-    }
-    s.model.heads = pg.at("heads").get<std::vector<std::string>>();
-    s.device.lanes = pg.at("lanes").get<int>();
-    for (const auto& x : pg.at("sensors")) {
-      SensorSpec sensor;
-      sensor.name = x.get<std::string>();
-      s.sensors.push_back(std::move(sensor));
-    }
-    for (const auto& e : pg.at("events")) {
-      EventSpec ev;
-      ev.at = Duration{e.at("at_ns").get<std::int64_t>()};
-      ev.kind = e.at("kind").get<std::string>();
-      if (e.contains("criticality"))
-        for (const auto& c : e.at("criticality")) {
-          const auto op = c.at(0).get<int>();
-          if (op < 0 || static_cast<std::size_t>(op) >= s.names_.size())
-            return Error{
-                summary, line_of(summary, "criticality"),
-                fmt::format("an event changes operation {}, which \"operations\" lacks", op)};
-          ev.changes.emplace_back(
-              op, with_criticality(s.names_[static_cast<std::size_t>(op)], c.at(1).get<int>()));
-        }
-      s.events.push_back(std::move(ev));
-    }
+    if (auto e = scenario_from_page(pg, summary, run)) return e;
     run.index_html = pg.at("index_html").get<bool>();
     if (!pg.at("verdicts").is_null()) run.verdicts = table_from(pg.at("verdicts"));
     for (const auto& t : pg.at("prediction")) run.prediction.push_back(table_from(t));
     key = "policies";
-    const auto& pols = sj->at("policies");
-    const auto& ends = pg.at("runs");
-    if (ends.size() != pols.size())
-      return Error{
-          summary, line_of(summary, "runs"),
-          fmt::format("\"page\" lists {} runs and \"policies\" {}", ends.size(), pols.size())};
-    for (std::size_t i = 0; i < pols.size(); ++i) {
-      run.metrics.push_back(metrics_from(pols[i]));
-      run.ends.push_back(TimePoint{ends[i].at("end_ns").get<std::int64_t>()});
-      std::vector<PhaseMetrics> phases;
-      if (pols[i].contains("phases") && !pols[i]["phases"].empty()) {
-        const auto spans = workload_phases(s, run.ends.back());
-        const auto& ph = pols[i]["phases"];
-        if (ph.size() != spans.size())
-          return Error{summary, line_of(summary, "phases"),
-                       fmt::format("policy {}: {} phases, the events give {}",
-                                   run.metrics.back().name, ph.size(), spans.size())};
-        for (std::size_t k = 0; k < spans.size(); ++k) {
-          PhaseMetrics m;
-          m.span = spans[k];
-          m.all = figures_from(ph[k]);
-          for (const auto& [name, f] : ph[k].at("operations").items())
-            m.operations.emplace_back(name, figures_from(f));
-          phases.push_back(std::move(m));
-        }
-      }
-      run.phases.push_back(std::move(phases));
-    }
+    if (auto e = policies_from(*sj, pg, summary, run)) return e;
   } catch (const nlohmann::json::exception& e) {
     return Error{
         summary, line_of(summary, key),
         std::string("a field red report needs is missing or of the wrong type: ") + e.what()};
   }
+  return std::nullopt;
+}
+
+// jobs.csv and units.csv, each row to the policy of summary.json it names.
+std::optional<Error> read_rows(const std::string& dir, SavedRun& run) {
   const std::size_t n = run.metrics.size();
-  run.jobs.resize(n);
-  run.units.resize(n);
-  run.waits.resize(n);
-  run.has_waits.assign(n, false);
-  run.waits_cut.resize(n);
   auto index_of = [&](const std::string& policy) -> std::optional<std::size_t> {
     for (std::size_t i = 0; i < n; ++i)
       if (run.metrics[i].name == policy) return i;
@@ -614,7 +634,25 @@ Expected<SavedRun> read_saved_run(const std::string& dir) {
       return Error{units_path, 0, "rows of policy '" + policy + "', which summary.json lacks"};
     run.units[*i] = std::move(rows);
   }
-  if (listed("trace.json"))
+  return std::nullopt;
+}
+
+}  // namespace
+
+Expected<SavedRun> read_saved_run(const std::string& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return Error{dir, 0, "no such directory"};
+  SavedRun run;
+  if (auto e = read_manifest(dir, run)) return *e;
+  if (auto e = read_summary(dir, run)) return *e;
+  const std::size_t n = run.metrics.size();
+  run.jobs.resize(n);
+  run.units.resize(n);
+  run.waits.resize(n);
+  run.has_waits.assign(n, false);
+  run.waits_cut.resize(n);
+  if (auto e = read_rows(dir, run)) return *e;
+  if (lists(run, "trace.json"))
     if (auto e = read_waits((fs::path(dir) / "trace.json").string(), run)) return *e;
   return run;
 }
