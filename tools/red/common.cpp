@@ -156,48 +156,37 @@ std::unique_ptr<TraceObserver> make_trace(const Scenario& s, std::size_t total_e
   return std::make_unique<TraceObserver>(s, o);
 }
 
-std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, const Profile& p,
-                                   const std::string& backend, std::uint64_t seed,
-                                   std::vector<PolicyRun>& runs, const OutputOptions& options,
-                                   OutputReport* report) {
-  OutputReport local;
-  OutputReport& r = report != nullptr ? *report : local;
-  r = {};
-  // Why each job missed (metrics/why.hpp): before the phases and jobs.csv, which show it.
-  for (PolicyRun& run : runs) annotate_causes(s, run.jobs, run.units);
-  std::vector<PolicyMetrics> metrics;
-  std::vector<PolicyRows<JobRow>> jobs;
-  std::vector<PolicyRows<UnitRow>> units;
-  for (const PolicyRun& run : runs) {
-    metrics.push_back(run.metrics);
-    jobs.push_back({run.metrics.name, &run.jobs});
-    units.push_back({run.metrics.name, &run.units});
-  }
-  apply_ratios(metrics, "edf");
-  SummaryHeader h;
-  h.scenario = s.name;
-  h.backend = backend;
-  h.seed = seed;
-  h.profile_source = p.source;
-  if (options.set != nullptr) h.run_id = options.set->run_id();
-  // A file that cannot be written is recorded and the others are still tried: on a full
-  // disk a small summary.json may still fit where a large units.csv did not.
-  auto failed = [&](const Error& e) {
+namespace {
+
+// The files write_outputs writes, one by one: a file that cannot be written is recorded and
+// the others are still tried (on a full disk a small summary.json may still fit where a
+// large units.csv did not).
+struct OutputWriter {
+  const std::string& dir;
+  OutputReport& r;
+  OutputSet* set;
+
+  void failed(const Error& e) {
     r.errors.push_back(e);
-    if (options.set != nullptr) options.set->fail(e);
-  };
-  auto wrote = [&](const std::string& name) {
+    if (set != nullptr) set->fail(e);
+  }
+  void wrote(const std::string& name) {
     r.files.push_back(name);
-    if (options.set != nullptr) options.set->add(name);
-  };
-  auto put = [&](const std::string& name, const std::string& text) {
+    if (set != nullptr) set->add(name);
+  }
+  bool put(const std::string& name, const std::string& text) {
     if (auto e = write_file(dir, name, text)) {
       failed(*e);
       return false;
     }
     wrote(name);
     return true;
-  };
+  }
+};
+
+// The figures per workload phase of each run.
+std::vector<std::vector<PhaseMetrics>> phases_of(const Scenario& s,
+                                                 const std::vector<PolicyRun>& runs) {
   std::vector<std::vector<PhaseMetrics>> phases;
   for (const PolicyRun& run : runs)
     // A run whose rows were lost (a streamed file that could not be written) has no figures
@@ -205,9 +194,16 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     phases.push_back(run.jobs.empty() && run.metrics.jobs > 0
                          ? std::vector<PhaseMetrics>{}
                          : phase_metrics(s, run.jobs, run.result.end));
-  // The merge waits the traces recorded, to the microsecond trace.json keeps, so that `red
-  // report` redraws the same timeline from trace.json.
-  std::vector<std::vector<TimelineWait>> waits(runs.size());
+  return phases;
+}
+
+// What the page is drawn from, as summary.json keeps it. The merge waits the traces recorded
+// go into `waits`, to the microsecond trace.json keeps, so that `red report` redraws the same
+// timeline from trace.json.
+PageInput page_input(const Scenario& s, std::vector<PolicyRun>& runs,
+                     const std::vector<PolicyMetrics>& metrics,
+                     const std::vector<std::vector<PhaseMetrics>>& phases,
+                     const OutputOptions& options, std::vector<std::vector<TimelineWait>>& waits) {
   PageInput in;
   in.scenario = &s;
   in.verdicts = options.verdicts;
@@ -225,69 +221,114 @@ std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, co
     }
     in.runs.push_back(pr);
   }
-  h.page = page_json(in);
-  const std::string summary = summary_json(h, metrics, phases);
-  if (!put("summary.json", summary))
-    // The run's figures are not lost with the file: the summary goes to stderr instead.
-    std::cerr << "red: " << r.errors.back().to_string()
-              << "; summary.json follows on stderr instead:\n"
-              << summary;
-  if (!options.rows_written) {
-    put("jobs.csv", jobs_csv(s, jobs));
-    put("units.csv", units_csv(s, units));
-  } else {
-    // The streamed jobs.csv has no causes (a job's cause needs the units that ran up to its
-    // deadline, which end after it): written again with them when every row is here.
-    const bool whole = std::find(options.rows_files.begin(), options.rows_files.end(),
-                                 "jobs.csv") != options.rows_files.end() &&
-                       std::all_of(runs.begin(), runs.end(), [](const PolicyRun& run) {
-                         return static_cast<std::int64_t>(run.jobs.size()) == run.metrics.jobs;
-                       });
-    for (const std::string& f : options.rows_files)
-      if (f != "jobs.csv" || !whole) wrote(f);
-    if (whole) put("jobs.csv", jobs_csv(s, jobs));
-  }
+  return in;
+}
 
-  // trace.json: one process per policy, so Perfetto shows the policies on one time axis.
+// jobs.csv and units.csv, or, streamed during the run, their files for the manifest.
+void write_rows(OutputWriter& out, const Scenario& s, const std::vector<PolicyRun>& runs,
+                const OutputOptions& options) {
+  std::vector<PolicyRows<JobRow>> jobs;
+  std::vector<PolicyRows<UnitRow>> units;
+  for (const PolicyRun& run : runs) {
+    jobs.push_back({run.metrics.name, &run.jobs});
+    units.push_back({run.metrics.name, &run.units});
+  }
+  if (!options.rows_written) {
+    out.put("jobs.csv", jobs_csv(s, jobs));
+    out.put("units.csv", units_csv(s, units));
+    return;
+  }
+  // The streamed jobs.csv has no causes (a job's cause needs the units that ran up to its
+  // deadline, which end after it): written again with them when every row is here.
+  const bool whole = std::find(options.rows_files.begin(), options.rows_files.end(), "jobs.csv") !=
+                         options.rows_files.end() &&
+                     std::all_of(runs.begin(), runs.end(), [](const PolicyRun& run) {
+                       return static_cast<std::int64_t>(run.jobs.size()) == run.metrics.jobs;
+                     });
+  for (const std::string& f : options.rows_files)
+    if (f != "jobs.csv" || !whole) out.wrote(f);
+  if (whole) out.put("jobs.csv", jobs_csv(s, jobs));
+}
+
+// trace.json: one process per policy, so Perfetto shows the policies on one time axis.
+void write_trace(OutputWriter& out, const Scenario& s, const Profile& p, const SummaryHeader& h,
+                 const std::vector<PolicyRun>& runs, const OutputOptions& options) {
   std::vector<TraceProcess> processes;
   for (std::size_t i = 0; i < runs.size() && i < options.traces.size(); ++i)
     if (options.traces[i] != nullptr)
       processes.push_back({"policy " + runs[i].metrics.name, options.traces[i]});
-  if (!processes.empty()) {
-    AtomicFile f((std::filesystem::path(dir) / "trace.json").string());
-    std::vector<std::pair<std::string, std::string>> meta = {
-        {"backend", backend},
-        {"seed", std::to_string(seed)},
-        {"profile", p.source},
-        {"time", backend == "sim" ? "simulated" : "real (from the run's start)"}};
-    if (!h.run_id.empty()) meta.emplace_back("run_id", h.run_id);
-    write_chrome_trace(f.stream(), s, processes, meta);
-    if (auto e = f.commit())
-      failed(*e);
-    else
-      wrote("trace.json");
-  }
+  if (processes.empty()) return;
+  AtomicFile f((std::filesystem::path(out.dir) / "trace.json").string());
+  std::vector<std::pair<std::string, std::string>> meta = {
+      {"backend", h.backend},
+      {"seed", std::to_string(h.seed)},
+      {"profile", p.source},
+      {"time", h.backend == "sim" ? "simulated" : "real (from the run's start)"}};
+  if (!h.run_id.empty()) meta.emplace_back("run_id", h.run_id);
+  write_chrome_trace(f.stream(), s, processes, meta);
+  if (auto e = f.commit())
+    out.failed(*e);
+  else
+    out.wrote("trace.json");
+}
 
-  // The plots, the timeline (plots/timeline*.svg) and index.html: the same function `red
-  // report` redraws them with from the saved files (report/redraw.hpp).
-  in.header = h;
-  in.data_files = r.files;
+// The plots, the timeline (plots/timeline*.svg) and index.html: the same function `red
+// report` redraws them with from the saved files (report/redraw.hpp).
+void write_page(OutputWriter& out, PageInput& in, const OutputOptions& options) {
+  in.data_files = out.r.files;
   for (const std::string& f : options.more_files) in.data_files.push_back(f);
   PageOptions po;
   po.gnuplot = gnuplot_command(options.gnuplot);
   po.timeline = options.timeline;
-  const PageReport page = write_report_page(dir, in, po);
+  const PageReport page = write_report_page(out.dir, in, po);
   if (!page.plots_note.empty()) std::cerr << "red: " << page.plots_note << '\n';
   for (const std::string& f : page.files) {
     const bool data = f.size() > 3 && (f.ends_with(".dat") || f.ends_with(".gp"));
     if (data) {
-      if (options.set != nullptr) options.set->add(f);
+      if (out.set != nullptr) out.set->add(f);
     } else {
-      wrote(f);
+      out.wrote(f);
     }
   }
-  r.images += page.images;
-  for (const Error& e : page.errors) failed(e);
+  out.r.images += page.images;
+  for (const Error& e : page.errors) out.failed(e);
+}
+
+}  // namespace
+
+std::optional<Error> write_outputs(const std::string& dir, const Scenario& s, const Profile& p,
+                                   const std::string& backend, std::uint64_t seed,
+                                   std::vector<PolicyRun>& runs, const OutputOptions& options,
+                                   OutputReport* report) {
+  OutputReport local;
+  OutputReport& r = report != nullptr ? *report : local;
+  r = {};
+  // Why each job missed (metrics/why.hpp): before the phases and jobs.csv, which show it.
+  for (PolicyRun& run : runs) annotate_causes(s, run.jobs, run.units);
+  std::vector<PolicyMetrics> metrics;
+  for (const PolicyRun& run : runs) metrics.push_back(run.metrics);
+  apply_ratios(metrics, "edf");
+  SummaryHeader h;
+  h.scenario = s.name;
+  h.backend = backend;
+  h.seed = seed;
+  h.profile_source = p.source;
+  if (options.set != nullptr) h.run_id = options.set->run_id();
+  OutputWriter out{dir, r, options.set};
+  const std::vector<std::vector<PhaseMetrics>> phases = phases_of(s, runs);
+  std::vector<std::vector<TimelineWait>> waits(runs.size());
+  PageInput in = page_input(s, runs, metrics, phases, options, waits);
+  h.page = page_json(in);
+  const std::string summary = summary_json(h, metrics, phases);
+  if (!out.put("summary.json", summary))
+    // The run's figures are not lost with the file: the summary goes to stderr instead.
+    std::cerr << "red: " << r.errors.back().to_string()
+              << "; summary.json follows on stderr instead:\n"
+              << summary;
+  write_rows(out, s, runs, options);
+  write_trace(out, s, p, h, runs, options);
+  in.header = h;
+  write_page(out, in, options);
   if (!r.errors.empty()) return r.errors.front();
   return std::nullopt;
 }
