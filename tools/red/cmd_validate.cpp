@@ -141,6 +141,71 @@ void print_checks(const Scenario& s, const std::optional<ModelManifest>& m, cons
     fmt::print("  profile ({}): has the encoder and every head the scenario uses\n", p.source);
 }
 
+// The resolved workload: the scenario's settings, sensors, operations at t = 0 and each event's
+// changes (print_operation adds to `warnings`).
+void print_workload(const Scenario& s, const Profile& p, std::vector<std::string>& warnings) {
+  const CostModel costs{&p, &s.model, s.scheduler.estimate};
+  const CostModel mean{&p, &s.model, EstimateKind::Mean};
+  fmt::print("scenario {} ({}): {:g} s, warm-up {:g} s, seed {}, {} lane(s)\n", s.name, s.file,
+             to_s(s.duration), to_s(s.warmup), s.seed, s.device.lanes);
+  fmt::print("profile: {} ({}); estimate {}; gamma {:.1f} ms; max batch {}\n", p.source, p.device,
+             to_string(s.scheduler.estimate), to_ms(s.scheduler.gamma), s.scheduler.max_batch);
+  if (!s.model.heads.empty()) {
+    std::string heads;
+    for (const std::string& h : s.model.heads) heads += (heads.empty() ? "" : ", ") + h;
+    fmt::print("model: {} heads [{}]; encoder {:.3f} ms\n",
+               s.model.manifest.empty() ? s.model.builtin : s.model.manifest, heads,
+               to_ms(costs.encoder()));
+  }
+  for (const SensorSpec& sn : s.sensors)
+    fmt::print("sensor {}: {:g} Hz, phase {:.3f} ms, jitter {:.3f} ms\n", sn.name, sn.rate_hz,
+               to_ms(sn.phase), to_ms(sn.jitter));
+  fmt::print("operations at t = 0:\n");
+  for (int i = 0; i < s.operation_count(); ++i)
+    if (s.initial[static_cast<std::size_t>(i)])
+      print_operation(s, *s.initial[static_cast<std::size_t>(i)], i, costs, mean, "", warnings);
+  for (std::size_t e = 0; e < s.events.size(); ++e) {
+    const EventSpec& ev = s.events[e];
+    fmt::print("event {} at {:g} s: {}\n", e, to_s(ev.at), ev.kind);
+    for (const auto& [op, spec] : ev.changes) {
+      if (spec)
+        print_operation(s, *spec, op, costs, mean,
+                        fmt::format(" from {:g} s (event {})", to_s(ev.at), e), warnings);
+      else
+        fmt::print("  operation {} leaves the workload\n", s.operation_name(op));
+    }
+    for (const auto& [sensor, rate] : ev.sensor_rates)
+      fmt::print("  sensor {} now at {:g} Hz\n", s.sensors[static_cast<std::size_t>(sensor)].name,
+                 rate);
+  }
+}
+
+// `red validate`: load the scenario and its profile, print the resolved workload and the checks.
+int run_validate(const ScenarioArgs& args) {
+  // The manifest load() read (check_model()), to list the checks.
+  std::optional<ModelManifest> manifest;
+  auto s = load(args, &manifest);
+  if (!s) {
+    print_error(s.error());
+    return kBadInput;
+  }
+  std::vector<std::string> warnings;
+  auto p = resolve_profile(*s, args.profile, &warnings);
+  if (!p) {
+    print_error(p.error());
+    return kBadInput;
+  }
+  for (const std::string& w : warnings) std::cerr << "red: warning: " << w << '\n';
+  warn_suspect_profile(*p, args.profile.value_or(s->profile));
+  print_workload(*s, *p, warnings);
+  print_checks(*s, manifest, *p, check_profile_identity(*p, *s, args.profile));
+  if (warnings.empty())
+    fmt::print("ok\n");
+  else
+    fmt::print("ok, with {} warning(s) on stderr\n", warnings.size());
+  return kOk;
+}
+
 }  // namespace
 
 void register_validate(CLI::App& app, int& exit_code) {
@@ -151,66 +216,7 @@ void register_validate(CLI::App& app, int& exit_code) {
   cmd->add_option("--profile", args->profile,
                   "Profile JSON (default: the scenario's, else built-in)");
   cmd->add_option("--set", args->sets, "Override key=value (deadline_scale, rate_scale, ...)");
-  cmd->callback([args, &exit_code] {
-    // The manifest load() read (check_model()), to list the checks.
-    std::optional<ModelManifest> manifest;
-    auto s = load(*args, &manifest);
-    if (!s) {
-      print_error(s.error());
-      exit_code = kBadInput;
-      return;
-    }
-    std::vector<std::string> warnings;
-    auto p = resolve_profile(*s, args->profile, &warnings);
-    if (!p) {
-      print_error(p.error());
-      exit_code = kBadInput;
-      return;
-    }
-    for (const std::string& w : warnings) std::cerr << "red: warning: " << w << '\n';
-    warn_suspect_profile(*p, args->profile.value_or(s->profile));
-    const CostModel costs{&p.value(), &s->model, s->scheduler.estimate};
-    const CostModel mean{&p.value(), &s->model, EstimateKind::Mean};
-    fmt::print("scenario {} ({}): {:g} s, warm-up {:g} s, seed {}, {} lane(s)\n", s->name, s->file,
-               to_s(s->duration), to_s(s->warmup), s->seed, s->device.lanes);
-    fmt::print("profile: {} ({}); estimate {}; gamma {:.1f} ms; max batch {}\n", p->source,
-               p->device, to_string(s->scheduler.estimate), to_ms(s->scheduler.gamma),
-               s->scheduler.max_batch);
-    if (!s->model.heads.empty()) {
-      std::string heads;
-      for (const std::string& h : s->model.heads) heads += (heads.empty() ? "" : ", ") + h;
-      fmt::print("model: {} heads [{}]; encoder {:.3f} ms\n",
-                 s->model.manifest.empty() ? s->model.builtin : s->model.manifest, heads,
-                 to_ms(costs.encoder()));
-    }
-    for (const SensorSpec& sn : s->sensors)
-      fmt::print("sensor {}: {:g} Hz, phase {:.3f} ms, jitter {:.3f} ms\n", sn.name, sn.rate_hz,
-                 to_ms(sn.phase), to_ms(sn.jitter));
-    fmt::print("operations at t = 0:\n");
-    for (int i = 0; i < s->operation_count(); ++i)
-      if (s->initial[static_cast<std::size_t>(i)])
-        print_operation(*s, *s->initial[static_cast<std::size_t>(i)], i, costs, mean, "", warnings);
-    for (std::size_t e = 0; e < s->events.size(); ++e) {
-      const EventSpec& ev = s->events[e];
-      fmt::print("event {} at {:g} s: {}\n", e, to_s(ev.at), ev.kind);
-      for (const auto& [op, spec] : ev.changes) {
-        if (spec)
-          print_operation(*s, *spec, op, costs, mean,
-                          fmt::format(" from {:g} s (event {})", to_s(ev.at), e), warnings);
-        else
-          fmt::print("  operation {} leaves the workload\n", s->operation_name(op));
-      }
-      for (const auto& [sensor, rate] : ev.sensor_rates)
-        fmt::print("  sensor {} now at {:g} Hz\n",
-                   s->sensors[static_cast<std::size_t>(sensor)].name, rate);
-    }
-    print_checks(*s, manifest, *p, check_profile_identity(*p, *s, args->profile));
-    if (warnings.empty())
-      fmt::print("ok\n");
-    else
-      fmt::print("ok, with {} warning(s) on stderr\n", warnings.size());
-    exit_code = kOk;
-  });
+  cmd->callback([args, &exit_code] { exit_code = run_validate(*args); });
 }
 
 }  // namespace red::cli
