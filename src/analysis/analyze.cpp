@@ -10,6 +10,7 @@
 #include "red/analysis/bound.hpp"
 #include "red/analysis/workload.hpp"
 #include "red/core/stop.hpp"
+#include "red/metrics/phases.hpp"
 #include "red/scenario/estimate.hpp"
 #include "red/sim/run.hpp"
 
@@ -91,6 +92,90 @@ void judge(OperationAnalysis& oa, double phase_util, double limit, double span_s
   }
 }
 
+// What the analysis of every phase reads: the policy's options, the unit costs and the figures
+// per phase of the simulations at profiled and at worst-case costs.
+struct PhaseInputs {
+  const Scenario& s;
+  const PolicyOptions& opts;
+  UnitCosts cmin, cmean, cest;
+  CostModel est;
+  WorkModel model;
+  std::vector<PhaseMetrics> pm_prof, pm_worst;
+};
+
+// Operation i of phase k (`pw`): its deadline, critical paths, work and share of the lanes
+// (`need`, with `merged` encoder runs per job), and its simulated figures.
+OperationAnalysis analyze_operation(const PhaseInputs& in, const PhaseWorkload& pw, std::size_t k,
+                                    std::size_t i, const std::vector<double>& merged,
+                                    const WorkEstimate& need) {
+  const Scenario& s = in.s;
+  const PolicyOptions& opts = in.opts;
+  const OperationSpec& op = *pw.ops[i];
+  OperationAnalysis oa;
+  oa.operation = static_cast<int>(i);
+  oa.name = s.operation_name(oa.operation);
+  oa.rate_hz = release_rate(op, pw, s);
+  oa.deadline = resolve_deadline(op, in.est);
+  oa.cp_coarse_mean = critical_path(op, GraphMode::Coarse, in.cmean);
+  oa.cp_coarse_estimate = critical_path(op, GraphMode::Coarse, in.cest);
+  oa.cp_fine_mean = critical_path(op, GraphMode::Fine, in.cmean);
+  oa.cp_fine_estimate = critical_path(op, GraphMode::Fine, in.cest);
+  // Alone on the device a job needs its critical path and its own work spread over the
+  // lanes; its own encoder runs are shared only on the fine graph under DynamicMerge.
+  auto alone = [&](const UnitCosts& c) {
+    const Duration own =
+        opts.graph == GraphMode::Coarse || (opts.graph == GraphMode::Fine && !opts.merge)
+            ? work_coarse(op, c)
+            : work_fine(op, c);
+    return std::max(critical_path(op, opts.graph, c), own / s.device.lanes);
+  };
+  oa.alone_min = alone(in.cmin);
+  oa.alone_mean = alone(in.cmean);
+  oa.work_coarse = work_coarse(op, in.cmean);
+  oa.work_fine = work_fine(op, in.cmean);
+  oa.work_merged = work_merged(op, in.cmean, merged[i]);
+  // What the policy runs: coarse units; a mono job (one encoder run per sensor); fine
+  // units, whose encoder runs are shared only under DynamicMerge.
+  oa.work_policy = opts.graph == GraphMode::Mono                 ? oa.work_fine
+                   : opts.graph == GraphMode::Fine && opts.merge ? oa.work_merged
+                                                                 : oa.work_coarse;
+  oa.utilization = need.op_load[i];
+  if (k < in.pm_prof.size())
+    if (const PhaseFigures* f = figures_of(in.pm_prof[k], oa.name)) {
+      oa.jobs_profiled = f->jobs;
+      oa.miss_profiled = f->miss_rate;
+    }
+  if (k < in.pm_worst.size())
+    if (const PhaseFigures* f = figures_of(in.pm_worst[k], oa.name)) {
+      oa.jobs_worst = f->jobs;
+      oa.miss_worst = f->miss_rate;
+    }
+  return oa;
+}
+
+// Phase k (`pw`): its necessary work, and each operation's figures and verdict.
+PhaseAnalysis analyze_phase(const PhaseInputs& in, const PhaseWorkload& pw, std::size_t k,
+                            double miss_limit) {
+  PhaseAnalysis pa;
+  pa.span = pw.span;
+  pa.label = pw.label;
+  const std::vector<double> merged = merged_encoder_runs(in.s, pw);
+  const WorkEstimate need = in.model.estimate(work_input(in.s, pw));
+  pa.utilization = need.load;
+  Duration latest{0};
+  for (std::size_t i = 0; i < pw.ops.size(); ++i) {
+    if (!pw.ops[i]) continue;
+    OperationAnalysis oa = analyze_operation(in, pw, k, i, merged, need);
+    latest = std::max(latest, oa.deadline);
+    pa.operations.push_back(std::move(oa));
+  }
+  for (OperationAnalysis& oa : pa.operations) {
+    judge(oa, pa.utilization, miss_limit, to_s(pw.span.to - pw.span.from), to_s(latest));
+    pa.verdict = std::max(pa.verdict, oa.verdict);
+  }
+  return pa;
+}
+
 }  // namespace
 
 Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOptions& o) {
@@ -116,72 +201,18 @@ Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOp
   a.on_time_worst = worst->metrics.on_time;
   a.lane_busy = prof->metrics.lane_utilization;
   const TimePoint end = prof->result.end;
-  const auto pm_prof = phase_metrics(s, prof->jobs, end);
-  const auto pm_worst = phase_metrics(ws, worst->jobs, end);
-
-  const UnitCosts cmin(s, p, CostPoint::Min), cmean(s, p, CostPoint::Mean),
-      cest(s, p, CostPoint::Estimate);
-  const CostModel est{&p, &s.model, s.scheduler.estimate};
+  const PhaseInputs in{s,
+                       *opts,
+                       UnitCosts(s, p, CostPoint::Min),
+                       UnitCosts(s, p, CostPoint::Mean),
+                       UnitCosts(s, p, CostPoint::Estimate),
+                       CostModel{&p, &s.model, s.scheduler.estimate},
+                       work_model(s, p),
+                       phase_metrics(s, prof->jobs, end),
+                       phase_metrics(ws, worst->jobs, end)};
   const auto phases = phase_workloads(s, end);
-  const WorkModel model = work_model(s, p);
   for (std::size_t k = 0; k < phases.size(); ++k) {
-    const PhaseWorkload& pw = phases[k];
-    PhaseAnalysis pa;
-    pa.span = pw.span;
-    pa.label = pw.label;
-    const std::vector<double> merged = merged_encoder_runs(s, pw);
-    const WorkEstimate need = model.estimate(work_input(s, pw));
-    pa.utilization = need.load;
-    Duration latest{0};
-    for (std::size_t i = 0; i < pw.ops.size(); ++i) {
-      if (!pw.ops[i]) continue;
-      const OperationSpec& op = *pw.ops[i];
-      OperationAnalysis oa;
-      oa.operation = static_cast<int>(i);
-      oa.name = s.operation_name(oa.operation);
-      oa.rate_hz = release_rate(op, pw, s);
-      oa.deadline = resolve_deadline(op, est);
-      oa.cp_coarse_mean = critical_path(op, GraphMode::Coarse, cmean);
-      oa.cp_coarse_estimate = critical_path(op, GraphMode::Coarse, cest);
-      oa.cp_fine_mean = critical_path(op, GraphMode::Fine, cmean);
-      oa.cp_fine_estimate = critical_path(op, GraphMode::Fine, cest);
-      // Alone on the device a job needs its critical path and its own work spread over the
-      // lanes; its own encoder runs are shared only on the fine graph under DynamicMerge.
-      auto alone = [&](const UnitCosts& c) {
-        const Duration own =
-            opts->graph == GraphMode::Coarse || (opts->graph == GraphMode::Fine && !opts->merge)
-                ? work_coarse(op, c)
-                : work_fine(op, c);
-        return std::max(critical_path(op, opts->graph, c), own / s.device.lanes);
-      };
-      oa.alone_min = alone(cmin);
-      oa.alone_mean = alone(cmean);
-      oa.work_coarse = work_coarse(op, cmean);
-      oa.work_fine = work_fine(op, cmean);
-      oa.work_merged = work_merged(op, cmean, merged[i]);
-      // What the policy runs: coarse units; a mono job (one encoder run per sensor); fine
-      // units, whose encoder runs are shared only under DynamicMerge.
-      oa.work_policy = opts->graph == GraphMode::Mono                  ? oa.work_fine
-                       : opts->graph == GraphMode::Fine && opts->merge ? oa.work_merged
-                                                                       : oa.work_coarse;
-      oa.utilization = need.op_load[i];
-      latest = std::max(latest, oa.deadline);
-      if (k < pm_prof.size())
-        if (const PhaseFigures* f = figures_of(pm_prof[k], oa.name)) {
-          oa.jobs_profiled = f->jobs;
-          oa.miss_profiled = f->miss_rate;
-        }
-      if (k < pm_worst.size())
-        if (const PhaseFigures* f = figures_of(pm_worst[k], oa.name)) {
-          oa.jobs_worst = f->jobs;
-          oa.miss_worst = f->miss_rate;
-        }
-      pa.operations.push_back(std::move(oa));
-    }
-    for (OperationAnalysis& oa : pa.operations) {
-      judge(oa, pa.utilization, o.search.miss_limit, to_s(pw.span.to - pw.span.from), to_s(latest));
-      pa.verdict = std::max(pa.verdict, oa.verdict);
-    }
+    PhaseAnalysis pa = analyze_phase(in, phases[k], k, o.search.miss_limit);
     a.peak_utilization = std::max(a.peak_utilization, pa.utilization);
     a.verdict = std::max(a.verdict, pa.verdict);
     a.phases.push_back(std::move(pa));
