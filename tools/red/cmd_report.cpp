@@ -73,65 +73,70 @@ int run_why(const ReportArgs& a, const SavedRun& saved) {
   return kOk;
 }
 
-int run_report(const ReportArgs& a) {
-  auto saved = read_saved_run(a.dir);
-  if (!saved) {
-    print_error(saved.error());
-    return kBadInput;
+// --policy names a policy of the run (or is not given); false once an error is printed.
+bool policy_in_run(const ReportArgs& a, const SavedRun& saved) {
+  if (!a.policy) return true;
+  std::string known;
+  bool found = false;
+  for (const PolicyMetrics& m : saved.metrics) {
+    known += (known.empty() ? "" : ", ") + m.name;
+    found = found || m.name == *a.policy;
   }
-  if (a.policy) {
-    std::string known;
-    bool found = false;
-    for (const PolicyMetrics& m : saved->metrics) {
-      known += (known.empty() ? "" : ", ") + m.name;
-      found = found || m.name == *a.policy;
-    }
-    if (!found) {
-      print_error(Error{
-          "", 0, "--policy " + *a.policy + ": not in this run (its policies: " + known + ")"});
-      return kBadInput;
-    }
+  if (!found) {
+    print_error(
+        Error{"", 0, "--policy " + *a.policy + ": not in this run (its policies: " + known + ")"});
+    return false;
   }
-  if (a.why) return run_why(a, *saved);
+  return true;
+}
+
+// What to draw: --timeline and --phase checked against the run, --policy; nullopt once an error
+// is printed.
+std::optional<PageOptions> page_options(const ReportArgs& a, const SavedRun& saved) {
   PageOptions o;
   o.gnuplot = gnuplot_command();
   if (a.timeline) {
     auto w = parse_timeline_window(*a.timeline);
     if (!w) {
       print_error(w.error());
-      return kBadInput;
+      return std::nullopt;
     }
-    if (w->first >= saved->scenario.duration) {
+    if (w->first >= saved.scenario.duration) {
       print_error(Error{"", 0,
                         fmt::format("--timeline: FROM ({:g} s) is not before the end of the run "
                                     "({:g} s)",
-                                    to_s(w->first), to_s(saved->scenario.duration))});
-      return kBadInput;
+                                    to_s(w->first), to_s(saved.scenario.duration))});
+      return std::nullopt;
     }
     o.timeline = *w;
   }
   if (a.phase) {
-    TimePoint end = saved->scenario.warmup;
-    for (TimePoint e : saved->ends) end = std::max(end, e);
-    const std::size_t n = workload_phases(saved->scenario, end).size();
+    TimePoint end = saved.scenario.warmup;
+    for (TimePoint e : saved.ends) end = std::max(end, e);
+    const std::size_t n = workload_phases(saved.scenario, end).size();
     if (*a.phase >= n) {
       print_error(Error{
           "", 0, fmt::format("--phase {}: the run has {} phase(s), 0 to {}", *a.phase, n, n - 1)});
-      return kBadInput;
+      return std::nullopt;
     }
     o.phase = a.phase;
   }
   o.policy = a.policy;
+  return o;
+}
+
+// The page and its plots redrawn into the run's directory, ended by its manifest; the exit code.
+int redraw(const std::string& dir, const SavedRun& saved, const PageOptions& o) {
   // The directory is marked unfinished (same run id) until the new page and its manifest
   // are written, as a run's own files are.
-  auto set = OutputSet::reopen(a.dir, saved->command.empty() ? "report" : saved->command,
-                               saved->header.run_id);
+  auto set =
+      OutputSet::reopen(dir, saved.command.empty() ? "report" : saved.command, saved.header.run_id);
   if (!set) {
     print_error(set.error());
     return kRunFailure;
   }
-  for (const std::string& f : saved->data_files) set->add(f);
-  const PageReport page = write_report_page(a.dir, saved->input(), o);
+  for (const std::string& f : saved.data_files) set->add(f);
+  const PageReport page = write_report_page(dir, saved.input(), o);
   if (!page.plots_note.empty()) std::cerr << "red: " << page.plots_note << '\n';
   for (const std::string& f : page.files) set->add(f);
   for (const Error& e : page.errors) {
@@ -139,19 +144,32 @@ int run_report(const ReportArgs& a) {
     set->fail(e);
   }
   // The previous page's drawings that this one does not use are not the run's any more.
-  for (const std::string& f : saved->files) {
+  for (const std::string& f : saved.files) {
     const bool kept = std::find(page.files.begin(), page.files.end(), f) != page.files.end();
     if (!kept && f.rfind("plots/", 0) == 0) {
       std::error_code ec;
-      std::filesystem::remove(std::filesystem::path(a.dir) / f, ec);
+      std::filesystem::remove(std::filesystem::path(dir) / f, ec);
     }
   }
   const std::optional<Error> manifest = set->finish();
   if (manifest) print_error(*manifest);
-  fmt::print("redrew {}/{} ({} images){}\n", a.dir,
-             saved->index_html ? "index.html and plots/" : "plots/", page.images,
+  fmt::print("redrew {}/{} ({} images){}\n", dir,
+             saved.index_html ? "index.html and plots/" : "plots/", page.images,
              manifest ? "" : ", manifest.json");
   return page.errors.empty() && !manifest ? kOk : kRunFailure;
+}
+
+int run_report(const ReportArgs& a) {
+  auto saved = read_saved_run(a.dir);
+  if (!saved) {
+    print_error(saved.error());
+    return kBadInput;
+  }
+  if (!policy_in_run(a, *saved)) return kBadInput;
+  if (a.why) return run_why(a, *saved);
+  const std::optional<PageOptions> o = page_options(a, *saved);
+  if (!o) return kBadInput;
+  return redraw(a.dir, *saved, *o);
 }
 
 }  // namespace
