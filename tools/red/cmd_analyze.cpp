@@ -29,6 +29,56 @@ struct AnalyzeArgs {
   bool no_headroom = false;
 };
 
+// analysis.json, marked with the run id and ended by the manifest (docs/REPORTS.md); the exit
+// code.
+int write_analysis(const std::string& dir, const Analysis& an) {
+  auto set = OutputSet::begin(dir, "analyze");
+  if (!set) {
+    print_error(set.error());
+    return kRunFailure;
+  }
+  auto doc = nlohmann::ordered_json::parse(analysis_json(an));
+  doc["run_id"] = set->run_id();
+  if (auto e = write_file(
+          dir, "analysis.json",
+          doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n")) {
+    print_error(*e);
+    return kRunFailure;
+  }
+  set->add("analysis.json");
+  if (auto e = set->finish()) {
+    print_error(*e);
+    return kRunFailure;
+  }
+  fmt::print("wrote {}/analysis.json, manifest.json\n", dir);
+  return kOk;
+}
+
+// --export-nptest: the job set in np-schedulability-analysis CSV formats; the exit code.
+int write_nptest(const AnalyzeArgs& a, const Scenario& s, const Profile& p,
+                 const PolicyOptions& opts) {
+  std::optional<Duration> window;
+  if (a.nptest_window_ms) window = from_ms(*a.nptest_window_ms);
+  auto x = export_nptest(s, p, opts, window);
+  if (!x) {
+    print_error(x.error());
+    return kBadInput;
+  }
+  for (const auto& [name, text] :
+       {std::pair{"jobs.csv", &x->jobs_csv}, std::pair{"jobs.prec.csv", &x->prec_csv},
+        std::pair{"tasks.csv", &x->tasks_csv}})
+    if (auto e = write_file(*a.nptest, name, *text)) {
+      print_error(*e);
+      return kRunFailure;
+    }
+  fmt::print(
+      "wrote {}/jobs.csv ({} jobs), jobs.prec.csv ({} edges), tasks.csv: window {:g} ms, {}; "
+      "times in μs (nptest {}/jobs.csv -p {}/jobs.prec.csv{})\n",
+      *a.nptest, x->jobs, x->edges, to_ms(x->window), x->note, *a.nptest, *a.nptest,
+      s.device.lanes > 1 ? fmt::format(" -m {}", s.device.lanes) : std::string());
+  return kOk;
+}
+
 int run_analyze(const AnalyzeArgs& a) {
   auto loaded = load_with_profile(a.scenario);
   if (!loaded) return kBadInput;
@@ -53,49 +103,10 @@ int run_analyze(const AnalyzeArgs& a) {
     return kRunFailure;
   }
   fmt::print("{}", analysis_text(*an));
-  if (a.out) {
-    // One file, marked with the run id and ended by the manifest (docs/REPORTS.md).
-    auto set = OutputSet::begin(*a.out, "analyze");
-    if (!set) {
-      print_error(set.error());
-      return kRunFailure;
-    }
-    auto doc = nlohmann::ordered_json::parse(analysis_json(*an));
-    doc["run_id"] = set->run_id();
-    if (auto e = write_file(
-            *a.out, "analysis.json",
-            doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n")) {
-      print_error(*e);
-      return kRunFailure;
-    }
-    set->add("analysis.json");
-    if (auto e = set->finish()) {
-      print_error(*e);
-      return kRunFailure;
-    }
-    fmt::print("wrote {}/analysis.json, manifest.json\n", *a.out);
-  }
-  if (a.nptest) {
-    std::optional<Duration> window;
-    if (a.nptest_window_ms) window = from_ms(*a.nptest_window_ms);
-    auto x = export_nptest(s, p, *opts, window);
-    if (!x) {
-      print_error(x.error());
-      return kBadInput;
-    }
-    for (const auto& [name, text] :
-         {std::pair{"jobs.csv", &x->jobs_csv}, std::pair{"jobs.prec.csv", &x->prec_csv},
-          std::pair{"tasks.csv", &x->tasks_csv}})
-      if (auto e = write_file(*a.nptest, name, *text)) {
-        print_error(*e);
-        return kRunFailure;
-      }
-    fmt::print(
-        "wrote {}/jobs.csv ({} jobs), jobs.prec.csv ({} edges), tasks.csv: window {:g} ms, {}; "
-        "times in μs (nptest {}/jobs.csv -p {}/jobs.prec.csv{})\n",
-        *a.nptest, x->jobs, x->edges, to_ms(x->window), x->note, *a.nptest, *a.nptest,
-        s.device.lanes > 1 ? fmt::format(" -m {}", s.device.lanes) : std::string());
-  }
+  if (a.out)
+    if (const int code = write_analysis(*a.out, *an); code != kOk) return code;
+  if (a.nptest)
+    if (const int code = write_nptest(a, s, p, *opts); code != kOk) return code;
   return a.check && an->verdict != Verdict::Ok ? kRunFailure : kOk;
 }
 
