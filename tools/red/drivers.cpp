@@ -36,6 +36,106 @@ std::optional<Profile> run_costs(const Scenario& s, const Profile& p, const Poli
   return std::move(c).value();
 }
 
+constexpr int kCalibratedSeeds = 5;
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 == 1 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+// Miss %, mean latency and QoE of seeds of the simulator.
+struct Predicted {
+  std::vector<double> miss, mean, qoe;
+};
+
+// What the simulator predicts the runs with: the scenario and the profile the scheduler plans
+// with, the first seed, the synchronization.
+struct PredictionInput {
+  const Scenario& s;
+  const Profile& p;
+  std::uint64_t seed;
+  std::optional<SyncMode> sync;
+};
+
+// `n` seeds of the simulator running `policy`, costs drawn from `costs` (nullptr: the profile the
+// scheduler plans with).
+Predicted predict(const PredictionInput& in, const std::string& policy, int n,
+                  const Profile* costs) {
+  Predicted out;
+  for (int k = 0; k < n; ++k) {
+    auto sim = simulate_policy(in.s, in.p, policy, in.seed + static_cast<std::uint64_t>(k), {},
+                               false, in.sync, costs);
+    if (!sim) break;
+    out.miss.push_back(100 * sim->metrics.miss_rate);
+    out.mean.push_back(sim->metrics.latency.mean);
+    out.qoe.push_back(sim->metrics.qoe);
+  }
+  return out;
+}
+
+// The median [min-max] of `v` over n > 1 seeds, else its one value; each in format `f`.
+std::string range(const std::vector<double>& v, int n, const char* f) {
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  return n > 1 ? fmt::format(fmt::runtime(std::string(f) + " [" + f + "-" + f + "]"), median(v),
+                             *lo, *hi)
+               : fmt::format(fmt::runtime(f), v.front());
+}
+
+nlohmann::ordered_json predicted_json(const Predicted& x) {
+  const auto [mlo, mhi] = std::minmax_element(x.miss.begin(), x.miss.end());
+  const auto [llo, lhi] = std::minmax_element(x.mean.begin(), x.mean.end());
+  return nlohmann::ordered_json{{"miss_pct", median(x.miss)}, {"miss_pct_min", *mlo},
+                                {"miss_pct_max", *mhi},       {"mean_ms", median(x.mean)},
+                                {"mean_ms_min", *llo},        {"mean_ms_max", *lhi},
+                                {"qoe", median(x.qoe)}};
+}
+
+void print_header() {
+  fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", "policy", "miss% real",
+             "miss% sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim");
+}
+
+// One row, printed and kept for index.html: the same cells in both.
+void print_row(const PolicyRun& r, const Predicted& x, int n, HtmlTable& t) {
+  std::vector<std::string> c{r.metrics.name,
+                             fmt::format("{:.2f}", 100 * r.metrics.miss_rate),
+                             range(x.miss, n, "{:.2f}"),
+                             fmt::format("{:.2f}", r.metrics.latency.mean),
+                             range(x.mean, n, "{:.2f}"),
+                             fmt::format("{:.3f}", r.metrics.qoe),
+                             fmt::format("{:.3f}", median(x.qoe))};
+  fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", c[0], c[1], c[2], c[3], c[4], c[5],
+             c[6]);
+  t.rows.push_back(std::move(c));
+}
+
+HtmlTable prediction_table(std::string caption) {
+  return HtmlTable{
+      std::move(caption),
+      {"policy", "miss % real", "miss % sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim"},
+      {}};
+}
+
+// The second table: each policy predicted from the costs its own units met in the run (`own`,
+// none where the run kept too few units), printed and into `html`.
+void print_own_costs(const std::vector<PolicyRun>& real,
+                     const std::vector<std::optional<Predicted>>& own,
+                     std::vector<HtmlTable>& html) {
+  HtmlTable t = prediction_table(fmt::format(
+      "Simulator fed the costs each policy's units met in this run: the model apart from the "
+      "machine's drift since the profile was measured (median [min-max] of {} seeds; "
+      "docs/FIDELITY.md, \"The run's own costs\")",
+      kCalibratedSeeds));
+  fmt::print(
+      "simulator with the costs each policy's units met in this run (the model without the "
+      "machine's drift, median [min-max] of {} seeds):\n",
+      kCalibratedSeeds);
+  print_header();
+  for (std::size_t i = 0; i < real.size(); ++i)
+    if (own[i]) print_row(real[i], *own[i], kCalibratedSeeds, t);
+  html.push_back(std::move(t));
+}
+
 // The simulator's prediction of a real run, side by side with it (same scenario, same
 // profile): how well the simulator, fed the measured profile, predicts reality. With a
 // calibrated profile the prediction is random like the run (the machine's slow stretches
@@ -47,71 +147,12 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
                              const std::vector<PolicyRun>& real,
                              const std::vector<Handoffs>& handoffs, std::optional<SyncMode> sync,
                              std::vector<HtmlTable>& html) {
-  constexpr int kCalibratedSeeds = 5;
+  const PredictionInput in{s, p, seed, sync};
   const int seeds = p.calibration ? kCalibratedSeeds : 1;
-  auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.size() % 2 == 1 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
-  };
-  // Miss %, mean latency and QoE of `n` seeds of the simulator, costs drawn from `costs`
-  // (nullptr: the profile the scheduler plans with).
-  struct Predicted {
-    std::vector<double> miss, mean, qoe;
-  };
-  auto predict = [&](const std::string& policy, int n, const Profile* costs) {
-    Predicted out;
-    for (int k = 0; k < n; ++k) {
-      auto sim = simulate_policy(s, p, policy, seed + static_cast<std::uint64_t>(k), {}, false,
-                                 sync, costs);
-      if (!sim) break;
-      out.miss.push_back(100 * sim->metrics.miss_rate);
-      out.mean.push_back(sim->metrics.latency.mean);
-      out.qoe.push_back(sim->metrics.qoe);
-    }
-    return out;
-  };
-  auto range = [&](const std::vector<double>& v, int n, const char* f) {
-    const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
-    return n > 1 ? fmt::format(fmt::runtime(std::string(f) + " [" + f + "-" + f + "]"), median(v),
-                               *lo, *hi)
-                 : fmt::format(fmt::runtime(f), v.front());
-  };
-  auto to_json = [&](const Predicted& x) {
-    const auto [mlo, mhi] = std::minmax_element(x.miss.begin(), x.miss.end());
-    const auto [llo, lhi] = std::minmax_element(x.mean.begin(), x.mean.end());
-    return nlohmann::ordered_json{{"miss_pct", median(x.miss)}, {"miss_pct_min", *mlo},
-                                  {"miss_pct_max", *mhi},       {"mean_ms", median(x.mean)},
-                                  {"mean_ms_min", *llo},        {"mean_ms_max", *lhi},
-                                  {"qoe", median(x.qoe)}};
-  };
-  auto print_header = [] {
-    fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", "policy", "miss% real",
-               "miss% sim", "mean ms real", "mean ms sim", "QoE real", "QoE sim");
-  };
-  // One row, printed and kept for index.html: the same cells in both.
-  auto print_row = [&](const PolicyRun& r, const Predicted& x, int n, HtmlTable& t) {
-    std::vector<std::string> c{r.metrics.name,
-                               fmt::format("{:.2f}", 100 * r.metrics.miss_rate),
-                               range(x.miss, n, "{:.2f}"),
-                               fmt::format("{:.2f}", r.metrics.latency.mean),
-                               range(x.mean, n, "{:.2f}"),
-                               fmt::format("{:.3f}", r.metrics.qoe),
-                               fmt::format("{:.3f}", median(x.qoe))};
-    fmt::print("{:<10} {:>10} {:>20} {:>12} {:>22} {:>8} {:>8}\n", c[0], c[1], c[2], c[3], c[4],
-               c[5], c[6]);
-    t.rows.push_back(std::move(c));
-  };
-  auto table = [](std::string caption) {
-    return HtmlTable{std::move(caption),
-                     {"policy", "miss % real", "miss % sim", "mean ms real", "mean ms sim",
-                      "QoE real", "QoE sim"},
-                     {}};
-  };
-
   const std::string over = seeds > 1 ? fmt::format(", median [min-max] of {} seeds", seeds) : "";
   fmt::print("simulator prediction with the same profile ({}{}):\n", p.source, over);
   print_header();
-  HtmlTable ahead = table(fmt::format(
+  HtmlTable ahead = prediction_table(fmt::format(
       "Simulator's prediction of these runs with the same profile ({}{}; docs/FIDELITY.md)",
       p.source, over));
   nlohmann::ordered_json doc;
@@ -123,7 +164,7 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
   std::vector<PredictionCheck> checks;
   for (std::size_t i = 0; i < real.size(); ++i) {
     const PolicyRun& r = real[i];
-    const Predicted x = predict(r.metrics.name, seeds, nullptr);
+    const Predicted x = predict(in, r.metrics.name, seeds, nullptr);
     if (x.miss.empty()) continue;
     print_row(r, x, seeds, ahead);
     checks.push_back({r.metrics.name,
@@ -137,12 +178,12 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
                                 {{"miss_pct", 100 * r.metrics.miss_rate},
                                  {"mean_ms", r.metrics.latency.mean},
                                  {"qoe", r.metrics.qoe}}},
-                               {"sim", to_json(x)}};
+                               {"sim", predicted_json(x)}};
     static const Handoffs kNone;
     if (const auto c = run_costs(s, p, r, i < handoffs.size() ? handoffs[i] : kNone, sync)) {
-      Predicted y = predict(r.metrics.name, kCalibratedSeeds, &*c);
+      Predicted y = predict(in, r.metrics.name, kCalibratedSeeds, &*c);
       if (!y.miss.empty()) {
-        row["sim_run_costs"] = to_json(y);
+        row["sim_run_costs"] = predicted_json(y);
         checks.back().own = prediction_gap(100 * r.metrics.miss_rate, r.metrics.latency.mean,
                                            median(y.miss), median(y.mean));
         own[i] = std::move(y);
@@ -151,21 +192,8 @@ std::string print_prediction(const Scenario& s, const Profile& p, std::uint64_t 
     policies.push_back(std::move(row));
   }
   html.push_back(std::move(ahead));
-  if (std::any_of(own.begin(), own.end(), [](const auto& x) { return x.has_value(); })) {
-    HtmlTable t = table(fmt::format(
-        "Simulator fed the costs each policy's units met in this run: the model apart from the "
-        "machine's drift since the profile was measured (median [min-max] of {} seeds; "
-        "docs/FIDELITY.md, \"The run's own costs\")",
-        kCalibratedSeeds));
-    fmt::print(
-        "simulator with the costs each policy's units met in this run (the model without the "
-        "machine's drift, median [min-max] of {} seeds):\n",
-        kCalibratedSeeds);
-    print_header();
-    for (std::size_t i = 0; i < real.size(); ++i)
-      if (own[i]) print_row(real[i], *own[i], kCalibratedSeeds, t);
-    html.push_back(std::move(t));
-  }
+  if (std::any_of(own.begin(), own.end(), [](const auto& x) { return x.has_value(); }))
+    print_own_costs(real, own, html);
   doc["policies"] = std::move(policies);
   std::vector<const PolicyMetrics*> all;
   for (const PolicyRun& r : real) all.push_back(&r.metrics);
