@@ -98,6 +98,181 @@ std::vector<int> busy_others(const std::vector<UnitRow>& rows) {
   return out;
 }
 
+/// (unit name, batch size)
+using Key = std::pair<std::string, int>;
+
+/// Step 1: every completed unit with its name, time, lanes busy beside it and time block, and
+/// the hand-offs the runtime timed.
+struct Gathered {
+  std::vector<Sample> samples;
+  std::vector<double> handoffs, round_trips, queued_gaps;  // ns
+};
+
+Gathered gather(const std::vector<CalibrationRun>& runs, const Scenario& s,
+                const CalibrationOptions& o) {
+  Gathered g;
+  for (std::size_t ri = 0; ri < runs.size(); ++ri) {
+    const std::vector<UnitRow>& rows = runs[ri].units;
+    const std::vector<int> busy = busy_others(rows);
+    for (double h : runs[ri].handoff_us)
+      if (h >= 0.0 && h < 5000.0)
+        (runs[ri].round_trips ? g.round_trips : g.handoffs).push_back(h * 1e3);
+    for (double q : runs[ri].queued_gap_us)
+      if (q >= 0.0 && q < 5000.0) g.queued_gaps.push_back(q * 1e3);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const UnitRow& r = rows[i];
+      if (r.status != UnitStatus::Completed || r.end <= r.start) continue;
+      std::string name = calibration_unit_name(r, s);
+      if (name.empty()) continue;
+      g.samples.push_back(Sample{std::move(name), std::max(1, r.batch), r.end - r.start, busy[i],
+                                 ri, r.start.count() / o.block.count()});
+    }
+  }
+  return g;
+}
+
+/// Step 2: a baseline per (unit, batch): the median of units that ran with no other lane
+/// busy (of all of them where too few did), and every time of each.
+struct Baselines {
+  std::map<Key, std::vector<double>> all;
+  std::map<Key, double> base;
+  [[nodiscard]] double of(const Sample& x) const { return base.at({x.name, x.batch}); }
+};
+
+Baselines baselines(const std::vector<Sample>& samples, const CalibrationOptions& o) {
+  Baselines b;
+  std::map<Key, std::vector<double>> alone;
+  for (const Sample& x : samples) {
+    const auto d = static_cast<double>(x.dur.count());
+    b.all[{x.name, x.batch}].push_back(d);
+    if (x.busy_others == 0) alone[{x.name, x.batch}].push_back(d);
+  }
+  for (const auto& [k, v] : b.all) {
+    const auto a = alone.find(k);
+    b.base[k] = a != alone.end() && static_cast<int>(a->second.size()) >= o.min_samples
+                    ? median_of(a->second)
+                    : median_of(v);
+  }
+  return b;
+}
+
+/// Step 3: lane factors, the median ratio to the baseline of units started beside k busy
+/// lanes (index 0 is 1; a k seen too rarely keeps k - 1's).
+struct LaneFactors {
+  std::vector<double> factors{1.0};
+  int max_busy = 0;
+  [[nodiscard]] double at(int k) const {
+    return factors[static_cast<std::size_t>(std::min(k, max_busy))];
+  }
+};
+
+LaneFactors lane_factors_of(const std::vector<Sample>& samples, const Baselines& b,
+                            const CalibrationOptions& o) {
+  LaneFactors l;
+  for (const Sample& x : samples) l.max_busy = std::max(l.max_busy, x.busy_others);
+  for (int k = 1; k <= l.max_busy; ++k) {
+    std::vector<double> r;
+    for (const Sample& x : samples)
+      if (x.busy_others == k) r.push_back(static_cast<double>(x.dur.count()) / b.of(x));
+    l.factors.push_back(r.size() >= static_cast<std::size_t>(o.min_samples)
+                            ? std::clamp(median_of(r), 0.05, 20.0)
+                            : l.factors.back());
+  }
+  return l;
+}
+
+/// Step 4: time factors, per run and block the median ratio of its units to their baseline
+/// (the lane factor divided out); `factors` in time order within each run.
+struct TimeFactors {
+  std::map<std::pair<std::size_t, std::int64_t>, double> by_block;
+  std::vector<double> factors;
+};
+
+TimeFactors time_factors(const std::vector<Sample>& samples, const Baselines& b,
+                         const LaneFactors& lanes) {
+  std::map<std::pair<std::size_t, std::int64_t>, std::vector<double>> per_block;
+  for (const Sample& x : samples)
+    per_block[{x.run, x.block}].push_back(static_cast<double>(x.dur.count()) /
+                                          (b.of(x) * lanes.at(x.busy_others)));
+  TimeFactors t;
+  for (const auto& [k, v] : per_block) {
+    const double f = std::clamp(median_of(v), 0.05, 20.0);
+    t.by_block[k] = f;
+    t.factors.push_back(f);  // map order: run, then block: time order within each run
+  }
+  return t;
+}
+
+/// The residual quantile table of some times: `o.table_points` quantiles, u = 0 .. 1.
+std::vector<Duration> table_of(std::vector<double> v, const CalibrationOptions& o) {
+  std::sort(v.begin(), v.end());
+  std::vector<Duration> t;
+  for (int i = 0; i < o.table_points; ++i)
+    t.push_back(ns(at_quantile(v, static_cast<double>(i) / (o.table_points - 1))));
+  return t;
+}
+
+/// Step 5: each (unit, batch) seen often enough gets its in-run statistics in `p` and its
+/// residual table (both factors divided out) in `cal`. Returns the in-run / isolated mean
+/// ratio per unit and batch size seen.
+std::map<std::string, std::map<int, double>> fit_units(const Profile& isolated,
+                                                       const std::vector<Sample>& samples,
+                                                       const Baselines& b, const LaneFactors& lanes,
+                                                       const TimeFactors& time,
+                                                       const CalibrationOptions& o, Profile& p,
+                                                       Calibration& cal) {
+  std::map<Key, std::vector<double>> residual;
+  for (const Sample& x : samples)
+    residual[{x.name, x.batch}].push_back(
+        static_cast<double>(x.dur.count()) /
+        (time.by_block.at({x.run, x.block}) * lanes.at(x.busy_others)));
+  std::map<std::string, std::map<int, double>> ratio;  // in-run / isolated mean, by batch
+  for (const auto& [k, v] : b.all) {
+    const auto& [name, batch] = k;
+    if (static_cast<int>(v.size()) < o.min_samples) continue;
+    UnitProfile& u = p.units[name];
+    const LatencyStats in_run = stats_of(v);
+    if (const UnitProfile* iso = isolated.find(name); iso != nullptr && batch <= iso->max_batch())
+      ratio[name][batch] = static_cast<double>(in_run.mean.count()) /
+                           std::max(1.0, static_cast<double>(iso->at(batch).mean.count()));
+    // Batch sizes below `batch` that were never seen keep (or get) isolated figures first.
+    while (u.max_batch() < batch) u.by_batch.push_back(in_run);
+    u.by_batch[static_cast<std::size_t>(batch - 1)] = in_run;
+    auto& tables = cal.residual[name];
+    if (static_cast<int>(tables.size()) < batch) tables.resize(static_cast<std::size_t>(batch));
+    tables[static_cast<std::size_t>(batch - 1)] = table_of(residual[k], o);
+  }
+  return ratio;
+}
+
+/// Step 6: batch sizes of a calibrated unit never seen in the runs, scaled by the nearest
+/// measured size's in-run / isolated ratio; their residual is the scaled isolated
+/// distribution (the time factor's median is about 1, so the in-run scale stands).
+void fill_unseen_batches(const Profile& isolated,
+                         const std::map<std::string, std::map<int, double>>& ratio,
+                         const CalibrationOptions& o, Profile& p, Calibration& cal) {
+  for (const auto& [name, by_batch] : ratio) {
+    const UnitProfile* iso = isolated.find(name);
+    if (iso == nullptr) continue;
+    UnitProfile& u = p.units[name];
+    auto& tables = cal.residual[name];
+    tables.resize(static_cast<std::size_t>(std::max(iso->max_batch(), u.max_batch())));
+    for (int b = 1; b <= iso->max_batch(); ++b) {
+      if (by_batch.count(b) != 0) continue;
+      auto nearest = by_batch.begin();
+      for (auto it = by_batch.begin(); it != by_batch.end(); ++it)
+        if (std::abs(it->first - b) < std::abs(nearest->first - b)) nearest = it;
+      const LatencyStats est = scaled(iso->at(b), nearest->second);
+      if (u.max_batch() < b) u.by_batch.resize(static_cast<std::size_t>(b), est);
+      u.by_batch[static_cast<std::size_t>(b - 1)] = est;
+      std::vector<Duration> t;
+      for (int i = 0; i < o.table_points; ++i)
+        t.push_back(est.quantile(static_cast<double>(i) / (o.table_points - 1)));
+      tables[static_cast<std::size_t>(b - 1)] = std::move(t);
+    }
+  }
+}
+
 }  // namespace
 
 std::string calibration_unit_name(const UnitRow& row, const Scenario& s) {
@@ -129,85 +304,14 @@ Expected<Profile> calibrate_profile(const Profile& isolated, const Scenario& s,
                                     const CalibrationOptions& o) {
   if (o.block <= Duration{0} || o.run_blocks < 1 || o.table_points < 2 || o.min_samples < 1)
     return Error{"", 0, "calibration options: block > 0, run_blocks >= 1, table_points >= 2"};
-  // 1. Every completed unit with its name, time, lanes busy beside it and time block.
-  std::vector<Sample> samples;
-  std::vector<double> handoffs;
-  std::vector<double> round_trips;
-  std::vector<double> queued_gaps;
-  for (std::size_t ri = 0; ri < runs.size(); ++ri) {
-    const std::vector<UnitRow>& rows = runs[ri].units;
-    const std::vector<int> busy = busy_others(rows);
-    for (double h : runs[ri].handoff_us)
-      if (h >= 0.0 && h < 5000.0)
-        (runs[ri].round_trips ? round_trips : handoffs).push_back(h * 1e3);
-    for (double g : runs[ri].queued_gap_us)
-      if (g >= 0.0 && g < 5000.0) queued_gaps.push_back(g * 1e3);
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      const UnitRow& r = rows[i];
-      if (r.status != UnitStatus::Completed || r.end <= r.start) continue;
-      std::string name = calibration_unit_name(r, s);
-      if (name.empty()) continue;
-      samples.push_back(Sample{std::move(name), std::max(1, r.batch), r.end - r.start, busy[i], ri,
-                               r.start.count() / o.block.count()});
-    }
-  }
-  if (samples.size() < static_cast<std::size_t>(o.min_samples))
+  Gathered g = gather(runs, s, o);
+  if (g.samples.size() < static_cast<std::size_t>(o.min_samples))
     return Error{"", 0,
                  fmt::format("calibration: the real runs completed {} units; too few to fit",
-                             samples.size())};
-
-  // 2. A baseline per (unit, batch): the median of units that ran with no other lane busy.
-  using Key = std::pair<std::string, int>;
-  std::map<Key, std::vector<double>> alone, all;
-  for (const Sample& x : samples) {
-    const auto d = static_cast<double>(x.dur.count());
-    all[{x.name, x.batch}].push_back(d);
-    if (x.busy_others == 0) alone[{x.name, x.batch}].push_back(d);
-  }
-  std::map<Key, double> base;
-  for (const auto& [k, v] : all) {
-    const auto a = alone.find(k);
-    base[k] = a != alone.end() && static_cast<int>(a->second.size()) >= o.min_samples
-                  ? median_of(a->second)
-                  : median_of(v);
-  }
-
-  // 3. Lane factors: the median ratio to the baseline of units started beside k busy lanes.
-  int max_busy = 0;
-  for (const Sample& x : samples) max_busy = std::max(max_busy, x.busy_others);
-  std::vector<double> lane_factors{1.0};
-  for (int k = 1; k <= max_busy; ++k) {
-    std::vector<double> r;
-    for (const Sample& x : samples)
-      if (x.busy_others == k)
-        r.push_back(static_cast<double>(x.dur.count()) / base[{x.name, x.batch}]);
-    lane_factors.push_back(r.size() >= static_cast<std::size_t>(o.min_samples)
-                               ? std::clamp(median_of(r), 0.05, 20.0)
-                               : lane_factors.back());
-  }
-  auto lane_factor = [&](int k) {
-    return lane_factors[static_cast<std::size_t>(std::min(k, max_busy))];
-  };
-
-  // 4. Time factors: per run and block, the median ratio of its units (lane factor out).
-  std::map<std::pair<std::size_t, std::int64_t>, std::vector<double>> per_block;
-  for (const Sample& x : samples)
-    per_block[{x.run, x.block}].push_back(static_cast<double>(x.dur.count()) /
-                                          (base[{x.name, x.batch}] * lane_factor(x.busy_others)));
-  std::map<std::pair<std::size_t, std::int64_t>, double> block_factor;
-  std::vector<double> factors;
-  for (const auto& [k, v] : per_block) {
-    const double f = std::clamp(median_of(v), 0.05, 20.0);
-    block_factor[k] = f;
-    factors.push_back(f);  // map order: run, then block: time order within each run
-  }
-
-  // 5. Residuals and in-run statistics per (unit, batch).
-  std::map<Key, std::vector<double>> residual;
-  for (const Sample& x : samples)
-    residual[{x.name, x.batch}].push_back(
-        static_cast<double>(x.dur.count()) /
-        (block_factor[{x.run, x.block}] * lane_factor(x.busy_others)));
+                             g.samples.size())};
+  const Baselines b = baselines(g.samples, o);
+  const LaneFactors lanes = lane_factors_of(g.samples, b, o);
+  TimeFactors time = time_factors(g.samples, b, lanes);
   Profile p = isolated;
   p.source = "calibrated";
   Calibration cal;
@@ -217,58 +321,13 @@ Expected<Profile> calibrate_profile(const Profile& isolated, const Scenario& s,
   cal.interference = s.interference ? s.interference->intensity : 0.0;
   cal.block = o.block;
   cal.run_blocks = o.run_blocks;
-  cal.factors = std::move(factors);
-  cal.lane_factors = lane_factors;
-  if (!handoffs.empty()) cal.handoff = ns(median_of(handoffs));
-  if (!queued_gaps.empty()) cal.queued_gap = ns(median_of(queued_gaps));
-  if (!round_trips.empty()) p.sync_round_trip = ns(median_of(round_trips));
-
-  auto table_of = [&](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    std::vector<Duration> t;
-    for (int i = 0; i < o.table_points; ++i)
-      t.push_back(ns(at_quantile(v, static_cast<double>(i) / (o.table_points - 1))));
-    return t;
-  };
-  std::map<std::string, std::map<int, double>> ratio;  // in-run / isolated mean, by batch
-  for (const auto& [k, v] : all) {
-    const auto& [name, batch] = k;
-    if (static_cast<int>(v.size()) < o.min_samples) continue;
-    UnitProfile& u = p.units[name];
-    const LatencyStats in_run = stats_of(v);
-    if (const UnitProfile* iso = isolated.find(name); iso != nullptr && batch <= iso->max_batch())
-      ratio[name][batch] = static_cast<double>(in_run.mean.count()) /
-                           std::max(1.0, static_cast<double>(iso->at(batch).mean.count()));
-    // Batch sizes below `batch` that were never seen keep (or get) isolated figures first.
-    while (u.max_batch() < batch) u.by_batch.push_back(in_run);
-    u.by_batch[static_cast<std::size_t>(batch - 1)] = in_run;
-    auto& tables = cal.residual[name];
-    if (static_cast<int>(tables.size()) < batch) tables.resize(static_cast<std::size_t>(batch));
-    tables[static_cast<std::size_t>(batch - 1)] = table_of(residual[k]);
-  }
-  // Batch sizes of a calibrated unit never seen in the runs: scaled by the nearest measured
-  // size's in-run / isolated ratio; their residual is the scaled isolated distribution.
-  for (auto& [name, by_batch] : ratio) {
-    const UnitProfile* iso = isolated.find(name);
-    if (iso == nullptr) continue;
-    UnitProfile& u = p.units[name];
-    auto& tables = cal.residual[name];
-    tables.resize(static_cast<std::size_t>(std::max(iso->max_batch(), u.max_batch())));
-    for (int b = 1; b <= iso->max_batch(); ++b) {
-      if (by_batch.count(b) != 0) continue;
-      auto nearest = by_batch.begin();
-      for (auto it = by_batch.begin(); it != by_batch.end(); ++it)
-        if (std::abs(it->first - b) < std::abs(nearest->first - b)) nearest = it;
-      const LatencyStats est = scaled(iso->at(b), nearest->second);
-      if (u.max_batch() < b) u.by_batch.resize(static_cast<std::size_t>(b), est);
-      u.by_batch[static_cast<std::size_t>(b - 1)] = est;
-      // Residual: the time factor's median is about 1, so the in-run scale stands.
-      std::vector<Duration> t;
-      for (int i = 0; i < o.table_points; ++i)
-        t.push_back(est.quantile(static_cast<double>(i) / (o.table_points - 1)));
-      tables[static_cast<std::size_t>(b - 1)] = std::move(t);
-    }
-  }
+  cal.factors = std::move(time.factors);
+  cal.lane_factors = lanes.factors;
+  if (!g.handoffs.empty()) cal.handoff = ns(median_of(g.handoffs));
+  if (!g.queued_gaps.empty()) cal.queued_gap = ns(median_of(g.queued_gaps));
+  if (!g.round_trips.empty()) p.sync_round_trip = ns(median_of(g.round_trips));
+  const auto ratio = fit_units(isolated, g.samples, b, lanes, time, o, p, cal);
+  fill_unseen_batches(isolated, ratio, o, p, cal);
   // A table left empty (a batch size neither measured nor isolated) falls back to the stats.
   p.calibration = std::move(cal);
   return p;
