@@ -148,6 +148,21 @@ TEST(DdsSecurityXml, TheNodeMaySubscribeToItsSensorsAndPublishItsResultsOnly) {
   EXPECT_NE(x.find("<default>DENY</default>"), std::string::npos);
 }
 
+// Cyclone DDS 0.10's log lines as the node counts them (seen in the secure tests' runs).
+TEST(DdsSecurityLog, CyclonesRefusalsAreCountedByKind) {
+  EXPECT_EQ(classify_security_log("Remote secure participant fce7bc83:1b53702d:f56deb7f:1c1 not "
+                                  "allowed"),
+            1);
+  EXPECT_EQ(classify_security_log("fsm: Begin handshake reply failed: Failed to convert octet "
+                                  "sequence to ASN1 integer"),
+            1);
+  EXPECT_EQ(classify_security_log("match_remote_writer f51efec2:47b30f4c:a0929860:103 with reader "
+                                  "e92bded0:767448c4:933b7298:204 security_attributes mismatch"),
+            2);
+  EXPECT_EQ(classify_security_log("Non secure remote writer 1:2:3:4 is not allowed."), 2);
+  EXPECT_EQ(classify_security_log("ddsi_udp_conn_write to udp/127.0.0.1:7410 failed"), 0);
+}
+
 // The keystore tool: `red security` with openssl, in SROS2's layout, its signatures checked by
 // openssl against the keystore's CA, the node's grant drawn from the scenario.
 TEST_F(DdsSecurity, TheKeystoreToolMakesSros2sLayoutSignedByItsCa) {

@@ -232,6 +232,7 @@ void on_log(void*, const dds_log_data_t* d) {
     while (!g_refusals.last.empty() && g_refusals.last.back() == '\n') g_refusals.last.pop_back();
   }
   std::fwrite(d->message, 1, d->size, stderr);
+  if (d->size == 0 || d->message[d->size - 1] != '\n') std::fputc('\n', stderr);  // Cyclone's own
 }
 
 bool contains(std::string_view m, std::string_view what) {
@@ -241,14 +242,17 @@ bool contains(std::string_view m, std::string_view what) {
 }  // namespace
 
 int classify_security_log(std::string_view m) noexcept {
-  // Cyclone DDS 0.10's messages (ddsi_security_omg.c, ddsi_handshake.c).
-  if (contains(m, "Non secure remote writer") || contains(m, "Non secure remote reader") ||
-      contains(m, "not allowed by security") || contains(m, "is not permitted") ||
-      contains(m, "Writer is not permitted") || contains(m, "Reader is not permitted"))
+  // Cyclone DDS 0.10's messages. An endpoint: "match_remote_writer ... security_attributes
+  // mismatch", "Non secure remote writer ... is not allowed", "... not allowed by security",
+  // access control's "... not permitted".
+  if (contains(m, "match_remote_") || contains(m, "Non secure remote writer") ||
+      contains(m, "Non secure remote reader") || contains(m, "not allowed by security") ||
+      contains(m, "not permitted"))
     return 2;
-  if (contains(m, "andshake") || contains(m, "authenticat") ||
-      contains(m, "Non secure remote participant") || contains(m, "validate_remote_identity") ||
-      contains(m, "remote participant"))
+  // A participant: "Remote secure participant ... not allowed" (its identity or permissions
+  // failed validation), "Begin handshake ... failed".
+  if ((contains(m, "participant") && contains(m, "not allowed")) ||
+      (contains(m, "andshake") && contains(m, "failed")))
     return 1;
   return 0;
 }
