@@ -291,8 +291,11 @@ TEST_F(DdsNodeSecure, EncryptedTrafficHoldsNoPixelsOrResultsInClear) {
   };
   std::string row;  // the first 48 bytes of every frame's first row
   for (int i = 0; i < 48; ++i) row += static_cast<char>(i);
-  const std::vector<std::string> secrets = {row, "fastdds_camera", "bgr8", "red: node",
-                                            "rt/red/drive/L"};
+  // Pixels, the image header's strings, the diagnostics' names and keys (results). Not topic
+  // names: the node's permissions, which list them, cross in clear in the authentication
+  // handshake (as DDS Security specifies: permissions are signed, not secret).
+  const std::vector<std::string> secrets = {row,         "fastdds_camera", "bgr8",
+                                            "red: node", "red: drive",     "latency_p99_ms"};
   const fs::path open = capture(false);
   for (const std::string& s : secrets)
     EXPECT_GT(occurrences(open, s), 0u) << "the open capture should hold it: " << s.substr(0, 14);
@@ -341,8 +344,8 @@ TEST_P(DdsNodeLink, EveryFrameIsReleasedOrCountedLost) {
   const std::string script =
       "ip link set lo up && nft add table inet red && nft add chain inet red c "
       "'{ type filter hook input priority 0; }' && (" +
-      node + ") & sleep 1; (" + camera + ") & cp=$!; sleep 2; nft add rule inet red c " + drop +
-      "; sleep 2; nft flush chain inet red c; wait $cp; wait";
+      node + ") & sleep 1; (" + camera + ") & cp=$!; sleep 2; nft add rule inet red c \"" + drop +
+      "\" || exit 3; sleep 2; nft flush chain inet red c; wait $cp; wait";
   EXPECT_EQ(sh("unshare --net bash -c " + quote(script)), 0);
   const std::string cam = read_text(dir_ / "camera.err");
   const auto at = cam.find("published ");
@@ -352,9 +355,12 @@ TEST_P(DdsNodeLink, EveryFrameIsReleasedOrCountedLost) {
   ASSERT_FALSE(nj.is_discarded()) << read_text(dir_ / "node.err");
   const int frames = nj["frames"].get<int>();
   const int lost = nj["not_taken_by_reason"]["lost_in_transport"].get<int>();
-  // Every frame is accounted for, and the link did lose some (the rule worked).
+  // Every frame is accounted for.
   EXPECT_EQ(frames + nj["not_taken"].get<int>(), sent) << nj.dump() << "\n" << cam;
-  if (!c.reliable || c.loss_percent >= 100) {
+  // An outage loses frames whatever the QoS (a reliable writer keeps only its depth); a
+  // random 5 % of some 40 frames may lose none, so only the accounting is asserted there.
+  const bool outage = c.loss_percent >= 100;
+  if (outage) {
     EXPECT_GT(lost, 0) << nj.dump();
   }
   EXPECT_GT(nj["released"].get<int>(), 0);
@@ -388,8 +394,9 @@ TEST_P(DdsNodeLink, EveryFrameIsReleasedOrCountedLost) {
   const auto completed_after =
       std::count_if(drive.begin() + static_cast<std::ptrdiff_t>(after), drive.end(),
                     [](const auto& j) { return j.second == "met" || j.second == "missed"; });
-  EXPECT_GE(completed_after, 5) << "results did not resume after the largest gap (" << gap
-                                << " ms)";
+  if (outage) {
+    EXPECT_GE(completed_after, 5) << "results did not resume after the outage (" << gap << " ms)";
+  }
   RecordProperty("largest_release_gap_ms", std::to_string(gap));
 }
 
