@@ -209,6 +209,23 @@ TEST_F(DdsSecurity, TheKeystoreToolMakesSros2sLayoutSignedByItsCa) {
     EXPECT_NE(x.find(std::string("<topic>") + t + "</topic>"), std::string::npos) << t << x;
 }
 
+// `red security`'s bad input: exit 2, the problem named.
+TEST_F(DdsSecurity, TheKeystoreToolNamesWhatIsWrong) {
+  const std::string ks = test::quote((dir_ / "none").string());
+  auto r = test::run_red("security create-enclave " + ks + " /red/node", dir_);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("make it first with `red security create-keystore"), std::string::npos)
+      << r.err;
+  r = test::run_red("security create-enclave " + ks + " red/node", dir_);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("'red/node': not an enclave name"), std::string::npos) << r.err;
+  r = test::run_red("security create-enclave " + ks + " /red/node --scenario " +
+                        test::quote((dir_ / "missing.yaml").string()),
+                    dir_);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("missing.yaml"), std::string::npos) << r.err;
+}
+
 // `red node` and `red camera` under Enforce with no usable enclave: exit 2 before any DDS
 // participant exists, the missing file named.
 TEST_F(DdsSecurity, EnforceRefusesToStartTheNodeAndTheCamera) {
