@@ -69,6 +69,10 @@ class Keystores {
   }
   fs::path dir, a, b, intruder_governance;
   std::string error;  // why they could not be made
+  ~Keystores() {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
 
  private:
   Keystores() {
