@@ -15,12 +15,18 @@ PACKAGES=(
   iceoryx
   libfastrtps-dev fastddsgen
   libpng-dev libjpeg-dev
+  openssl nftables tcpdump
 )
 # ccache: a second build of the same sources (the test command run again, another clone
 # of the same commit) compiles only what changed (scripts/ccache-env.sh).
 # iceoryx: RouDi (iox-roudi), the daemon of the shared memory that Debian's Cyclone DDS is
 # built with (libddsc0debian depends on libiceoryx-binding-c2), for `red node --shm` and its
 # test (docs/ROS2.md, "Shared memory (iceoryx)").
+# openssl: `red security` makes SROS2 keystores with the openssl program, as SROS2 does.
+# nftables, tcpdump: the DDS node's tests on a bad link (packet loss and an outage made with
+# nftables in a network namespace of the test's own) and of its encrypted traffic (a tcpdump
+# capture of that namespace's loopback); root only, skipped with a reason elsewhere
+# (docs/ROS2.md, "Tests").
 # node and npm run the independent ROS 2 serializer of the DDS wire test (docs/ROS2.md,
 # scripts/npm-oracle.sh); a node installed another way (NodeSource bundles npm) is kept.
 command -v npm >/dev/null || PACKAGES+=(nodejs npm)

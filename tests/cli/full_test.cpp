@@ -48,6 +48,7 @@ TEST(NeedsFull, LibTorchAndDdsCommandsNameWhatTheyNeed) {
   EXPECT_EQ(needs_full({"profile", "--calibrate", "s.yaml"}), "LibTorch");
   EXPECT_EQ(needs_full({"node", "s.yaml"}), "the DDS bridge");
   EXPECT_EQ(needs_full({"camera"}), "the DDS bridge");
+  EXPECT_EQ(needs_full({"security", "create-keystore", "k"}), "the DDS bridge");
   // The last --backend counts, as in CLI11; after "--" nothing is an option.
   EXPECT_EQ(needs_full({"run", "--backend", "torch", "--backend", "synthetic"}), std::nullopt);
   EXPECT_EQ(needs_full({"compare", "s.yaml", "--", "--backend", "torch"}), std::nullopt);

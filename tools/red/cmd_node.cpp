@@ -15,6 +15,7 @@
 #include <iostream>
 #include <optional>
 #include <sstream>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include "real_run.hpp"
 #include "red/dds/camera.hpp"
 #include "red/dds/node.hpp"
+#include "red/dds/security.hpp"
 #include "red/metrics/metrics.hpp"
 #include "red/report/report.hpp"
 #include "red/report/row_queue.hpp"
@@ -36,8 +38,9 @@ namespace {
 
 struct DdsArgs {
   int domain = 0;
-  std::string config;  // file with Cyclone DDS XML
-  bool shm = false;    // through iceoryx shared memory
+  std::string config;   // file with Cyclone DDS XML
+  bool shm = false;     // through iceoryx shared memory
+  std::string enclave;  // --security-enclave: DDS Security with this SROS2 enclave
 };
 
 void add_dds(CLI::App* cmd, DdsArgs& a) {
@@ -49,6 +52,9 @@ void add_dds(CLI::App* cmd, DdsArgs& a) {
   cmd->add_flag("--shm", a.shm,
                 "Exchange samples with this host's other processes through shared memory "
                 "(iceoryx; needs a running iox-roudi, see docs/ROS2.md)");
+  cmd->add_option("--security-enclave", a.enclave,
+                  "DDS Security (SROS2) with this enclave of $ROS_SECURITY_KEYSTORE, e.g. "
+                  "/red/node (ROS_SECURITY_ENCLAVE_OVERRIDE wins; see docs/ROS2.md, \"Security\")");
 }
 
 // With --shm, keep the pages of large buffers: each frame's pixel buffer (921 KB for 640x480
@@ -96,18 +102,35 @@ struct NodeArgs {
   std::optional<std::string> out;
 };
 
-int run_node(const NodeArgs& a) {
-  auto loaded = load_with_profile(a.scenario);
-  if (!loaded) return kBadInput;
-  Scenario& s = loaded->scenario;
-  const Profile& p = loaded->profile;
+// DDS Security from ROS 2's environment and --security-enclave (docs/ROS2.md, "Security"):
+// the enclave to use, or none; false (after printing why) when the process must not start:
+// Enforce without a usable enclave, a bad variable. Permissive without one warns.
+bool resolve_enclave(const DdsArgs& a, const char* who, std::optional<dds::Enclave>& enclave) {
+  auto s = dds::resolve_security(dds::SecurityEnv::from_environment(), a.enclave);
+  if (!s) {
+    print_error(s.error());
+    return false;
+  }
+  if (!s->warning.empty()) std::cerr << who << ": warning: " << s->warning << '\n';
+  enclave = s->enclave;
+  return true;
+}
+
+// Step 1 of `red node`: the scenario, its profile and the node's options from the command
+// line, the environment and the files it names. Prints the first problem; false: exit 2.
+struct NodeSetup {
+  std::optional<LoadedScenario> loaded;
+  dds::NodeOptions o;
+};
+bool parse_node(const NodeArgs& a, NodeSetup& n) {
+  n.loaded = load_with_profile(a.scenario);
+  if (!n.loaded) return false;
   if (!make_policy(a.policy)) {
     print_error(Error{"", 0, unknown_policy_message(a.policy)});
-    return kBadInput;
+    return false;
   }
-  if (!roudi_ok(a.dds)) return kBadInput;
-  if (a.dds.shm) keep_large_buffers();
-  dds::NodeOptions o;
+  if (!resolve_enclave(a.dds, "red node", n.o.security) || !roudi_ok(a.dds)) return false;
+  dds::NodeOptions& o = n.o;
   o.policy = a.policy;
   o.domain = a.dds.domain;
   o.shared_memory = a.dds.shm;
@@ -117,68 +140,33 @@ int run_node(const NodeArgs& a) {
   auto config = read_config(a.dds.config);
   if (!config) {
     print_error(config.error());
-    return kBadInput;
+    return false;
   }
   o.config = *config;
   if (!a.qos_file.empty()) {
     auto q = dds::load_qos_file(a.qos_file);
     if (!q) {
       print_error(q.error());
-      return kBadInput;
+      return false;
     }
     o.qos = *q;
   }
   for (const std::string& r : a.remaps)
     if (auto ok = o.remaps.add(r); !ok) {
       print_error(ok.error());
-      return kBadInput;
+      return false;
     }
-  RealRunOptions real = a.real;
-  real.backend = a.backend;
-  real.seed = s.seed;
-  auto backend = make_backend(s, p, real);
-  if (!backend) {
-    print_error(backend.error());
-    return kBadInput;
-  }
-  if (auto note = profile_origin_note(s, p, real)) {
-    std::cerr << "red: note: " << *note << '\n';
-  }
-  auto node = dds::Node::make(s, p, **backend, o);
-  if (!node) {
-    print_error(node.error());
-    return kRunFailure;
-  }
-  MetricsCollector metrics(s, s.scheduler.qoe_lambda, a.out.has_value());
-  // A node runs for the life of a robot: its rows go to jobs.csv and units.csv as jobs end
-  // (with --out), never into memory; the summary keeps bounded state (docs/REPORTS.md).
-  metrics.set_keep_rows(false);
-  std::unique_ptr<CsvRowStream> stream;
-  std::optional<RowQueue> queue;
-  std::optional<OutputSet> set;  // the run's files, ended by manifest.json (docs/REPORTS.md)
-  if (a.out) {
-    auto begun = OutputSet::begin(*a.out, "node");
-    if (!begun) {
-      print_error(begun.error());
-      return kRunFailure;
-    }
-    set = std::move(begun.value());
-    auto st = CsvRowStream::open(*a.out, s, true);
-    if (!st) {
-      print_error(st.error());
-      return kRunFailure;
-    }
-    stream = std::move(st.value());
-    stream->begin_policy(a.policy);
-    // Rows are formatted and written on the queue's thread, off the hand-off (row_queue.hpp).
-    queue.emplace(*stream);
-    metrics.set_sink(&*queue);
-  }
-  (*node)->add_observer(&metrics);
-  const dds::NodeTopics& t = (*node)->topics();
-  std::cerr << fmt::format("red node: {} on DDS domain {} ({}{}), policy {}, backend {}\n", s.name,
-                           o.domain, o.config.empty() ? "loopback only" : a.dds.config,
-                           o.shared_memory ? ", shared memory" : "", a.policy, (*backend)->name());
+  return true;
+}
+
+// What the node prints when it starts: where it listens, what it publishes.
+void print_node_start(const NodeArgs& a, const Scenario& s, const dds::NodeOptions& o,
+                      const dds::Node& node, std::string_view backend) {
+  const dds::NodeTopics& t = node.topics();
+  std::cerr << fmt::format(
+      "red node: {} on DDS domain {} ({}{}{}), policy {}, backend {}\n", s.name, o.domain,
+      o.config.empty() ? "loopback only" : a.dds.config, o.shared_memory ? ", shared memory" : "",
+      o.security ? ", DDS Security with enclave " + o.security->name : "", a.policy, backend);
   for (std::size_t i = 0; i < t.sensors.size(); ++i)
     std::cerr << fmt::format("red node:   in  {} (sensor {}, sensor_msgs/msg/Image)\n",
                              t.sensors[i], s.sensors[i].name);
@@ -195,55 +183,56 @@ int run_node(const NodeArgs& a) {
   }
   std::cerr << fmt::format("red node:   out {} (diagnostic_msgs/msg/DiagnosticArray)\n",
                            t.diagnostics);
-  // SIGINT/SIGTERM end a node as --duration does (releases end, jobs in flight drain): the
-  // normal way to stop a node, so it exits 0 (signals.hpp).
-  install_stop_signals();
-  dds::Node* n = node->get();
-  std::optional<StopWatch> watch;
-  watch.emplace([n] { n->stop(); });
-  const auto t0 = std::chrono::steady_clock::now();
-  RuntimeReport report = (*node)->run();
-  watch.reset();
-  const dds::NodeCounters c = (*node)->counters();
-  // Rejected: messages and writers the node refused; undelivered: frames DDS never handed
-  // over whole (lost in transport, or refused by the reader's resource limits).
+}
+
+// Counters split into what the node refused (rejected) and what DDS never delivered.
+struct NotTaken {
   std::uint64_t rejected = 0, undelivered = 0;
   std::string reasons, lost;
+};
+NotTaken not_taken(const dds::NodeCounters& c) {
+  NotTaken n;
   for (int r = 0; r < dds::kRejectKinds; ++r) {
     const auto why = static_cast<dds::Reject>(r);
     const std::uint64_t count = c.rejected[static_cast<std::size_t>(r)];
     const bool transport = why == dds::Reject::LostInTransport || why == dds::Reject::RejectedByDds;
-    (transport ? undelivered : rejected) += count;
+    (transport ? n.undelivered : n.rejected) += count;
     if (count > 0)
-      (transport ? lost : reasons) += fmt::format(" {} {}", dds::to_string(why), count);
+      (transport ? n.lost : n.reasons) += fmt::format(" {} {}", dds::to_string(why), count);
   }
+  return n;
+}
+
+// The run's summary on stderr: counters and where a frame's time went.
+void print_node_end(const std::string& policy, const std::optional<dds::Enclave>& security,
+                    const dds::Node& node, const RuntimeReport& report) {
+  const dds::NodeCounters c = node.counters();
+  const NotTaken n = not_taken(c);
   std::cerr << fmt::format(
       "red node: {} frames ({} released), {} rejected{}; {} not delivered by DDS{}; published {} "
       "masks, {} twists, {} detection arrays, {} diagnostics; {} jobs without output\n",
-      c.frames, c.released, rejected, reasons, undelivered, lost, c.masks, c.twists, c.detections,
-      c.diagnostics, c.jobs_without_output);
-  print_runtime_report(a.policy, report);
-  const dds::Node::Timings tm = (*node)->timings();
-  const std::vector<double>& intake = tm.intake_us;
-  std::cerr << fmt::format(
-      "red node: frame stamp -> taken (camera to node over DDS) p50 {:.2f} us, p99 {:.2f} us\n",
-      percentile(tm.transport_us, 0.5), percentile(tm.transport_us, 0.99));
-  std::cerr << fmt::format(
-      "red node: job end -> output written p50 {:.2f} us, p99 {:.2f} us ({} outputs)\n",
-      percentile(tm.publish_us, 0.5), percentile(tm.publish_us, 0.99), tm.publish_us.size());
-  std::cerr << fmt::format(
-      "red node:   of which queued -> the publishing thread woke p50 {:.2f} us, p99 {:.2f} us ({} "
-      "waits)\n",
-      percentile(tm.publish_wake_us, 0.5), percentile(tm.publish_wake_us, 0.99),
-      tm.publish_wake_us.size());
-  std::cerr << fmt::format(
-      "red node: frame taken -> pushed (check, move, keep; converted after the release) p50 "
-      "{:.2f} us, p99 {:.2f} us ({} frames)\n",
-      percentile(intake, 0.5), percentile(intake, 0.99), intake.size());
-  std::cerr << fmt::format(
-      "red node: frame pushed -> released (runtime) p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
-      percentile(report.frame_release_us, 0.5), percentile(report.frame_release_us, 0.99),
-      report.frame_release_us.size());
+      c.frames, c.released, n.rejected, n.reasons, n.undelivered, n.lost, c.masks, c.twists,
+      c.detections, c.diagnostics, c.jobs_without_output);
+  if (security)
+    std::cerr << fmt::format(
+        "red node: DDS Security (enclave {}) refused {} participant(s) and {} endpoint(s), as "
+        "Cyclone DDS's log reports them\n",
+        security->name, c.refused_participants, c.refused_endpoints);
+  print_runtime_report(policy, report);
+  const dds::Node::Timings tm = node.timings();
+  const auto line = [](const char* what, const std::vector<double>& v, const std::string& tail) {
+    std::cerr << fmt::format("red node: {} p50 {:.2f} us, p99 {:.2f} us{}\n", what,
+                             percentile(v, 0.5), percentile(v, 0.99), tail);
+  };
+  line("frame stamp -> taken (camera to node over DDS)", tm.transport_us, "");
+  line("job end -> output written", tm.publish_us,
+       fmt::format(" ({} outputs)", tm.publish_us.size()));
+  line("  of which queued -> the publishing thread woke", tm.publish_wake_us,
+       fmt::format(" ({} waits)", tm.publish_wake_us.size()));
+  line("frame taken -> pushed (check, move, keep; converted after the release)", tm.intake_us,
+       fmt::format(" ({} frames)", tm.intake_us.size()));
+  line("frame pushed -> released (runtime)", report.frame_release_us,
+       fmt::format(" ({} frames)", report.frame_release_us.size()));
   // docs/ROS2.md's "frame received -> job released", frame by frame: taken from the reader ->
   // the job released, stamped by the node's observer when the runtime released it on the
   // receiving thread; for a frame posted to the global synchronizer, taken -> pushed plus
@@ -259,16 +248,180 @@ int run_node(const NodeArgs& a) {
       taken_released.push_back(tm.released_intake_us[i] + report.frame_release_us[i]);
     }
   }
-  std::cerr << fmt::format(
-      "red node: frame taken -> job released p50 {:.2f} us, p99 {:.2f} us ({} frames, {} "
-      "released on the receiving thread)\n",
-      percentile(taken_released, 0.5), percentile(taken_released, 0.99), taken_released.size(),
-      direct);
-  std::cerr << fmt::format(
-      "red node: job released -> push returned (the runtime's round after the release, on the "
-      "receiving thread) p50 {:.2f} us, p99 {:.2f} us ({} frames)\n",
-      percentile(tm.after_release_us, 0.5), percentile(tm.after_release_us, 0.99),
-      tm.after_release_us.size());
+  line("frame taken -> job released", taken_released,
+       fmt::format(" ({} frames, {} released on the receiving thread)", taken_released.size(),
+                   direct));
+  line(
+      "job released -> push returned (the runtime's round after the release, on the receiving "
+      "thread)",
+      tm.after_release_us, fmt::format(" ({} frames)", tm.after_release_us.size()));
+}
+
+// node.json: what the node took and could not take, by reason (summary.json holds the jobs).
+nlohmann::json node_json(const std::string& run_id, const dds::NodeCounters& c,
+                         const std::optional<dds::Enclave>& security) {
+  const NotTaken n = not_taken(c);
+  nlohmann::json nj{{"run_id", run_id},
+                    {"frames", c.frames},
+                    {"released", c.released},
+                    {"not_taken", n.rejected + n.undelivered},
+                    {"published",
+                     {{"masks", c.masks},
+                      {"twists", c.twists},
+                      {"detections", c.detections},
+                      {"diagnostics", c.diagnostics}}},
+                    {"jobs_without_output", c.jobs_without_output}};
+  nlohmann::json by_reason = nlohmann::json::object();
+  for (int r = 0; r < dds::kRejectKinds; ++r)
+    by_reason[dds::to_string(static_cast<dds::Reject>(r))] =
+        c.rejected[static_cast<std::size_t>(r)];
+  nj["not_taken_by_reason"] = std::move(by_reason);
+  // What DDS Security refused, as Cyclone's log reports it (docs/ROS2.md, "Security").
+  nj["security"] = security ? nlohmann::json{{"enclave", security->name},
+                                             {"refused_participants", c.refused_participants},
+                                             {"refused_endpoints", c.refused_endpoints}}
+                            : nlohmann::json{{"enclave", nullptr}};
+  return nj;
+}
+
+// The output directory of a node run (--out): opened before the run, the rows streamed to
+// it during the run, summary.json, node.json and the manifest written at the end.
+struct NodeOutput {
+  std::unique_ptr<CsvRowStream> stream;
+  std::optional<RowQueue> queue;
+  std::optional<OutputSet> set;  // the run's files, ended by manifest.json (docs/REPORTS.md)
+};
+
+// Step 2: the backend, the node, the metrics and the output directory.
+struct NodeParts {
+  std::unique_ptr<Backend> backend;
+  std::unique_ptr<dds::Node> node;
+  std::unique_ptr<MetricsCollector> metrics;
+  NodeOutput out;
+};
+int build_node(const NodeArgs& a, NodeSetup& n, NodeParts& parts) {
+  const Scenario& s = n.loaded->scenario;
+  const Profile& p = n.loaded->profile;
+  RealRunOptions real = a.real;
+  real.backend = a.backend;
+  real.seed = s.seed;
+  auto backend = make_backend(s, p, real);
+  if (!backend) {
+    print_error(backend.error());
+    return kBadInput;
+  }
+  parts.backend = std::move(*backend);
+  if (auto note = profile_origin_note(s, p, real)) std::cerr << "red: note: " << *note << '\n';
+  auto node = dds::Node::make(s, p, *parts.backend, n.o);
+  if (!node) {
+    print_error(node.error());
+    return kRunFailure;
+  }
+  parts.node = std::move(*node);
+  parts.metrics = std::make_unique<MetricsCollector>(s, s.scheduler.qoe_lambda, a.out.has_value());
+  // A node runs for the life of a robot: its rows go to jobs.csv and units.csv as jobs end
+  // (with --out), never into memory; the summary keeps bounded state (docs/REPORTS.md).
+  parts.metrics->set_keep_rows(false);
+  if (a.out) {
+    auto begun = OutputSet::begin(*a.out, "node");
+    if (!begun) {
+      print_error(begun.error());
+      return kRunFailure;
+    }
+    parts.out.set = std::move(begun.value());
+    auto st = CsvRowStream::open(*a.out, s, true);
+    if (!st) {
+      print_error(st.error());
+      return kRunFailure;
+    }
+    parts.out.stream = std::move(st.value());
+    parts.out.stream->begin_policy(a.policy);
+    // Rows are formatted and written on the queue's thread, off the hand-off (row_queue.hpp).
+    parts.out.queue.emplace(*parts.out.stream);
+    parts.metrics->set_sink(&*parts.out.queue);
+  }
+  parts.node->add_observer(parts.metrics.get());
+  return kOk;
+}
+
+// Step 4 (with --out): summary.json, jobs.csv, units.csv, node.json and the manifest.
+int write_node(const NodeArgs& a, const NodeSetup& setup, NodeParts& parts,
+               const RuntimeReport& report, PolicyMetrics costs, double wall_s) {
+  const LoadedScenario& l = *setup.loaded;
+  const Scenario& s = l.scenario;
+  NodeOutput& out = parts.out;
+  PolicyRun run;
+  run.wall_s = wall_s;
+  run.metrics = parts.metrics->summarize(a.policy, report.end);
+  run.metrics.decision_p50_us = percentile(report.decision_us, 0.5);
+  run.metrics.decision_p99_us = percentile(report.decision_us, 0.99);
+  run.metrics.online_costs = costs.online_costs;
+  run.metrics.plan_changes = costs.plan_changes;
+  run.metrics.costs = std::move(costs.costs);
+  run.result.end = report.end;
+  run.result.stats = report.stats;
+  out.queue->drain();
+  const std::optional<Error> flushed = out.stream->flush();
+  auto rows = flushed ? Expected<std::vector<StreamedRows>>(*flushed) : out.stream->rows();
+  if (!rows) {
+    print_error(rows.error());
+    return kRunFailure;
+  }
+  if (!rows->empty()) {
+    run.jobs = std::move(rows->front().jobs);
+    run.units = std::move(rows->front().units);
+  }
+  if (auto e = out.stream->finish()) {
+    print_error(*e);
+    return kRunFailure;
+  }
+  OutputOptions oo;
+  oo.gnuplot = "none";
+  oo.rows_written = true;
+  oo.rows_files = out.stream->finished();
+  oo.set = &*out.set;
+  OutputReport wrote;
+  std::vector<PolicyRun> runs{std::move(run)};
+  if (auto e = write_outputs(*a.out, s, l.profile, std::string(parts.backend->name()), s.seed, runs,
+                             oo, &wrote)) {
+    for (const Error& f : wrote.errors) print_error(f);
+    return kRunFailure;
+  }
+  const nlohmann::json nj = node_json(out.set->run_id(), parts.node->counters(), setup.o.security);
+  const std::optional<Error> failed = write_file(*a.out, "node.json", nj.dump(2) + "\n");
+  if (failed) {
+    print_error(*failed);
+    out.set->fail(*failed);
+  } else {
+    out.set->add("node.json");
+  }
+  if (auto e = out.set->finish()) {
+    print_error(*e);
+    return kRunFailure;
+  }
+  if (failed) return kRunFailure;
+  std::cerr << "red node: " << wrote_message(*a.out, wrote) << ", node.json\n";
+  return kOk;
+}
+
+// `red node`: parse -> build -> run -> write.
+int run_node(const NodeArgs& a) {
+  NodeSetup setup;
+  if (!parse_node(a, setup)) return kBadInput;
+  if (a.dds.shm) keep_large_buffers();
+  NodeParts parts;
+  if (const int code = build_node(a, setup, parts); code != kOk) return code;
+  print_node_start(a, setup.loaded->scenario, setup.o, *parts.node, parts.backend->name());
+  // SIGINT/SIGTERM end a node as --duration does (releases end, jobs in flight drain): the
+  // normal way to stop a node, so it exits 0 (signals.hpp).
+  install_stop_signals();
+  dds::Node* n = parts.node.get();
+  std::optional<StopWatch> watch;
+  watch.emplace([n] { n->stop(); });
+  const auto t0 = std::chrono::steady_clock::now();
+  RuntimeReport report = parts.node->run();
+  watch.reset();
+  print_node_end(a.policy, setup.o.security, *parts.node, report);
   // What the node's units cost against the profile (docs/DESIGN.md, "Online costs").
   PolicyMetrics costs;
   costs.online_costs = report.online_costs;
@@ -276,72 +429,10 @@ int run_node(const NodeArgs& a) {
   costs.costs = report.costs;
   if (auto w = costs_differed(costs, a.policy)) std::cerr << "red node: " << *w << '\n';
   if (a.out) {
-    PolicyRun run;
-    run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    run.metrics = metrics.summarize(a.policy, report.end);
-    run.metrics.decision_p50_us = percentile(report.decision_us, 0.5);
-    run.metrics.decision_p99_us = percentile(report.decision_us, 0.99);
-    run.metrics.online_costs = costs.online_costs;
-    run.metrics.plan_changes = costs.plan_changes;
-    run.metrics.costs = std::move(costs.costs);
-    run.result.end = report.end;
-    run.result.stats = report.stats;
-    queue->drain();
-    const std::optional<Error> flushed = stream->flush();
-    auto rows = flushed ? Expected<std::vector<StreamedRows>>(*flushed) : stream->rows();
-    if (!rows) {
-      print_error(rows.error());
-      return kRunFailure;
-    }
-    if (!rows->empty()) {
-      run.jobs = std::move(rows->front().jobs);
-      run.units = std::move(rows->front().units);
-    }
-    if (auto e = stream->finish()) {
-      print_error(*e);
-      return kRunFailure;
-    }
-    OutputOptions oo;
-    oo.gnuplot = "none";
-    oo.rows_written = true;
-    oo.rows_files = stream->finished();
-    oo.set = &*set;
-    OutputReport wrote;
-    std::vector<PolicyRun> runs{std::move(run)};
-    if (auto e = write_outputs(*a.out, s, p, std::string((*backend)->name()), s.seed, runs, oo,
-                               &wrote)) {
-      for (const Error& f : wrote.errors) print_error(f);
-      return kRunFailure;
-    }
-    // What the node took and could not take, by reason: summary.json holds the jobs only.
-    nlohmann::json nj{{"run_id", set->run_id()},
-                      {"frames", c.frames},
-                      {"released", c.released},
-                      {"not_taken", rejected + undelivered},
-                      {"published",
-                       {{"masks", c.masks},
-                        {"twists", c.twists},
-                        {"detections", c.detections},
-                        {"diagnostics", c.diagnostics}}},
-                      {"jobs_without_output", c.jobs_without_output}};
-    nlohmann::json by_reason = nlohmann::json::object();
-    for (int r = 0; r < dds::kRejectKinds; ++r)
-      by_reason[dds::to_string(static_cast<dds::Reject>(r))] =
-          c.rejected[static_cast<std::size_t>(r)];
-    nj["not_taken_by_reason"] = std::move(by_reason);
-    const std::optional<Error> node_json = write_file(*a.out, "node.json", nj.dump(2) + "\n");
-    if (node_json) {
-      print_error(*node_json);
-      set->fail(*node_json);
-    } else {
-      set->add("node.json");
-    }
-    if (auto e = set->finish()) {
-      print_error(*e);
-      return kRunFailure;
-    }
-    if (node_json) return kRunFailure;
-    std::cerr << "red node: " << wrote_message(*a.out, wrote) << ", node.json\n";
+    const double wall_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (const int code = write_node(a, setup, parts, report, std::move(costs), wall_s); code != kOk)
+      return code;
   }
   if (!report.device_lost.empty()) {
     print_error(Error{"", 0, report.device_lost + "; the run stopped there (docs/GPU.md)"});
@@ -352,6 +443,7 @@ int run_node(const NodeArgs& a) {
 
 struct CameraArgs {
   DdsArgs dds;
+  std::string qos_file;
   dds::CameraOptions o;
   std::string size = "640x480";
   std::uint64_t count = 0;
@@ -366,7 +458,7 @@ int run_camera(CameraArgs& a) {
     print_error(Error{"", 0, "--size '" + a.size + "': expected WxH, e.g. 640x480"});
     return kBadInput;
   }
-  if (!roudi_ok(a.dds)) return kBadInput;
+  if (!resolve_enclave(a.dds, "red camera", a.o.security) || !roudi_ok(a.dds)) return kBadInput;
   a.o.width = w;
   a.o.height = h;
   a.o.domain = a.dds.domain;
@@ -379,6 +471,14 @@ int run_camera(CameraArgs& a) {
     return kBadInput;
   }
   a.o.config = *config;
+  if (!a.qos_file.empty()) {  // the writer's QoS: the file's input: section (the node's readers)
+    auto q = dds::load_qos_file(a.qos_file);
+    if (!q) {
+      print_error(q.error());
+      return kBadInput;
+    }
+    a.o.qos = q->input;
+  }
   // SIGINT/SIGTERM end the camera as --count does (exit 0).
   install_stop_signals();
   std::atomic<bool> stop{false};
@@ -462,6 +562,9 @@ void register_camera(CLI::App& app, int& exit_code) {
   cmd->add_option("--stamps-topic", a->o.stamps_topic,
                   "Also publish each frame's header (std_msgs/msg/Header, reliable) here: a "
                   "probe counts frames without receiving their pixels");
+  cmd->add_option("--qos-file", a->qos_file,
+                  "QoS of the frames' writer: the input: section of a `red node --qos-file` "
+                  "(e.g. reliable, to match a node that reads reliably)");
   add_dds(cmd, a->dds);
   cmd->callback([a, &exit_code] { exit_code = run_camera(*a); });
 }

@@ -24,6 +24,8 @@ void register_profile(CLI::App& app, int& exit_code);
 /// `red node` and `red camera` (cmd_node.cpp; only with the DDS bridge, RED_HAVE_DDS).
 void register_node(CLI::App& app, int& exit_code);
 void register_camera(CLI::App& app, int& exit_code);
+/// `red security` (cmd_security.cpp; only with the DDS bridge): SROS2 keystores and enclaves.
+void register_security(CLI::App& app, int& exit_code);
 /// `red analyze` (cmd_analyze.cpp): verdicts, headroom, response-time bound, nptest export.
 void register_analyze(CLI::App& app, int& exit_code);
 /// `red report` (cmd_report.cpp): a run's page redrawn from its saved files.

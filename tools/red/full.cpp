@@ -34,7 +34,7 @@ std::string backend_of(const std::vector<std::string>& args, const std::string& 
 std::optional<std::string> needs_full(const std::vector<std::string>& args) {
   if (args.empty()) return std::nullopt;
   const std::string& cmd = args.front();
-  if (cmd == "node" || cmd == "camera") return "the DDS bridge";
+  if (cmd == "node" || cmd == "camera" || cmd == "security") return "the DDS bridge";
   if (cmd == "profile") return "LibTorch";
   // The defaults of each command's --backend (cmd_compare.cpp, cmd_run.cpp).
   if (cmd == "run" && backend_of(args, "torch") == "torch") return "LibTorch";

@@ -12,7 +12,7 @@
 namespace red::cli {
 
 /// What a command line needs that the lean `red` does not link: "LibTorch" (`profile`;
-/// `run` and `compare` on the torch backend), "the DDS bridge" (`node`, `camera`), or
+/// `run` and `compare` on the torch backend), "the DDS bridge" (`node`, `camera`, `security`), or
 /// nothing. `args` are the arguments after the program name.
 std::optional<std::string> needs_full(const std::vector<std::string>& args);
 

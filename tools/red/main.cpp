@@ -105,15 +105,19 @@ int main(int argc, char** argv) {
 #ifdef RED_HAVE_DDS
   red::cli::register_node(app, exit_code);
   red::cli::register_camera(app, exit_code);
+  red::cli::register_security(app, exit_code);
 #elif defined(RED_FULL_HAS_DDS)
   // This red hands node and camera to red-full before parsing (full.hpp): listed for --help.
   app.add_subcommand("node",
                      "RED as a ROS 2-compatible node on DDS: camera topics in, head outputs out");
   app.add_subcommand("camera", "Publish synthetic camera frames (sensor_msgs/Image) on DDS");
+  app.add_subcommand("security",
+                     "DDS Security keystores and enclaves, as `ros2 security` makes them (SROS2)");
 #endif
 #if !defined(RED_HAVE_DDS) && !defined(RED_FULL_HAS_DDS)
   // Known commands of this build's absent DDS bridge (as `red profile` without LibTorch).
-  if (argc >= 2 && (std::string(argv[1]) == "node" || std::string(argv[1]) == "camera")) {
+  if (argc >= 2 && (std::string(argv[1]) == "node" || std::string(argv[1]) == "camera" ||
+                    std::string(argv[1]) == "security")) {
     std::cerr << "red: '" << argv[1]
               << "' needs the DDS bridge: install cyclonedds-dev and cyclonedds-tools, then "
                  "rebuild (docs/ROS2.md)\n";

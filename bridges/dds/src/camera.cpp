@@ -56,7 +56,8 @@ Expected<CameraReport> run_camera(const CameraOptions& o, const std::atomic<bool
     files = std::move(*f);
     if (auto first = read_image(files.front()); !first) return first.error();
   }
-  auto domain = Domain::open(o.domain, o.config, o.shared_memory);
+  auto domain =
+      Domain::open(o.domain, o.config, o.shared_memory, o.security ? &*o.security : nullptr);
   if (!domain) return domain.error();
   const dds_entity_t pp = (*domain)->participant();
   const dds_entity_t topic = dds_create_topic(pp, &sensor_msgs_msg_dds__Image__desc,

@@ -59,7 +59,9 @@ Node::Impl::~Impl() {
 }
 
 Expected<bool> Node::Impl::open() {
-  auto d = Domain::open(options.domain, options.config, options.shared_memory);
+  if (options.security) watch_security_log();  // counts what DDS Security refuses
+  auto d = Domain::open(options.domain, options.config, options.shared_memory,
+                        options.security ? &*options.security : nullptr);
   if (!d) return d.error();
   domain = std::move(*d);
   const dds_entity_t pp = domain->participant();
@@ -206,8 +208,17 @@ void Node::stop() {
 }
 
 NodeCounters Node::counters() const {
-  std::lock_guard lock(impl_->counters_mu);
-  return impl_->counters;
+  NodeCounters c;
+  {
+    std::lock_guard lock(impl_->counters_mu);
+    c = impl_->counters;
+  }
+  if (impl_->options.security) {
+    const SecurityRefusals r = security_refusals();
+    c.refused_participants = r.participants;
+    c.refused_endpoints = r.endpoints;
+  }
+  return c;
 }
 
 Node::Timings Node::timings() const {

@@ -119,6 +119,12 @@ void Node::Impl::publish_diagnostics() {
                     std::to_string(c.rejected[static_cast<std::size_t>(r)]));
   }
   kv.emplace_back("matched_but_silent", matched_but_silent);
+  if (options.security) {
+    const SecurityRefusals r = security_refusals();
+    kv.emplace_back("security_enclave", options.security->name);
+    kv.emplace_back("refused_participants", std::to_string(r.participants));
+    kv.emplace_back("refused_endpoints", std::to_string(r.endpoints));
+  }
   add(silent.empty() && rejected == 0 ? 0 : 1, "red: node",
       silent.empty() ? "ok"
       : matched_but_silent.empty()

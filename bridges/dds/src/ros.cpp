@@ -1,5 +1,7 @@
 #include "red/dds/ros.hpp"
 
+#include "red/dds/security.hpp"
+
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -168,9 +170,15 @@ std::string shared_memory_config() {
 }
 
 Expected<std::unique_ptr<Domain>> Domain::open(int domain_id, const std::string& config,
-                                               bool shared_memory) {
+                                               bool shared_memory, const Enclave* enclave) {
   if (domain_id < 0 || domain_id > 232)
     return Error{"", 0, "--domain " + std::to_string(domain_id) + ": must be 0..232"};
+  // Samples through iceoryx's shared memory bypass DDS Security's encryption and access
+  // control: never both.
+  if (shared_memory && enclave != nullptr)
+    return Error{"", 0,
+                 "--shm and DDS Security together: shared memory would bypass the enclave's "
+                 "access control and encryption; use one or the other"};
   std::string xml = config.empty() ? loopback_config() : config;
   if (shared_memory) {
     if (auto up = roudi_running(); !up) return up.error();
@@ -183,12 +191,20 @@ Expected<std::unique_ptr<Domain>> Domain::open(int domain_id, const std::string&
     return Error{"", 0,
                  "cannot create DDS domain " + std::to_string(domain_id) + " (" +
                      dds_strretcode(dom) + "): check the Cyclone DDS configuration"};
-  const dds_entity_t p = dds_create_participant(id, nullptr, nullptr);
+  dds_qos_t* qos = enclave != nullptr ? make_security_qos(*enclave) : nullptr;
+  const dds_entity_t p = dds_create_participant(id, qos, nullptr);
+  if (qos != nullptr) dds_delete_qos(qos);
   if (p < 0) {
     if (dom > 0) dds_delete(dom);
-    return Error{"", 0,
-                 "cannot create a DDS participant on domain " + std::to_string(domain_id) + " (" +
-                     dds_strretcode(p) + ")"};
+    return Error{
+        "", 0,
+        "cannot create a DDS participant on domain " + std::to_string(domain_id) + " (" +
+            dds_strretcode(p) + ")" +
+            (enclave != nullptr
+                 ? ": DDS Security refused enclave " + enclave->name + " (" + enclave->dir +
+                       "): check that its certificates are valid, signed by its CAs, "
+                       "and that permissions.p7s grants this domain"
+                 : std::string{})};
   }
   return std::unique_ptr<Domain>(new Domain(domain_id, dom > 0 ? dom : 0, p));
 }

@@ -2,12 +2,18 @@
 // types fastddsgen generated from RED's IDL (bridges/dds/idl). It publishes camera frames to
 // `red node` over RTPS/UDP on loopback and receives every output type (docs/ROS2.md).
 //
-//     red_fastdds_peer DOMAIN FRAMES RATE_HZ LINGER_S   -> JSON report on stdout
+//     red_fastdds_peer DOMAIN FRAMES RATE_HZ LINGER_S [ENCLAVE_DIR]   -> JSON report on stdout
+//
+// With ENCLAVE_DIR (an SROS2 enclave: cert.pem, key.pem, identity_ca.cert.pem,
+// permissions_ca.cert.pem, governance.p7s, permissions.p7s) the participant uses DDS Security
+// with Fast DDS's built-in plugins, as rmw_fastrtps_cpp sets them up from ROS 2's keystore.
 
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/log/Log.hpp>
+#include <fastdds/dds/log/StdoutErrConsumer.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
@@ -70,10 +76,13 @@ std::function<bool(DataReader*, Stamp&, double&)> taker(std::function<Stamp(cons
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 5) {
-    std::cerr << "usage: red_fastdds_peer DOMAIN FRAMES RATE_HZ LINGER_S\n";
+  if (argc != 5 && argc != 6) {
+    std::cerr << "usage: red_fastdds_peer DOMAIN FRAMES RATE_HZ LINGER_S [ENCLAVE_DIR]\n";
     return 2;
   }
+  // Fast DDS's log (e.g. security errors) to stderr: stdout holds the JSON report only.
+  Log::ClearConsumers();
+  Log::RegisterConsumer(std::make_unique<StdoutErrConsumer>());
   const int domain = std::atoi(argv[1]);
   const int frames = std::atoi(argv[2]);
   const double rate = std::atof(argv[3]);
@@ -88,6 +97,34 @@ int main(int argc, char** argv) {
   udp->interfaceWhiteList.push_back("127.0.0.1");
   pq.transport().user_transports.push_back(udp);
   pq.wire_protocol().participant_id = 40;
+  if (argc == 6) {
+    const std::string dir = std::string("file://") + argv[5] + "/";  // Fast DDS: file://
+    const std::vector<std::pair<std::string, std::string>> props = {
+        {"dds.sec.auth.plugin", "builtin.PKI-DH"},
+        {"dds.sec.auth.builtin.PKI-DH.identity_ca", dir + "identity_ca.cert.pem"},
+        {"dds.sec.auth.builtin.PKI-DH.identity_certificate", dir + "cert.pem"},
+        {"dds.sec.auth.builtin.PKI-DH.private_key", dir + "key.pem"},
+        {"dds.sec.access.plugin", "builtin.Access-Permissions"},
+        {"dds.sec.access.builtin.Access-Permissions.permissions_ca",
+         dir + "permissions_ca.cert.pem"},
+        {"dds.sec.access.builtin.Access-Permissions.governance", dir + "governance.p7s"},
+        {"dds.sec.access.builtin.Access-Permissions.permissions", dir + "permissions.p7s"},
+        {"dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC"}};
+    for (const auto& [k, v] : props) pq.properties().properties().emplace_back(k, v);
+    // The handshake's initiator picks the key agreement: Fast DDS 2.9 picks DH+MODP-2048-256,
+    // whose public key Cyclone DDS 0.10 cannot read ("Failed to convert octet sequence to
+    // ASN1 integer"; eProsima/Fast-DDS#3802, eclipse-cyclonedds/cyclonedds#701), Cyclone
+    // picks ECDH (prime256v1), which both read. Cyclone initiates when this participant's
+    // GUID is the higher; with security, a GUID's first 48 bits are a hash of the
+    // certificate's subject, so the enclave's name decides (the tests pick names that work).
+    // RED_PEER_GOVERNANCE=FILE: another governance for this peer (the test's intruder: one
+    // whose own access control is off, so that it does write where its permissions say it
+    // may not, and the node's side of access control is what refuses it).
+    if (const char* g = std::getenv("RED_PEER_GOVERNANCE"))
+      for (auto& p : pq.properties().properties())
+        if (p.name() == "dds.sec.access.builtin.Access-Permissions.governance")
+          p.value() = std::string("file://") + g;
+  }
   for (int i = 0; i < 32; ++i) {
     Locator_t peer;
     IPLocator::setIPv4(peer, 127, 0, 0, 1);
@@ -117,6 +154,10 @@ int main(int argc, char** argv) {
   wq.history().depth = 5;
   wq.durability().kind = VOLATILE_DURABILITY_QOS;
   DataWriter* writer = pub->create_datawriter(camera, wq);
+  if (writer == nullptr) {
+    std::cerr << "red_fastdds_peer: cannot create the camera writer (not permitted?)\n";
+    return 1;
+  }
 
   DataReaderQos rq = DATAREADER_QOS_DEFAULT;
   rq.reliability().kind = RELIABLE_RELIABILITY_QOS;
@@ -126,7 +167,12 @@ int main(int argc, char** argv) {
   std::map<std::string, Output> outputs;
   const auto reader = [&](const std::string& topic, TypeSupport& t) {
     Topic* tp = pp->create_topic("rt" + topic, t.get_type_name(), TOPIC_QOS_DEFAULT);
-    return sub->create_datareader(tp, rq);
+    DataReader* r = sub->create_datareader(tp, rq);
+    if (r == nullptr) {
+      std::cerr << "red_fastdds_peer: cannot create a reader of " << topic << "\n";
+      std::exit(1);
+    }
+    return r;
   };
   const auto image_stamp = [](const sensor_msgs::msg::dds_::Image_& m) {
     return Stamp{m.header_().stamp_().sec_(), m.header_().stamp_().nanosec_()};
@@ -184,7 +230,11 @@ int main(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   PublicationMatchedStatus ms;
   bool matched = false;
-  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds{20}) {
+  // RED_PEER_FORCE=S: wait S seconds at most, then write the frames even unmatched (a peer
+  // the node must refuse: what it wrote is then "sent" and the node must release none).
+  const char* force = std::getenv("RED_PEER_FORCE");
+  const double wait_s = force != nullptr ? std::atof(force) : 20.0;
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::duration<double>(wait_s)) {
     writer->get_publication_matched_status(ms);
     if (ms.current_count > 0) {
       matched = true;
@@ -195,7 +245,7 @@ int main(int argc, char** argv) {
   const uint32_t w = 64, h = 48;
   const auto period = std::chrono::nanoseconds{static_cast<int64_t>(1e9 / rate)};
   auto next = std::chrono::steady_clock::now();
-  for (int k = 0; matched && k < frames; ++k) {
+  for (int k = 0; (matched || force != nullptr) && k < frames; ++k) {
     std::this_thread::sleep_until(next);
     next += period;
     sensor_msgs::msg::dds_::Image_ img;

@@ -13,6 +13,7 @@
 #include "red/core/expected.hpp"
 #include "red/core/time.hpp"
 #include "red/dds/ros.hpp"
+#include "red/dds/security.hpp"
 
 namespace red::dds {
 
@@ -30,6 +31,7 @@ struct CameraOptions {
   int domain = 0;
   std::string config;          ///< Cyclone DDS XML or file:// URI; empty: loopback only
   bool shared_memory = false;  ///< through iceoryx shared memory (Domain::open; RouDi must run)
+  std::optional<Enclave> security;  ///< DDS Security with this SROS2 enclave; none: open
   EndpointQos qos = QosSettings{}.input;
   /// When set, each frame's header also goes out on this topic (std_msgs/msg/Header,
   /// reliable), so that a probe (bench/ros2/listener.cpp) counts the frames sent without

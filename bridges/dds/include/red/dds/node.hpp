@@ -23,6 +23,7 @@
 #include "red/core/time.hpp"
 #include "red/dds/image.hpp"
 #include "red/dds/ros.hpp"
+#include "red/dds/security.hpp"
 #include "red/profile/profile.hpp"
 #include "red/runtime/backend.hpp"
 #include "red/runtime/runtime.hpp"
@@ -60,6 +61,8 @@ struct NodeOptions {
   /// Exchange samples with the host's other processes through iceoryx shared memory
   /// (Domain::open; RouDi must run).
   bool shared_memory = false;
+  /// DDS Security with this SROS2 enclave (resolve_security()); none: an open participant.
+  std::optional<Enclave> security;
   QosSettings qos;
   Remaps remaps;
   std::optional<Duration> duration;  ///< stop releasing after this long; none: until stop()
@@ -78,6 +81,9 @@ struct NodeCounters {
   std::array<std::uint64_t, kRejectKinds> rejected{};                    ///< by Reject
   std::uint64_t masks = 0, twists = 0, detections = 0, diagnostics = 0;  ///< published
   std::uint64_t jobs_without_output = 0;  ///< ended dropped/skipped/failed: nothing published
+  /// With DDS Security: remote participants refused (authentication) and remote endpoints
+  /// refused (access control), as Cyclone DDS's log reports them (security_refusals()).
+  std::uint64_t refused_participants = 0, refused_endpoints = 0;
 };
 
 class Node {

@@ -83,13 +83,17 @@ std::string shared_memory_config();
 
 /// A process's DDS domain and participant. `config` is Cyclone DDS XML (or a file://
 /// URI); empty means the loopback configuration. With `shared_memory`, shared_memory_config()
-/// is added to it, after checking that RouDi runs (roudi_running()). Not copyable.
+/// is added to it, after checking that RouDi runs (roudi_running()). With `enclave`, the
+/// participant has DDS Security (security.hpp; not with shared memory). Not copyable.
+struct Enclave;
+
 class Domain {
  public:
   /// Error when RouDi is wanted and not running, or when the domain or the participant cannot
-  /// be created (names the domain).
+  /// be created (names the domain, and the enclave when DDS Security refused it).
   static Expected<std::unique_ptr<Domain>> open(int domain_id, const std::string& config,
-                                                bool shared_memory = false);
+                                                bool shared_memory = false,
+                                                const Enclave* enclave = nullptr);
   ~Domain();
   Domain(const Domain&) = delete;
   Domain& operator=(const Domain&) = delete;

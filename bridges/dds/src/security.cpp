@@ -1,0 +1,272 @@
+#include "red/dds/security.hpp"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <mutex>
+
+#include "red/dds/ros.hpp"
+
+namespace red::dds {
+
+namespace {
+
+std::string env_or_empty(const char* name) {
+  const char* v = std::getenv(name);
+  return v == nullptr ? std::string{} : std::string{v};
+}
+
+// An enclave name as ROS 2 has it: "/" or absolute path tokens of [A-Za-z0-9_].
+bool valid_enclave(const std::string& name) {
+  if (name == "/") return true;
+  if (name.size() < 2 || name.front() != '/' || name.back() == '/') return false;
+  char prev = '/';
+  for (std::size_t i = 1; i < name.size(); ++i) {
+    const char c = name[i];
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '/';
+    if (!ok || (c == '/' && prev == '/')) return false;
+    prev = c;
+  }
+  return true;
+}
+
+}  // namespace
+
+SecurityEnv SecurityEnv::from_environment() {
+  return {env_or_empty("ROS_SECURITY_KEYSTORE"), env_or_empty("ROS_SECURITY_ENCLAVE_OVERRIDE"),
+          env_or_empty("ROS_SECURITY_ENABLE"), env_or_empty("ROS_SECURITY_STRATEGY")};
+}
+
+Expected<SecuritySettings> resolve_security(const SecurityEnv& env,
+                                            const std::string& cli_enclave) {
+  SecuritySettings s;
+  if (!env.strategy.empty() && env.strategy != "Enforce" && env.strategy != "Permissive")
+    return Error{"", 0,
+                 "ROS_SECURITY_STRATEGY='" + env.strategy +
+                     "': expected Enforce or Permissive (case matters, as in ROS 2)"};
+  s.enforce = env.strategy == "Enforce";
+  const bool on = env.enable == "true" || !cli_enclave.empty();
+  if (!on) {
+    if (s.enforce)
+      s.warning =
+          "ROS_SECURITY_STRATEGY=Enforce has no effect: security is off (set "
+          "ROS_SECURITY_ENABLE=true or give --security-enclave), as in ROS 2";
+    return s;
+  }
+  const std::string name = !env.enclave_override.empty() ? env.enclave_override
+                           : !cli_enclave.empty()        ? cli_enclave
+                                                         : std::string{"/"};
+  const std::string origin =
+      !env.enclave_override.empty() ? "ROS_SECURITY_ENCLAVE_OVERRIDE" : "--security-enclave";
+  if (!valid_enclave(name))
+    return Error{"", 0,
+                 origin + " '" + name +
+                     "': not an enclave name (absolute, like /red/node: letters, digits, _)"};
+  std::string problem;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (env.keystore.empty()) {
+    problem = "ROS_SECURITY_KEYSTORE is not set (the keystore that holds enclave " + name + ")";
+  } else {
+    const fs::path dir =
+        fs::absolute(fs::path(env.keystore) / "enclaves" / name.substr(1), ec).lexically_normal();
+    std::string d = dir.string();
+    while (d.size() > 1 && d.back() == '/') d.pop_back();
+    if (!fs::is_directory(dir, ec)) {
+      problem = "enclave " + name + ": no directory " + d;
+    } else {
+      Enclave e{name, d};
+      for (std::size_t i = 0; i < kEnclaveFiles.size() && problem.empty(); ++i)
+        if (!fs::is_regular_file(e.file(i), ec))  // follows SROS2's symbolic links
+          problem = "enclave " + name + ": missing " + e.file(i);
+      if (problem.empty()) s.enclave = std::move(e);
+    }
+  }
+  if (problem.empty()) return s;
+  if (s.enforce)
+    return Error{"", 0,
+                 problem +
+                     "; ROS_SECURITY_STRATEGY=Enforce: refusing to start without security "
+                     "(docs/ROS2.md, \"Security\")"};
+  s.warning = problem + "; ROS_SECURITY_STRATEGY is Permissive: running WITHOUT security";
+  return s;
+}
+
+std::vector<std::pair<std::string, std::string>> cyclone_security_properties(const Enclave& e) {
+  const auto uri = [&](std::size_t i) { return "file:" + e.file(i); };
+  return {{"dds.sec.auth.library.path", "dds_security_auth"},
+          {"dds.sec.auth.library.init", "init_authentication"},
+          {"dds.sec.auth.library.finalize", "finalize_authentication"},
+          {"dds.sec.auth.identity_ca", uri(0)},
+          {"dds.sec.auth.identity_certificate", uri(1)},
+          {"dds.sec.auth.private_key", uri(2)},
+          {"dds.sec.access.library.path", "dds_security_ac"},
+          {"dds.sec.access.library.init", "init_access_control"},
+          {"dds.sec.access.library.finalize", "finalize_access_control"},
+          {"dds.sec.access.permissions_ca", uri(3)},
+          {"dds.sec.access.governance", uri(4)},
+          {"dds.sec.access.permissions", uri(5)},
+          {"dds.sec.crypto.library.path", "dds_security_crypto"},
+          {"dds.sec.crypto.library.init", "init_crypto"},
+          {"dds.sec.crypto.library.finalize", "finalize_crypto"}};
+}
+
+dds_qos_t* make_security_qos(const Enclave& e) {
+  dds_qos_t* q = dds_create_qos();
+  for (const auto& [k, v] : cyclone_security_properties(e)) dds_qset_prop(q, k.c_str(), v.c_str());
+  return q;
+}
+
+}  // namespace red::dds
+
+namespace red::dds {
+
+namespace {
+
+std::string domains_xml(const std::string& indent) {
+  return indent + "<domains>\n" + indent + "  <id_range>\n" + indent + "    <min>0</min>\n" +
+         indent + "    <max>230</max>\n" + indent + "  </id_range>\n" + indent + "</domains>\n";
+}
+
+std::string topics_xml(const char* what, const std::vector<std::string>& topics) {
+  if (topics.empty()) return {};
+  std::string x = std::string("        <") + what + ">\n          <topics>\n";
+  for (const std::string& t : topics) x += "            <topic>" + t + "</topic>\n";
+  return x + "          </topics>\n        </" + what + ">\n";
+}
+
+}  // namespace
+
+Grant node_grant(const std::vector<std::string>& sensors, const std::vector<std::string>& outputs,
+                 const std::string& diagnostics) {
+  Grant g;
+  for (const std::string& s : sensors) g.subscribe.push_back(dds_topic_name(s));
+  for (const std::string& o : outputs) g.publish.push_back(dds_topic_name(o));
+  g.publish.push_back(dds_topic_name(diagnostics));
+  return g;
+}
+
+Grant open_grant() {
+  const std::vector<std::string> all = {"rt/*", "rq/*", "rr/*", "ros_discovery_info"};
+  return {all, all};
+}
+
+std::string governance_xml() {
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+         "<dds xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" "
+         "xsi:noNamespaceSchemaLocation=\"http://www.omg.org/spec/DDS-SECURITY/20170901/"
+         "omg_shared_ca_governance.xsd\">\n"
+         "  <domain_access_rules>\n"
+         "    <domain_rule>\n" +
+         domains_xml("      ") +
+         "      <allow_unauthenticated_participants>false</allow_unauthenticated_participants>\n"
+         "      <enable_join_access_control>true</enable_join_access_control>\n"
+         "      <discovery_protection_kind>ENCRYPT</discovery_protection_kind>\n"
+         "      <liveliness_protection_kind>ENCRYPT</liveliness_protection_kind>\n"
+         "      <rtps_protection_kind>SIGN</rtps_protection_kind>\n"
+         "      <topic_access_rules>\n"
+         "        <topic_rule>\n"
+         "          <topic_expression>*</topic_expression>\n"
+         "          <enable_discovery_protection>true</enable_discovery_protection>\n"
+         "          <enable_liveliness_protection>true</enable_liveliness_protection>\n"
+         "          <enable_read_access_control>true</enable_read_access_control>\n"
+         "          <enable_write_access_control>true</enable_write_access_control>\n"
+         "          <metadata_protection_kind>ENCRYPT</metadata_protection_kind>\n"
+         "          <data_protection_kind>ENCRYPT</data_protection_kind>\n"
+         "        </topic_rule>\n"
+         "      </topic_access_rules>\n"
+         "    </domain_rule>\n"
+         "  </domain_access_rules>\n"
+         "</dds>\n";
+}
+
+std::string permissions_xml(const std::string& enclave, const Grant& g,
+                            const std::string& not_before, const std::string& not_after) {
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+         "<dds xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" "
+         "xsi:noNamespaceSchemaLocation=\"http://www.omg.org/spec/DDS-SECURITY/20170901/"
+         "omg_shared_ca_permissions.xsd\">\n"
+         "  <permissions>\n"
+         "    <grant name=\"" +
+         enclave +
+         "\">\n"
+         "      <subject_name>CN=" +
+         enclave +
+         "</subject_name>\n"
+         "      <validity>\n"
+         "        <not_before>" +
+         not_before +
+         "</not_before>\n"
+         "        <not_after>" +
+         not_after +
+         "</not_after>\n"
+         "      </validity>\n"
+         "      <allow_rule>\n" +
+         domains_xml("        ") + topics_xml("publish", g.publish) +
+         topics_xml("subscribe", g.subscribe) +
+         "      </allow_rule>\n"
+         "      <default>DENY</default>\n"
+         "    </grant>\n"
+         "  </permissions>\n"
+         "</dds>\n";
+}
+
+}  // namespace red::dds
+
+namespace red::dds {
+
+namespace {
+
+std::mutex g_log_mu;
+SecurityRefusals g_refusals;
+bool g_watching = false;
+
+void on_log(void*, const dds_log_data_t* d) {
+  const std::string_view m(d->message, d->size);
+  const int kind = classify_security_log(m);
+  if (kind != 0) {
+    std::lock_guard lock(g_log_mu);
+    (kind == 1 ? g_refusals.participants : g_refusals.endpoints) += 1;
+    g_refusals.last = std::string(m);
+    while (!g_refusals.last.empty() && g_refusals.last.back() == '\n') g_refusals.last.pop_back();
+  }
+  std::fwrite(d->message, 1, d->size, stderr);
+  if (d->size == 0 || d->message[d->size - 1] != '\n') std::fputc('\n', stderr);  // Cyclone's own
+}
+
+bool contains(std::string_view m, std::string_view what) {
+  return m.find(what) != std::string_view::npos;
+}
+
+}  // namespace
+
+int classify_security_log(std::string_view m) noexcept {
+  // Cyclone DDS 0.10's messages. An endpoint: "match_remote_writer ... security_attributes
+  // mismatch", "Non secure remote writer ... is not allowed", "... not allowed by security",
+  // access control's "... not permitted".
+  if (contains(m, "match_remote_") || contains(m, "Non secure remote writer") ||
+      contains(m, "Non secure remote reader") || contains(m, "not allowed by security") ||
+      contains(m, "not permitted"))
+    return 2;
+  // A participant: "Remote secure participant ... not allowed" (its identity or permissions
+  // failed validation), "Begin handshake ... failed".
+  if ((contains(m, "participant") && contains(m, "not allowed")) ||
+      (contains(m, "andshake") && contains(m, "failed")))
+    return 1;
+  return 0;
+}
+
+void watch_security_log() {
+  std::lock_guard lock(g_log_mu);
+  if (g_watching) return;
+  g_watching = true;
+  dds_set_log_sink(on_log, nullptr);
+}
+
+SecurityRefusals security_refusals() {
+  std::lock_guard lock(g_log_mu);
+  return g_refusals;
+}
+
+}  // namespace red::dds
