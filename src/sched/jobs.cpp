@@ -23,7 +23,7 @@ void Scheduler::Impl::notify_job(const Job& j, JobOutcome o, TimePoint finish, b
   r.outcome = o;
   r.counted = j.counted;
   r.frame_age = j.oldest_frame == kNever ? Duration{0} : finish - j.oldest_frame;
-  r.reason = j.reason;
+  r.reason = reason_text(j);
   r.graph = j.g;
   for (Observer* ob : observers) release_event ? ob->on_job_release(r) : ob->on_job_end(r);
 }
@@ -122,7 +122,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     tmp.release = now;
     tmp.deadline = now + g.deadline;
     tmp.counted = now >= s.config_.warmup;
-    tmp.reason = "max_inflight";
+    tmp.reason = DropReason::MaxInflight;
     notify_job(tmp, JobOutcome::Skipped, now, true);
     notify_job(tmp, JobOutcome::Skipped, now, false);
     return;
@@ -151,7 +151,8 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   j.unfinished = static_cast<int>(g.units.size());
   j.running = 0;
   j.oldest_frame = kNever;
-  j.reason.clear();
+  j.reason = DropReason::None;
+  j.failure.clear();
   j.dependents.clear();
   j.dependent_ids.clear();
   j.stamp = 0;
@@ -211,11 +212,9 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
   if (opt.admission == Admission::Shed) note_offered(j, now);
   if (reject) {
-    j.reason = "rejected at release";
+    j.reason = DropReason::RejectedByRate;
     ++s.stats_.rejected;
-    rejecting_by_rate = true;
     end_job(slot, JobOutcome::Dropped, now);
-    rejecting_by_rate = false;
   }
 }
 
@@ -225,7 +224,8 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   j.ended = true;
   --s.in_flight_;
   --ops[static_cast<std::size_t>(j.op)].inflight;
-  if (outcome == JobOutcome::Dropped && !rejecting_by_rate)
+  // A rejection by rate is not a sign of lane time short (ahead_shed).
+  if (outcome == JobOutcome::Dropped && j.reason != DropReason::RejectedByRate)
     ops[static_cast<std::size_t>(j.op)].last_shed = now;
   if (outcome == JobOutcome::Missed || outcome == JobOutcome::Dropped) last_miss = now;
   const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,

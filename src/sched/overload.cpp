@@ -450,7 +450,7 @@ void Scheduler::Impl::admit(TimePoint now) {
       if (largest > victim_work) continue;
     }
     from = 0;
-    job(victim).reason = "rejected at release";
+    job(victim).reason = DropReason::Rejected;
     ++s.stats_.rejected;
     end_job(victim, JobOutcome::Dropped, now);
   }
@@ -523,7 +523,7 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin)
     });
   }
   for (const int slot : lone) {
-    job(slot).reason = "rejected at release";
+    job(slot).reason = DropReason::Rejected;
     ++s.stats_.rejected;
     end_job(slot, JobOutcome::Dropped, now);
   }

@@ -132,6 +132,9 @@ struct Scheduler::Impl {
     int criticality;
     UnitKind kind;  // the task's, for batching without another look at it
     bool deadline_known;
+    // Taken out of this pick: its task began a wait (merge wait, the guard's hold until a
+    // release), or yielded to more critical work (the guard; it may still join a batch).
+    enum class Out : std::uint8_t { No, Waits, Yields } out;
     int head;
   };
   static_assert(sizeof(Scan) <= 64);
@@ -395,7 +398,6 @@ struct Scheduler::Impl {
   // graphs change (rates_changed).
   void plan_rates();
   bool rates_changed = true;
-  bool rejecting_by_rate = false;  // a drop now is plan_rates' rejection, not for lane time
   // True when an operation ahead of `op` in plan_rates' order shed a job within the last
   // kOfferedWindow (rejected, hopeless or past its deadline; not by this rule).
   bool ahead_shed(int op, TimePoint now) const;
@@ -528,7 +530,28 @@ struct Scheduler::Impl {
   }
 
   // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
+  // Its stages (dispatch.cpp): scan, choose (best_candidate, the lane, guard_holds,
+  // abort_hopeless, merge_waits), form_batch.
   bool pick(TimePoint now);
+  // One pick's state between its stages.
+  struct Pick {
+    std::size_t least = 0;                             // the scan's least key
+    int shed_below = std::numeric_limits<int>::min();  // criticalities shed first (overload)
+    int out = 0;                                       // scan entries taken out (Scan::out)
+    const Scan* best = nullptr;                        // the task chosen
+    int lane = -1;                                     // its lane
+    Duration rt{0};                                    // the round trip the dispatch pays
+  };
+  enum class Chosen : std::uint8_t { Task, Nothing, Rescan };
+  void scan(TimePoint now, Pick& p);
+  const Scan* best_candidate(const Pick& p) const;
+  void set_out(Pick& p, Scan& e, TimePoint until);
+  Chosen choose(TimePoint now, Pick& p);
+  bool guard_holds(TimePoint now, Pick& p);
+  bool abort_hopeless(TimePoint now, const Pick& p);
+  bool merge_waits(TimePoint now, Pick& p);
+  TimePoint form_batch(TimePoint now, const Pick& p);
+  void batch_candidates(TimePoint now, const Pick& p, bool by_job, int limit);
 
   // docs/DESIGN.md, "Criticality" guard (PolicyOptions::guard; guard.cpp): whether running the
   // dispatch of the tasks `run` on lane `lane` from `begin` (at mean costs) would make a more
@@ -553,7 +576,6 @@ struct Scheduler::Impl {
   TimePoint dispatch_begin(int lane, TimePoint now) const {
     return ahead_lane >= 0 ? lane_free_at(lanes[static_cast<std::size_t>(lane)], now) : now;
   }
-  std::vector<int> guard_held;   // scratch of pick(): tasks that yielded to the guard this pick
   std::vector<int> guard_slots;  // scratch of guard(): the jobs of the dispatch
   std::vector<int> guard_units;  // beside guard_slots: each one's unit in the dispatch
 };
