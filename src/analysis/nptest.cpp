@@ -200,10 +200,9 @@ Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const 
     std::vector<std::size_t> row_of(g->units.size());
     for (std::size_t u = 0; u < g->units.size(); ++u) {
       const RefinedUnit& ru = g->units[u];
-      const TimePoint prio = o.deadlines == DeadlineMode::None ? re.at
-                             : o.deadlines == DeadlineMode::EndToEnd
-                                 ? deadline
-                                 : re.at + g->static_offset[static_cast<std::size_t>(ru.height)];
+      const TimePoint prio = height_deadline(o.deadlines, re.at, deadline, [&] {
+        return re.at + g->static_offset[static_cast<std::size_t>(ru.height)];
+      });
       Duration cmin{0}, cmax{0};
       std::string key, node;
       const char* kind = to_string(ru.kind);

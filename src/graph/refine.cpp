@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <functional>
-#include <numeric>
 #include <queue>
 
 #include "red/core/assert.hpp"
@@ -190,17 +189,13 @@ std::vector<Duration> split_budget(Duration budget, const std::vector<Duration>&
                                    DeadlineMode mode) {
   std::vector<Duration> offset(weights.size(), Duration{0});
   if (weights.empty()) return offset;
-  const std::int64_t total =
-      std::accumulate(weights.begin(), weights.end(), std::int64_t{0},
-                      [](std::int64_t a, Duration d) { return a + d.count(); });
-  const bool equal = mode == DeadlineMode::Equal || total <= 0;
   // Cumulative shares in 128-bit arithmetic so the last offset is exactly the budget.
-  std::int64_t cum = 0;
-  for (std::size_t h = 0; h < weights.size(); ++h) {
-    cum += equal ? 1 : weights[h].count();
-    const std::int64_t denom = equal ? static_cast<std::int64_t>(weights.size()) : total;
-    offset[h] = Duration{mul_div(budget.count(), cum, denom)};
-  }
+  for_each_share(
+      mode, weights.size(), [&](std::size_t h) { return weights[h]; },
+      [](std::size_t) { return true; },
+      [&](std::size_t h, bool, std::int64_t cum, std::int64_t denom) {
+        offset[h] = Duration{mul_div(budget.count(), cum, denom)};
+      });
   return offset;
 }
 
@@ -364,19 +359,14 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
     }
   }
 
-  switch (opt.deadlines) {
-    case DeadlineMode::None:
-    case DeadlineMode::EndToEnd:
-      g->static_offset.assign(static_cast<std::size_t>(g->levels), g->deadline);
-      break;
-    case DeadlineMode::Proportional:
-    case DeadlineMode::Equal: {
-      std::vector<Duration> w = g->level_cost;
-      for (std::size_t h = 0; h < w.size(); ++h)
-        if (g->override_budget[h] > Duration{0}) w[h] = g->override_budget[h];
-      g->static_offset = split_budget(g->deadline, w, opt.deadlines);
-      break;
-    }
+  // The deadline split's static offsets (height_deadline reads them where the mode splits the
+  // budget; otherwise every offset is the end-to-end deadline).
+  if (splits_budget(opt.deadlines)) {
+    std::vector<Duration> w = g->level_cost;
+    for (std::size_t h = 0; h < w.size(); ++h) w[h] = split_weight(*g, h, w[h]);
+    g->static_offset = split_budget(g->deadline, w, opt.deadlines);
+  } else {
+    g->static_offset.assign(static_cast<std::size_t>(g->levels), g->deadline);
   }
   return g;
 }

@@ -210,22 +210,15 @@ struct Scheduler::Impl {
   // batching, the ready set's groups and Scheduler::unit_deadline all read it. Inline: ranking
   // calls it for every member of every ready task.
   TimePoint unit_deadline(Job& j, int h, TimePoint now) {
-    const auto hi = static_cast<std::size_t>(h);
-    switch (opt.deadlines) {
-      case DeadlineMode::None:
-        return j.release;
-      case DeadlineMode::EndToEnd:
-        return j.plan;
-      case DeadlineMode::Proportional:
-      case DeadlineMode::Equal:
-        break;
-    }
-    if (!opt.reassign) return j.release + j.g->static_offset[hi];
-    // Re-assignment: the shares of the job's cache, as they are at `now`.
-    refresh(j);
-    if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
-    eval(j, now);
-    return from_share(j, j.frac_now[hi], now);
+    return height_deadline(opt.deadlines, j.release, j.plan, [&] {
+      const auto hi = static_cast<std::size_t>(h);
+      if (!opt.reassign) return j.release + j.g->static_offset[hi];
+      // Re-assignment: the shares of the job's cache, as they are at `now`.
+      refresh(j);
+      if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
+      eval(j, now);
+      return from_share(j, j.frac_now[hi], now);
+    });
   }
 
   // Estimated work left in a job (Σ remaining level costs: its critical-path estimate).
