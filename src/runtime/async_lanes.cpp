@@ -60,12 +60,14 @@ void Runtime::Impl::enqueue_unit(int lane, std::deque<Held>& held, const Dispatc
   enqueue_cost = (enqueue_cost * 7 + (clock.now() - u.enqueued)) / 8;
 }
 
-// When the units `held` are expected to end: the oldest's start plus their profiled p50.
-TimePoint Runtime::Impl::expected_end(const std::deque<Held>& held) const {
-  TimePoint t = held.front().began;
+// When the lane's handler decides the units its queue has room for (the scheduler's
+// queue-ahead rule): a lead before the units `held` are expected to end, the oldest's start plus
+// their profiled p50, the lead at least twice what an enqueue costs the host.
+TimePoint Runtime::Impl::queue_ahead_at(const std::deque<Held>& held, Duration enqueue_cost) const {
+  Duration p50{0};
   for (const Held& u : held)
-    t += profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
-  return t;
+    p50 += profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
+  return sched.queue_ahead_at(held.front().began, p50, enqueue_cost);
 }
 
 // Polls the backend until the lane's oldest unit has ended (Backend::ready()), spin-then-park
@@ -160,8 +162,7 @@ void Runtime::Impl::async_handler_main(int lane) {
     if (sync == SyncMode::OnDemand && !stopping.load() && held.size() < depth) {
       // The lane's queue is filled when what it holds is about to end (the lead), not at
       // once: a release meanwhile is seen before the next unit is chosen.
-      const Duration lead = std::max(sched.config().ahead_lead, enqueue_cost * 2);
-      const TimePoint at = expected_end(held) - lead;
+      const TimePoint at = queue_ahead_at(held, enqueue_cost);
       // Parked until a spin before it, then spinning (a wake-up can take longer).
       auto stop = [&] { return stopping.load(std::memory_order_acquire); };
       if (at - options.spin > clock.now())

@@ -246,7 +246,7 @@ struct Runtime::Impl {
   void async_handler_main(int lane);
   void enqueue_unit(int lane, std::deque<Held>& held, const Dispatch& d, TimePoint prev_end,
                     Duration& enqueue_cost);
-  TimePoint expected_end(const std::deque<Held>& held) const;
+  TimePoint queue_ahead_at(const std::deque<Held>& held, Duration enqueue_cost) const;
   bool await_unit(Handler& h, int lane, TimePoint expected, TimePoint limit);
   void decide_ahead(int lane, TimePoint now, std::vector<const Dispatch*>& out);
 

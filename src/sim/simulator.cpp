@@ -99,17 +99,17 @@ SimResult Simulator::run() {
   std::vector<std::deque<HeldUnit>> held(nlanes);
   std::vector<TimePoint> lane_end(nlanes, TimePoint{0});
   // docs/DESIGN.md, "Queued lanes": with on-demand synchronization, a lane's handler queues its
-  // next unit behind what it holds `ahead_lead` before that is expected to end (the runtime's
-  // rule).
-  const bool ahead = scheduler_.config().queue_depth > 1 &&
-                     scheduler_.policy().options().sync == SyncMode::OnDemand;
+  // next unit behind what it holds a lead before that is expected to end (the scheduler's rule,
+  // Scheduler::queue_ahead_at; an enqueue costs the simulated host nothing).
+  const bool ahead = scheduler_.queues_ahead();
   std::vector<int> touched;  // lanes whose handler decides its queue this round
   touched.reserve(nlanes);
   auto plan_ahead = [&](int lane) {
     const auto& h = held[static_cast<std::size_t>(lane)];
     if (!ahead || h.empty() || !scheduler_.has_room_ahead(lane)) return;
-    TimePoint at = h.front().start - scheduler_.config().ahead_lead;
-    for (const HeldUnit& u : h) at += u.p50;
+    Duration p50{0};
+    for (const HeldUnit& u : h) p50 += u.p50;
+    const TimePoint at = scheduler_.queue_ahead_at(h.front().start, p50);
     q.push({std::max(at, now), seq++, EvKind::Ahead, lane, h.back().id});
   };
   auto start_unit = [&](Dispatch& d, TimePoint start) {
