@@ -5,6 +5,7 @@
 #include <queue>
 
 #include "red/core/assert.hpp"
+#include "red/profile/profile.hpp"
 
 namespace red {
 

@@ -13,10 +13,11 @@
 #include <vector>
 
 #include "red/core/time.hpp"
-#include "red/profile/profile.hpp"
 #include "red/scenario/scenario.hpp"
 
 namespace red {
+
+struct Profile;
 
 /// How an operation's nodes become schedulable units.
 enum class GraphMode : std::uint8_t { Coarse, Fine, Mono };
