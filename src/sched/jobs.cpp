@@ -104,7 +104,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   // first frame there is nothing to read, so this tick or trigger frame releases no job.
   if (!inputs_ready(*o.g, trigger_sensor)) return;
   if (o.remaining > 0 && --o.remaining == 0) {
-    rates_changed = true;
+    by_rate.on_workload();
     plan_work();
   }
   const std::uint64_t seq = o.released++;
@@ -128,13 +128,10 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     return;
   }
   // docs/DESIGN.md, "Overload": past capacity, the jobs of an operation that cheaper ones outrank
-  // are rejected before they cost anything (plan_rates).
-  const bool reject =
-      opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality && [&] {
-        if (rates_changed) plan_rates();
-        return outranked[static_cast<std::size_t>(op_index)] != 0 && past_capacity() &&
-               evidenced(now) && ahead_shed(op_index, now);
-      }();
+  // are rejected before they cost anything (shedding by rate, shed_by_rate.hpp).
+  const bool reject = opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality &&
+                      by_rate.rejects(op_index, now, ops, s.config_.lanes, idx(opt.drop_estimate),
+                                      [&] { return past_capacity() && evidenced(now); });
   const int slot = alloc_job();
   Job& j = job(slot);
   j.id = next_job_id++;
@@ -224,9 +221,7 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   j.ended = true;
   --s.in_flight_;
   --ops[static_cast<std::size_t>(j.op)].inflight;
-  // A rejection by rate is not a sign of lane time short (ahead_shed).
-  if (outcome == JobOutcome::Dropped && j.reason != DropReason::RejectedByRate)
-    ops[static_cast<std::size_t>(j.op)].last_shed = now;
+  by_rate.on_end(j.op, outcome, j.reason, now);
   if (outcome == JobOutcome::Missed || outcome == JobOutcome::Dropped) last_miss = now;
   const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
                                    [this](int a, int b) { return earlier(a, b); });

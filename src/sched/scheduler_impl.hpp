@@ -20,6 +20,7 @@
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
+#include "shed_by_rate.hpp"
 #include "state.hpp"
 
 namespace red {
@@ -383,19 +384,10 @@ struct Scheduler::Impl {
   // from demand).
   bool past_capacity() const;
 
-  // docs/DESIGN.md, "Overload" "shed early", by rate (the work bound's rule, cheapest jobs first;
-  // opt.shed_by_rate): periodic operations without sensors ordered by the lane time one job needs;
-  // one whose cheaper ones alone ask for every lane at their rates is `outranked`, and while past
-  // capacity, with equal criticalities, and while one of those cheaper operations sheds
-  // jobs itself (ahead_shed), its jobs are rejected at release. Recomputed when rates or
-  // graphs change (rates_changed).
-  void plan_rates();
-  bool rates_changed = true;
-  // True when an operation ahead of `op` in plan_rates' order shed a job within the last
-  // kOfferedWindow (rejected, hopeless or past its deadline; not by this rule).
-  bool ahead_shed(int op, TimePoint now) const;
-  std::vector<std::uint8_t> outranked;               // per operation
-  std::vector<std::pair<Duration, int>> rate_order;  // (a job's cost, operation), cheapest first
+  // docs/DESIGN.md, "Overload" "shed early", by rate (opt.shed_by_rate): its state and rule
+  // (shed_by_rate.hpp), called at a release, a job's end and a workload change.
+  ShedByRate by_rate;
+  static_assert(ShedByRate::kWindow == kOfferedWindow);
 
   // Adds a released job's work to the offered load (docs/DESIGN.md, "Overload" detect overload from
   // demand).

@@ -212,8 +212,6 @@ struct OpState {
   int last_slot = -1;
   JobId last_job = 0;
   std::vector<int> sensors_read;  // sensors of its inference nodes
-  // Its last job shed for want of lane time (docs/DESIGN.md, "Overload"), kNever: none.
-  TimePoint last_shed = kNever;
   // Its last release skipped at max_inflight (docs/DESIGN.md, "max_inflight"), kNever: none.
   TimePoint last_skip = kNever;
 };
