@@ -548,6 +548,21 @@ struct Scheduler::Impl {
     TimePoint until = kNever;
   };
   GuardVerdict guard(std::span<const int> run, int lane, TimePoint now, TimePoint begin);
+  // guard()'s parts (guard.cpp): the dispatch judged, its run's cost, one judgement on an
+  // estimate kind (the jobs in flight, then the releases to come), whether a hold is affordable.
+  struct GuardRun {
+    std::span<const int> run;
+    TimePoint now, begin;
+    int crit;         // the dispatch's criticality: its most critical member's
+    Duration rt;      // a round trip
+    TimePoint other;  // when another lane frees first
+  };
+  bool guard_waits_on_run(int op);
+  Duration guard_run_cost(std::span<const int> run, EstimateKind kind);
+  void guard_check(const GuardRun& g, EstimateKind kind, bool must_afford, GuardVerdict& v);
+  bool guard_affords(const GuardRun& g, Duration own, TimePoint done, Duration w);
+  void guard_releases(const GuardRun& g, std::size_t k, int margin, Duration own, bool must_afford,
+                      TimePoint end, TimePoint blocked_until, GuardVerdict& v);
   // The guard on a batch (guard.cpp): whether task `joining` may join the tasks `members` of
   // the batch being formed, its run then costing `with` instead of `without` from `begin`: a
   // member more critical than it that makes its deadline without the join must still make it,
