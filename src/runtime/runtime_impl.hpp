@@ -249,6 +249,10 @@ struct Runtime::Impl {
   TimePoint queue_ahead_at(const std::deque<Held>& held, Duration enqueue_cost) const;
   bool await_unit(Handler& h, int lane, TimePoint expected, TimePoint limit);
   void decide_ahead(int lane, TimePoint now, std::vector<const Dispatch*>& out);
+  void fill_ahead(int lane, Handler& h, std::deque<Held>& held, std::vector<const Dispatch*>& taken,
+                  TimePoint prev_end, Duration& enqueue_cost);
+  UnitDone await_oldest(int lane, Handler& h, Held& u, TimePoint watched, TimePoint limit,
+                        bool& abandoned);
 
   // ---- intake.cpp: frames in.
   void arrive(int sensor, std::uint64_t frame, TimePoint captured);
