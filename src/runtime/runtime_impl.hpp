@@ -206,6 +206,8 @@ struct Runtime::Impl {
 
   // ---- runtime.cpp: the run, the global synchronizer's round, its inbox.
   RuntimeReport run();
+  std::thread start_camera();
+  void finish_run();
   void post(InEvent e);
   std::uint64_t take_inbox(bool global);
   std::uint64_t round(TimePoint now);
