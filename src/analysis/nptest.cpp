@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <set>
 #include <tuple>
 #include <vector>
@@ -94,11 +95,12 @@ Duration part_cost(const UnitCosts& c, const UnitPart& part) {
   return Duration{0};
 }
 
-}  // namespace
+// export_nptest's steps.
 
-Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const PolicyOptions& o,
-                                     std::optional<Duration> window) {
-  NptestExport x;
+// The window the export covers (x.window, x.hyperperiod, x.note): `window` when given, else one
+// hyperperiod after the latest phase where the workload is periodic, else the scenario's.
+std::optional<Error> choose_window(const Scenario& s, std::optional<Duration> window,
+                                   NptestExport& x) {
   if (window) {
     if (*window <= Duration{0}) return Error{"", 0, "--nptest-window-ms: must be > 0"};
     x.window = *window;
@@ -122,12 +124,18 @@ Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const 
                    : "the scenario's duration (its events make the workload aperiodic)";
     }
   }
+  return std::nullopt;
+}
+
+// Every release in the window, by time (ties: operation order): camera frames at their nominal
+// times, each late by at most its jitter (below one period), own-rate ticks, one-shot releases.
+std::vector<Release> list_releases(const Scenario& s, TimePoint window) {
   const Timeline tl{s};
   std::vector<Release> rel;
   // Camera frames: nominal times, each late by at most its jitter (below one period).
   for (std::size_t sn = 0; sn < s.sensors.size(); ++sn) {
     TimePoint t = s.sensors[sn].phase;
-    for (std::int64_t k = 0; t < x.window; ++k) {
+    for (std::int64_t k = 0; t < window; ++k) {
       const Duration period = period_of(tl.rate_at(sn, t));
       const Duration jit = std::min(s.sensors[sn].jitter, period - Duration{1});
       for (std::size_t i = 0; i < s.initial.size(); ++i) {
@@ -143,13 +151,13 @@ Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const 
   for (std::size_t i = 0; i < s.initial.size(); ++i) {
     auto first = tl.op_at(i, Duration{0});
     if (first && first->trigger_sensor < 0 && first->rate_hz <= 0 && first->release_count) {
-      for (int k = 0; k < *first->release_count && first->phase < x.window; ++k)
+      for (int k = 0; k < *first->release_count && first->phase < window; ++k)
         rel.push_back({i, first->phase, first->phase, -1, first});
       continue;
     }
     TimePoint t = first ? first->phase : Duration{0};
     std::int64_t count = 0;
-    while (t < x.window && rel.size() <= kNptestMaxJobs) {
+    while (t < window && rel.size() <= kNptestMaxJobs) {
       auto spec = tl.op_at(i, t);
       if (!spec || spec->trigger_sensor >= 0 || spec->rate_hz <= 0) {
         t += std::chrono::milliseconds{1};  // absent or not own-rate now: look again later
@@ -164,7 +172,16 @@ Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const 
   std::stable_sort(rel.begin(), rel.end(), [](const Release& a, const Release& b) {
     return std::tie(a.at, a.op) < std::tie(b.at, b.op);
   });
+  return rel;
+}
 
+}  // namespace
+
+Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const PolicyOptions& o,
+                                     std::optional<Duration> window) {
+  NptestExport x;
+  if (auto e = choose_window(s, window, x)) return *e;
+  const std::vector<Release> rel = list_releases(s, x.window);
   const UnitCosts lo(s, p, CostPoint::Min), hi(s, p, CostPoint::Max);
   const CostModel est{&p, &s.model, s.scheduler.estimate};
   const RefineOptions ropt{o.graph, o.deadlines, s.scheduler.level_cost};
@@ -200,10 +217,9 @@ Expected<NptestExport> export_nptest(const Scenario& s, const Profile& p, const 
     std::vector<std::size_t> row_of(g->units.size());
     for (std::size_t u = 0; u < g->units.size(); ++u) {
       const RefinedUnit& ru = g->units[u];
-      const TimePoint prio = o.deadlines == DeadlineMode::None ? re.at
-                             : o.deadlines == DeadlineMode::EndToEnd
-                                 ? deadline
-                                 : re.at + g->static_offset[static_cast<std::size_t>(ru.height)];
+      const TimePoint prio = height_deadline(o.deadlines, re.at, deadline, [&] {
+        return re.at + g->static_offset[static_cast<std::size_t>(ru.height)];
+      });
       Duration cmin{0}, cmax{0};
       std::string key, node;
       const char* kind = to_string(ru.kind);

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <functional>
-#include <numeric>
 #include <queue>
 
 #include "red/core/assert.hpp"
+#include "red/profile/profile.hpp"
 
 namespace red {
 
@@ -190,37 +190,23 @@ std::vector<Duration> split_budget(Duration budget, const std::vector<Duration>&
                                    DeadlineMode mode) {
   std::vector<Duration> offset(weights.size(), Duration{0});
   if (weights.empty()) return offset;
-  const std::int64_t total =
-      std::accumulate(weights.begin(), weights.end(), std::int64_t{0},
-                      [](std::int64_t a, Duration d) { return a + d.count(); });
-  const bool equal = mode == DeadlineMode::Equal || total <= 0;
   // Cumulative shares in 128-bit arithmetic so the last offset is exactly the budget.
-  std::int64_t cum = 0;
-  for (std::size_t h = 0; h < weights.size(); ++h) {
-    cum += equal ? 1 : weights[h].count();
-    const std::int64_t denom = equal ? static_cast<std::int64_t>(weights.size()) : total;
-    offset[h] = Duration{mul_div(budget.count(), cum, denom)};
-  }
+  for_each_share(
+      mode, weights.size(), [&](std::size_t h) { return weights[h]; },
+      [](std::size_t) { return true; },
+      [&](std::size_t h, bool, std::int64_t cum, std::int64_t denom) {
+        offset[h] = Duration{mul_div(budget.count(), cum, denom)};
+      });
   return offset;
 }
 
-std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> op_ptr,
-                                           int operation, const CostModel& costs,
-                                           const RefineOptions& opt) {
-  RED_ASSERT(op_ptr != nullptr);
-  const OperationSpec& op = *op_ptr;
-  auto g = std::make_shared<RefinedGraph>();
-  g->mode = opt.mode;
-  g->spec = op_ptr;
-  g->operation = operation;
-  g->deadline = opt.deadline > Duration{0} ? opt.deadline : resolve_deadline(op, costs);
-  const std::vector<int> order = topo_nodes(op);
+namespace {
 
-  for (const NodeSpec& n : op.nodes)
-    if (!n.is_plain() &&
-        std::find(g->sensors.begin(), g->sensors.end(), n.sensor) == g->sensors.end())
-      g->sensors.push_back(n.sensor);
+// refine()'s steps, in order, on the graph being built.
 
+// The units of operation `op` (nodes in topological order `order`) and their edges.
+void build_units(RefinedGraph* g, const OperationSpec& op, const std::vector<int>& order,
+                 const RefineOptions& opt) {
   auto add_edge = [&](int from, int to) {
     g->units[static_cast<std::size_t>(from)].succs.push_back(to);
     g->units[static_cast<std::size_t>(to)].preds.push_back(from);
@@ -273,7 +259,10 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
       add_edge(out_unit[static_cast<std::size_t>(e.from)],
                out_unit[static_cast<std::size_t>(e.to)]);
   }
+}
 
+// Every unit's costs (refine()'s estimate kinds) and its least mean cost.
+void price_units(RefinedGraph* g, const CostModel& costs) {
   // Every unit's cost under every estimate kind, priced part by part (for_each_part), for the
   // checks that judge by another kind (docs/DESIGN.md, "Overload").
   for (int k = 0; k < 4; ++k) {
@@ -313,7 +302,10 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
       }
     });
   }
+}
 
+// Heights, sources and the critical path; then each unit's tails.
+void heights_and_tails(RefinedGraph* g) {
   // Heights and critical path; units are in topological order by construction.
   std::vector<Duration> finish(g->units.size(), Duration{0});
   for (std::size_t i = 0; i < g->units.size(); ++i) {
@@ -349,7 +341,10 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
       after = std::max(after, g->units[static_cast<std::size_t>(sx)].least_tail);
     u.least_tail = u.least + after;
   }
+}
 
+// Level costs, per-node override budgets and the deadline split's static offsets.
+void static_deadlines(RefinedGraph* g, const OperationSpec& op, const RefineOptions& opt) {
   g->level_cost.assign(static_cast<std::size_t>(g->levels), Duration{0});
   g->override_budget.assign(static_cast<std::size_t>(g->levels), Duration{0});
   for (const RefinedUnit& u : g->units) {
@@ -364,20 +359,40 @@ std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> 
     }
   }
 
-  switch (opt.deadlines) {
-    case DeadlineMode::None:
-    case DeadlineMode::EndToEnd:
-      g->static_offset.assign(static_cast<std::size_t>(g->levels), g->deadline);
-      break;
-    case DeadlineMode::Proportional:
-    case DeadlineMode::Equal: {
-      std::vector<Duration> w = g->level_cost;
-      for (std::size_t h = 0; h < w.size(); ++h)
-        if (g->override_budget[h] > Duration{0}) w[h] = g->override_budget[h];
-      g->static_offset = split_budget(g->deadline, w, opt.deadlines);
-      break;
-    }
+  // The deadline split's static offsets (height_deadline reads them where the mode splits the
+  // budget; otherwise every offset is the end-to-end deadline).
+  if (splits_budget(opt.deadlines)) {
+    std::vector<Duration> w = g->level_cost;
+    for (std::size_t h = 0; h < w.size(); ++h) w[h] = split_weight(*g, h, w[h]);
+    g->static_offset = split_budget(g->deadline, w, opt.deadlines);
+  } else {
+    g->static_offset.assign(static_cast<std::size_t>(g->levels), g->deadline);
   }
+}
+
+}  // namespace
+
+std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> op_ptr,
+                                           int operation, const CostModel& costs,
+                                           const RefineOptions& opt) {
+  RED_ASSERT(op_ptr != nullptr);
+  const OperationSpec& op = *op_ptr;
+  auto g = std::make_shared<RefinedGraph>();
+  g->mode = opt.mode;
+  g->spec = op_ptr;
+  g->operation = operation;
+  g->deadline = opt.deadline > Duration{0} ? opt.deadline : resolve_deadline(op, costs);
+  const std::vector<int> order = topo_nodes(op);
+
+  for (const NodeSpec& n : op.nodes)
+    if (!n.is_plain() &&
+        std::find(g->sensors.begin(), g->sensors.end(), n.sensor) == g->sensors.end())
+      g->sensors.push_back(n.sensor);
+
+  build_units(g.get(), op, order, opt);
+  price_units(g.get(), costs);
+  heights_and_tails(g.get());
+  static_deadlines(g.get(), op, opt);
   return g;
 }
 

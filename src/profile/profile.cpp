@@ -20,7 +20,6 @@
 
 #include "red/core/assert.hpp"
 #include "red/core/rng.hpp"
-#include "red/scenario/manifest.hpp"
 
 namespace red {
 

@@ -60,12 +60,14 @@ void Runtime::Impl::enqueue_unit(int lane, std::deque<Held>& held, const Dispatc
   enqueue_cost = (enqueue_cost * 7 + (clock.now() - u.enqueued)) / 8;
 }
 
-// When the units `held` are expected to end: the oldest's start plus their profiled p50.
-TimePoint Runtime::Impl::expected_end(const std::deque<Held>& held) const {
-  TimePoint t = held.front().began;
+// When the lane's handler decides the units its queue has room for (the scheduler's
+// queue-ahead rule): a lead before the units `held` are expected to end, the oldest's start plus
+// their profiled p50, the lead at least twice what an enqueue costs the host.
+TimePoint Runtime::Impl::queue_ahead_at(const std::deque<Held>& held, Duration enqueue_cost) const {
+  Duration p50{0};
   for (const Held& u : held)
-    t += profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
-  return t;
+    p50 += profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
+  return sched.queue_ahead_at(held.front().began, p50, enqueue_cost);
 }
 
 // Polls the backend until the lane's oldest unit has ended (Backend::ready()), spin-then-park
@@ -124,6 +126,59 @@ void Runtime::Impl::decide_ahead(int lane, TimePoint now, std::vector<const Disp
   }
 }
 
+// On-demand, with room in the lane's queue: waits until the lead before what the lane holds
+// is expected to end, then decides the units its queue has room for and enqueues them.
+void Runtime::Impl::fill_ahead(int lane, Handler& h, std::deque<Held>& held,
+                               std::vector<const Dispatch*>& taken, TimePoint prev_end,
+                               Duration& enqueue_cost) {
+  // The lane's queue is filled when what it holds is about to end (the lead), not at
+  // once: a release meanwhile is seen before the next unit is chosen.
+  const TimePoint at = queue_ahead_at(held, enqueue_cost);
+  // Parked until a spin before it, then spinning (a wake-up can take longer).
+  auto stop = [&] { return stopping.load(std::memory_order_acquire); };
+  if (at - options.spin > clock.now())
+    spin_then_park(h.mu, h.cv, clock, Duration{0}, at - options.spin, stop);
+  while (clock.now() < at && !stop()) std::this_thread::yield();
+  lock_spinning(sched_mu, clock, options.spin);
+  std::unique_lock lock(sched_mu, std::adopt_lock);
+  decide_ahead(lane, advance_now(clock.now()), taken);
+  const bool wake = must_wake_global();
+  lock.unlock();
+  if (wake) wake_global();
+  for (const Dispatch* d : taken) enqueue_unit(lane, held, *d, prev_end, enqueue_cost);
+  taken.clear();
+}
+
+// The oldest unit the lane holds, `u`, watched from `watched` until `limit`: its result, or a
+// failure (`abandoned` when the run stopped with the device still on it).
+UnitDone Runtime::Impl::await_oldest(int lane, Handler& h, Held& u, TimePoint watched,
+                                     TimePoint limit, bool& abandoned) {
+  UnitDone done;
+  if (u.enqueue_failed) {
+    done.status = u.status;
+    done.reason = std::move(u.reason);
+    done.device_lost = u.device_lost;
+  } else {
+    const TimePoint began = u.began == kNever ? watched : u.began;
+    const TimePoint expected =
+        began + profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
+    try {
+      if (await_unit(h, lane, expected, limit)) {
+        done = backend.wait(lane);
+      } else {
+        backend.abandon(lane);
+        abandoned = true;
+        done.status = UnitStatus::Failed;
+        done.reason = "abandoned: the device had not finished it when the run ended";
+      }
+    } catch (const std::exception& e) {  // the contract says report, not throw: still
+      done.status = UnitStatus::Failed;
+      done.reason = e.what();
+    }
+  }
+  return done;
+}
+
 // The handler of an asynchronous lane (Backend::asynchronous()): the same state machine
 // as handler_main, over the units the lane holds. It enqueues what it is given and, under
 // on-demand synchronization, decides at each unit boundary (an enqueue, a completion) the
@@ -157,25 +212,8 @@ void Runtime::Impl::async_handler_main(int lane) {
     for (const Dispatch* d : taken) enqueue_unit(lane, held, *d, prev_end, enqueue_cost);
     taken.clear();
     if (held.empty()) continue;
-    if (sync == SyncMode::OnDemand && !stopping.load() && held.size() < depth) {
-      // The lane's queue is filled when what it holds is about to end (the lead), not at
-      // once: a release meanwhile is seen before the next unit is chosen.
-      const Duration lead = std::max(sched.config().ahead_lead, enqueue_cost * 2);
-      const TimePoint at = expected_end(held) - lead;
-      // Parked until a spin before it, then spinning (a wake-up can take longer).
-      auto stop = [&] { return stopping.load(std::memory_order_acquire); };
-      if (at - options.spin > clock.now())
-        spin_then_park(h.mu, h.cv, clock, Duration{0}, at - options.spin, stop);
-      while (clock.now() < at && !stop()) std::this_thread::yield();
-      lock_spinning(sched_mu, clock, options.spin);
-      std::unique_lock lock(sched_mu, std::adopt_lock);
-      decide_ahead(lane, advance_now(clock.now()), taken);
-      const bool wake = must_wake_global();
-      lock.unlock();
-      if (wake) wake_global();
-      for (const Dispatch* d : taken) enqueue_unit(lane, held, *d, prev_end, enqueue_cost);
-      taken.clear();
-    }
+    if (sync == SyncMode::OnDemand && !stopping.load() && held.size() < depth)
+      fill_ahead(lane, h, held, taken, prev_end, enqueue_cost);
     // Wait for the oldest, watched from now (the units before it have ended).
     Held& u = held.front();
     h.state.store(HandlerState::Running, std::memory_order_release);
@@ -186,30 +224,8 @@ void Runtime::Impl::async_handler_main(int lane) {
       h.watch.store(kWatchRunning);
       if (limit.count() < global_wake_at.load()) wake_global();
     }
-    UnitDone done;
     bool abandoned = false;
-    if (u.enqueue_failed) {
-      done.status = u.status;
-      done.reason = std::move(u.reason);
-      done.device_lost = u.device_lost;
-    } else {
-      const TimePoint began = u.began == kNever ? watched : u.began;
-      const TimePoint expected =
-          began + profiled_cost(u.d, encoder_profile, head_profiles, &LatencyStats::p50);
-      try {
-        if (await_unit(h, lane, expected, limit)) {
-          done = backend.wait(lane);
-        } else {
-          backend.abandon(lane);
-          abandoned = true;
-          done.status = UnitStatus::Failed;
-          done.reason = "abandoned: the device had not finished it when the run ended";
-        }
-      } catch (const std::exception& e) {  // the contract says report, not throw: still
-        done.status = UnitStatus::Failed;
-        done.reason = e.what();
-      }
-    }
+    UnitDone done = await_oldest(lane, h, u, watched, limit, abandoned);
     if (done.device_lost) done.reason = device_lost(lane, std::move(done.reason));
     if (abandoned) {
       std::lock_guard rl(report_mu);

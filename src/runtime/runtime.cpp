@@ -166,6 +166,58 @@ const Dispatch* Runtime::Impl::decide(TimePoint now, int own_lane,
   return own;
 }
 
+// Frames in: the synthetic cameras' thread (at the synchronizer's priority where real-time
+// scheduling applies), or, with external frames, push_frame() accepting them.
+std::thread Runtime::Impl::start_camera() {
+  std::thread camera;
+  camera_next.assign(scenario.sensors.size(), kNever);
+  if (options.external_frames) {
+    accepting.store(true, std::memory_order_release);
+  } else {
+    camera = std::thread([this] { camera_main(); });
+    if (realtime_on.load(std::memory_order_acquire)) {
+      // The camera releases frames itself when the scheduler's lock is free (arrive()):
+      // at the synchronizer's priority, so neither ordinary threads nor a unit's compute
+      // threads hold a frame back or preempt it holding the lock.
+      sched_param sp{};
+      sp.sched_priority = control_priority();
+      const int err = pthread_setschedparam(camera.native_handle(), SCHED_FIFO, &sp);
+      report.realtime.push_back(err == 0 ? "camera thread: SCHED_FIFO"
+                                         : "camera thread: SCHED_FIFO not applied (" +
+                                               std::string(std::strerror(err)) + ")");
+    }
+  }
+  return camera;
+}
+
+// After the loop and every thread: what the scheduler still has to hear, its finish, and the
+// report's figures from it.
+void Runtime::Impl::finish_run() {
+  std::lock_guard lock(sched_mu);
+  // Units that returned after the loop ended (or while the loop broke off at the hard
+  // stop, still in `round_events`) still completed: report them, so that only a unit cut by
+  // the end of the run is reported unfinished.
+  {
+    std::lock_guard il(inbox_mu);
+    for (std::vector<InEvent>* events : {&round_events, &inbox})
+      for (InEvent& e : *events)
+        if (e.kind == InEvent::Complete && sched.running(e.index) != nullptr)
+          sched.on_complete(e.index, advance_now(e.t), e.status, e.reason, e.started);
+    round_events.clear();
+    inbox.clear();
+  }
+  const TimePoint end = advance_now(clock.now());
+  sched.finish(end);
+  report.end = end;
+  report.stats = sched.stats();
+  if (const OnlineCosts* oc = sched.online_costs()) {
+    report.online_costs = oc->options().follow;
+    report.costs = oc->figures();
+    report.plan_changes = oc->changes();
+  }
+  count_offered();
+}
+
 RuntimeReport Runtime::Impl::run() {
   report.resident_bytes_before = resident_bytes();
   for (int l = 0; l < scenario.device.lanes; ++l) handlers.push_back(std::make_unique<Handler>());
@@ -190,24 +242,7 @@ RuntimeReport Runtime::Impl::run() {
                               scheduling_of(load));
   }
   clock.reset();
-  std::thread camera;
-  camera_next.assign(scenario.sensors.size(), kNever);
-  if (options.external_frames) {
-    accepting.store(true, std::memory_order_release);
-  } else {
-    camera = std::thread([this] { camera_main(); });
-    if (realtime_on.load(std::memory_order_acquire)) {
-      // The camera releases frames itself when the scheduler's lock is free (arrive()):
-      // at the synchronizer's priority, so neither ordinary threads nor a unit's compute
-      // threads hold a frame back or preempt it holding the lock.
-      sched_param sp{};
-      sp.sched_priority = control_priority();
-      const int err = pthread_setschedparam(camera.native_handle(), SCHED_FIFO, &sp);
-      report.realtime.push_back(err == 0 ? "camera thread: SCHED_FIFO"
-                                         : "camera thread: SCHED_FIFO not applied (" +
-                                               std::string(std::strerror(err)) + ")");
-    }
-  }
+  std::thread camera = start_camera();
   std::thread sampler;
   if (options.sample_period > Duration{0}) {
     sampler = std::thread([this] { sampler_main(); });
@@ -278,31 +313,7 @@ RuntimeReport Runtime::Impl::run() {
     sampler.join();
     take_sample();  // the end of the run
   }
-  {
-    std::lock_guard lock(sched_mu);
-    // Units that returned after the loop ended (or while the loop broke off at the hard
-    // stop, still in `round_events`) still completed: report them, so that only a unit cut by
-    // the end of the run is reported unfinished.
-    {
-      std::lock_guard il(inbox_mu);
-      for (std::vector<InEvent>* events : {&round_events, &inbox})
-        for (InEvent& e : *events)
-          if (e.kind == InEvent::Complete && sched.running(e.index) != nullptr)
-            sched.on_complete(e.index, advance_now(e.t), e.status, e.reason, e.started);
-      round_events.clear();
-      inbox.clear();
-    }
-    const TimePoint end = advance_now(clock.now());
-    sched.finish(end);
-    report.end = end;
-    report.stats = sched.stats();
-    if (const OnlineCosts* oc = sched.online_costs()) {
-      report.online_costs = oc->options().follow;
-      report.costs = oc->figures();
-      report.plan_changes = oc->changes();
-    }
-    count_offered();
-  }
+  finish_run();
   if (options.realtime) munlockall();
   // decision_us_since() may read the report from another thread until now.
   std::lock_guard lock(report_mu);

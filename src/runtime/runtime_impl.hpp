@@ -206,6 +206,8 @@ struct Runtime::Impl {
 
   // ---- runtime.cpp: the run, the global synchronizer's round, its inbox.
   RuntimeReport run();
+  std::thread start_camera();
+  void finish_run();
   void post(InEvent e);
   std::uint64_t take_inbox(bool global);
   std::uint64_t round(TimePoint now);
@@ -246,9 +248,13 @@ struct Runtime::Impl {
   void async_handler_main(int lane);
   void enqueue_unit(int lane, std::deque<Held>& held, const Dispatch& d, TimePoint prev_end,
                     Duration& enqueue_cost);
-  TimePoint expected_end(const std::deque<Held>& held) const;
+  TimePoint queue_ahead_at(const std::deque<Held>& held, Duration enqueue_cost) const;
   bool await_unit(Handler& h, int lane, TimePoint expected, TimePoint limit);
   void decide_ahead(int lane, TimePoint now, std::vector<const Dispatch*>& out);
+  void fill_ahead(int lane, Handler& h, std::deque<Held>& held, std::vector<const Dispatch*>& taken,
+                  TimePoint prev_end, Duration& enqueue_cost);
+  UnitDone await_oldest(int lane, Handler& h, Held& u, TimePoint watched, TimePoint limit,
+                        bool& abandoned);
 
   // ---- intake.cpp: frames in.
   void arrive(int sensor, std::uint64_t frame, TimePoint captured);

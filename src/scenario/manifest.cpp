@@ -192,12 +192,6 @@ Expected<ModelManifest> parse_manifest(const std::string& yaml_text, const std::
   return Parser(path).parse(&yaml_text);
 }
 
-std::string shape_label(const std::vector<std::int64_t>& input) {
-  std::string s = "[";
-  for (std::size_t i = 0; i < input.size(); ++i) s += (i > 0 ? "," : "") + std::to_string(input[i]);
-  return s + "]";
-}
-
 std::optional<Error> check_model(Scenario& s, std::optional<ModelManifest>* manifest) {
   if (manifest != nullptr) manifest->reset();
   if (s.model.manifest.empty()) return std::nullopt;

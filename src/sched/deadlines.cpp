@@ -68,25 +68,15 @@ void Scheduler::Impl::shares(const Job& j, const std::vector<Duration>& lvl,
   const RefinedGraph& g = *j.g;
   const std::size_t levels = lvl.size();
   frac.resize(levels);
-  std::int64_t total = 0;
-  std::int64_t n = 0;
-  for (std::size_t h = 0; h < levels; ++h) {
-    if (has[h] == 0) continue;
-    ++n;
-    total += (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
-  }
-  const bool equal = opt.deadlines == DeadlineMode::Equal || total <= 0;
-  const std::int64_t denom = equal ? n : total;
-  std::int64_t cum = 0;
   double last = 0.0;  // before the first height with work: now
-  for (std::size_t h = 0; h < levels; ++h) {
-    if (has[h] != 0) {
-      cum +=
-          equal ? 1 : (g.override_budget[h] > Duration{0} ? g.override_budget[h] : lvl[h]).count();
-      last = cum == denom ? 1.0 : static_cast<double>(cum) / static_cast<double>(denom);
-    }
-    frac[h] = last;
-  }
+  for_each_share(
+      opt.deadlines, levels, [&](std::size_t h) { return split_weight(g, h, lvl[h]); },
+      [&](std::size_t h) { return has[h] != 0; },
+      [&](std::size_t h, bool counts, std::int64_t cum, std::int64_t denom) {
+        if (counts)
+          last = cum == denom ? 1.0 : static_cast<double>(cum) / static_cast<double>(denom);
+        frac[h] = last;
+      });
 }
 
 void Scheduler::Impl::eval_now(Job& j, TimePoint now) {

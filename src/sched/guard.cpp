@@ -34,134 +34,145 @@ TimePoint Scheduler::Impl::lane_free_at(const Lane& l, TimePoint now) const {
   return t;
 }
 
+// Whether a more critical operation waits on the dispatch's jobs (depends_on, directly or down
+// a chain): work it waits on is not held back for it, as holding it would hold that operation.
+bool Scheduler::Impl::guard_waits_on_run(int op) {
+  for (int d = ops[static_cast<std::size_t>(op)].depends_on, hops = 0;
+       d >= 0 && hops < static_cast<int>(ops.size());
+       d = ops[static_cast<std::size_t>(d)].depends_on, ++hops)
+    for (int slot : guard_slots)
+      if (job(slot).op == d) return true;
+  return false;
+}
+
 Scheduler::Impl::GuardVerdict Scheduler::Impl::guard(std::span<const int> run, int lane,
                                                      TimePoint now, TimePoint begin) {
   GuardVerdict v;
   // The dispatch's criticality is its most critical member's: only more critical work is
   // protected from it, and not its own members.
-  int crit = std::numeric_limits<int>::min();
+  GuardRun g{run, now, begin, std::numeric_limits<int>::min(), round_trip_cost(true), kNever};
   guard_slots.clear();
   guard_units.clear();
   for (int t : run)
     for (const auto& [slot, unit] : task(t).members) {
-      crit = std::max(crit, ops[static_cast<std::size_t>(job(slot).op)].criticality);
+      g.crit = std::max(g.crit, ops[static_cast<std::size_t>(job(slot).op)].criticality);
       guard_slots.push_back(slot);
       guard_units.push_back(unit);
     }
-  if (crit >= top_criticality) return v;
-  const Duration rt = round_trip_cost(true);
+  if (g.crit >= top_criticality) return v;
   // Where another lane frees first, more critical work can go there instead.
-  TimePoint other = kNever;
   for (std::size_t i = 0; i < lanes.size(); ++i)
-    if (static_cast<int>(i) != lane) other = std::min(other, lane_free_at(lanes[i], now));
-  // Work that a more critical operation waits on (depends_on, directly or down a chain) is not
-  // held back for it: holding it would hold that operation too.
-  auto waits_on_run = [&](int op) {
-    for (int d = ops[static_cast<std::size_t>(op)].depends_on, hops = 0;
-         d >= 0 && hops < static_cast<int>(ops.size());
-         d = ops[static_cast<std::size_t>(d)].depends_on, ++hops)
-      for (int slot : guard_slots)
-        if (job(slot).op == d) return true;
-    return false;
-  };
-
+    if (static_cast<int>(i) != lane) g.other = std::min(g.other, lane_free_at(lanes[i], now));
   // Judged twice. On mean costs, where the blocking is what typically happens, the dispatch is
   // held whatever the hold costs its own jobs. On the plan's estimate (SchedulerConfig::estimate,
   // p99 by default), which foresees more blocking than happens, it is held only where the hold
   // costs none of its jobs a deadline it would meet by running now.
-  auto check = [&](EstimateKind kind, bool must_afford) {
-    const auto k = static_cast<std::size_t>(kind);
-    // On the plan's estimate, with a margin: on a busy machine units overran even their p99
-    // by a few percent, and a critical job that by estimate kept 1.6 ms of its 50 missed.
-    const int margin = must_afford ? kMargin : 0;
-    const Task& first = task(run.front());
-    Duration cost{0};
-    if (run.size() == 1) {
-      const auto [slot, unit] = first.members.front();
-      cost = job(slot).g->units[static_cast<std::size_t>(unit)].costs[k];
-    } else {
-      const UnitProfile* p = first.kind == UnitKind::Encoder
-                                 ? enc_prof
-                                 : head_prof[static_cast<std::size_t>(first.head)];
-      cost = p != nullptr ? p->at(static_cast<int>(run.size())).estimate(kind)
-                          : first.cost * static_cast<std::int64_t>(run.size());
-    }
-    const Duration own = cost;  // the held jobs are judged on the estimate itself
-    cost = padded(cost, margin);
-    const TimePoint end = begin + cost;
-    const TimePoint blocked_until = std::min(end, other);
-    // Whether the dispatch can wait until more critical work (of path `w`) is done at `done`:
-    // none of its jobs that would make its deadline by running now misses it by running then.
-    // Run now, a job of the dispatch still has the more critical work go ahead of its later
-    // units; held, it runs after that work: the hold costs it the lane's idle time.
-    auto affords = [&](TimePoint done, Duration w) {
-      if (!must_afford) return true;
-      for (std::size_t i = 0; i < guard_slots.size(); ++i) {
-        Job& m = job(guard_slots[i]);
-        const Duration after = path_after(m, guard_units[i]);
-        if (begin + own + w + after <= m.deadline && done + rt + own + after > m.deadline)
-          return false;
-      }
-      return true;
-    };
-
-    // More critical jobs in flight with work ready for a lane: each needs its remaining work (its
-    // critical path) from when a lane frees. A job whose units all run, or wait on units that run,
-    // goes on on their lane (docs/DESIGN.md, "Synchronization": the run continues).
-    for (int slot : by_deadline) {
-      Job& j = job(slot);
-      if (!j.live || j.ended || ops[static_cast<std::size_t>(j.op)].criticality <= crit) continue;
-      if (std::find(guard_slots.begin(), guard_slots.end(), slot) != guard_slots.end()) continue;
-      if (waits_on_run(j.op)) continue;
-      bool waiting = false;
-      for (std::size_t u = 0; !waiting && u < j.u.size(); ++u)
-        waiting = j.u[u].state == UState::Queued;
-      if (!waiting) continue;
-      const Duration w = padded(critical_path(j, now, k), margin);
-      if (now + rt + w <= j.deadline && blocked_until + rt + w > j.deadline) {
-        v.blocks = true;
-        return;  // yield this pick: the job's work is ready, it goes next or on its lane
-      }
-    }
-
-    // The next release of each more critical operation before the dispatch would end: its job
-    // needs its whole critical path within its deadline.
-    for (std::size_t i = 0; i < ops.size(); ++i) {
-      const OpState& o = ops[i];
-      if (o.g == nullptr || o.remaining == 0 || o.criticality <= crit) continue;
-      if (waits_on_run(static_cast<int>(i))) continue;
-      if (o.inflight >= o.max_inflight) continue;  // its next release is skipped
-      TimePoint r = kNever;
-      Duration period{0};
-      Duration allowance{0};
-      if (o.own_rate) {
-        r = o.next_tick;  // the scheduler's own clock: on time
-        period = period_of(o.rate_hz);
-      } else if (o.trigger >= 0) {
-        const SensorState& sn = sensors[static_cast<std::size_t>(o.trigger)];
-        if (!sn.has_frame || sn.rate_hz <= 0) continue;
-        period = period_of(sn.rate_hz);
-        allowance = late_allowance(period);
-        // A sensor silent for two periods has stopped, or is not periodic: predict nothing.
-        if (now - sn.time > 2 * period + allowance) continue;
-        r = sn.time + period;
-        while (r + allowance < now) r += period;
-      }
-      if (r == kNever || period <= Duration{0} || r >= end) continue;
-      Duration w{0};
-      for (int src : o.g->sources)
-        w = std::max(w, o.g->units[static_cast<std::size_t>(src)].tail[k]);
-      w = padded(w, margin);
-      if (rt + w > o.g->deadline) continue;  // it cannot make it even on a free lane
-      const TimePoint start = std::max(r, blocked_until);
-      if (start + rt + w <= r + o.g->deadline || !affords(std::max(r, now) + rt + w, w)) continue;
-      v.blocks = true;
-      v.until = std::min(v.until, r > now ? r : r + allowance);
-    }
-  };
-  check(EstimateKind::Mean, false);
-  if (!v.blocks && s.config_.estimate != EstimateKind::Mean) check(s.config_.estimate, true);
+  guard_check(g, EstimateKind::Mean, false, v);
+  if (!v.blocks && s.config_.estimate != EstimateKind::Mean)
+    guard_check(g, s.config_.estimate, true, v);
   return v;
+}
+
+// The dispatch's run on estimate `kind`: a unit's cost, or a batch's from the profile.
+Duration Scheduler::Impl::guard_run_cost(std::span<const int> run, EstimateKind kind) {
+  const auto k = static_cast<std::size_t>(kind);
+  const Task& first = task(run.front());
+  if (run.size() == 1) {
+    const auto [slot, unit] = first.members.front();
+    return job(slot).g->units[static_cast<std::size_t>(unit)].costs[k];
+  }
+  const UnitProfile* p =
+      first.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(first.head)];
+  return p != nullptr ? p->at(static_cast<int>(run.size())).estimate(kind)
+                      : first.cost * static_cast<std::int64_t>(run.size());
+}
+
+// One judgement of guard(), on estimate `kind`; with `must_afford`, the hold must cost none of
+// the dispatch's jobs a deadline.
+void Scheduler::Impl::guard_check(const GuardRun& g, EstimateKind kind, bool must_afford,
+                                  GuardVerdict& v) {
+  const auto k = static_cast<std::size_t>(kind);
+  // On the plan's estimate, with a margin: on a busy machine units overran even their p99
+  // by a few percent, and a critical job that by estimate kept 1.6 ms of its 50 missed.
+  const int margin = must_afford ? kMargin : 0;
+  const Duration own = guard_run_cost(g.run, kind);  // the held jobs: on the estimate itself
+  const TimePoint end = g.begin + padded(own, margin);
+  const TimePoint blocked_until = std::min(end, g.other);
+
+  // More critical jobs in flight with work ready for a lane: each needs its remaining work (its
+  // critical path) from when a lane frees. A job whose units all run, or wait on units that run,
+  // goes on on their lane (docs/DESIGN.md, "Synchronization": the run continues).
+  for (int slot : by_deadline) {
+    Job& j = job(slot);
+    if (!j.live || j.ended || ops[static_cast<std::size_t>(j.op)].criticality <= g.crit) continue;
+    if (std::find(guard_slots.begin(), guard_slots.end(), slot) != guard_slots.end()) continue;
+    if (guard_waits_on_run(j.op)) continue;
+    bool waiting = false;
+    for (std::size_t u = 0; !waiting && u < j.u.size(); ++u)
+      waiting = j.u[u].state == UState::Queued;
+    if (!waiting) continue;
+    const Duration w = padded(critical_path(j, g.now, k), margin);
+    if (g.now + g.rt + w <= j.deadline && blocked_until + g.rt + w > j.deadline) {
+      v.blocks = true;
+      return;  // yield this pick: the job's work is ready, it goes next or on its lane
+    }
+  }
+  guard_releases(g, k, margin, own, must_afford, end, blocked_until, v);
+}
+
+// Whether the dispatch can wait until more critical work (of path `w`) is done at `done`:
+// none of its jobs that would make its deadline by running now misses it by running then.
+// Run now, a job of the dispatch still has the more critical work go ahead of its later
+// units; held, it runs after that work: the hold costs it the lane's idle time.
+bool Scheduler::Impl::guard_affords(const GuardRun& g, Duration own, TimePoint done, Duration w) {
+  for (std::size_t i = 0; i < guard_slots.size(); ++i) {
+    Job& m = job(guard_slots[i]);
+    const Duration after = path_after(m, guard_units[i]);
+    if (g.begin + own + w + after <= m.deadline && done + g.rt + own + after > m.deadline)
+      return false;
+  }
+  return true;
+}
+
+// The next release of each more critical operation before the dispatch would end (`end`): its
+// job needs its whole critical path within its deadline.
+void Scheduler::Impl::guard_releases(const GuardRun& g, std::size_t k, int margin, Duration own,
+                                     bool must_afford, TimePoint end, TimePoint blocked_until,
+                                     GuardVerdict& v) {
+  const TimePoint now = g.now;
+  for (std::size_t i = 0; i < ops.size(); ++i) {
+    const OpState& o = ops[i];
+    if (o.g == nullptr || o.remaining == 0 || o.criticality <= g.crit) continue;
+    if (guard_waits_on_run(static_cast<int>(i))) continue;
+    if (o.inflight >= o.max_inflight) continue;  // its next release is skipped
+    TimePoint r = kNever;
+    Duration period{0};
+    Duration allowance{0};
+    if (o.own_rate) {
+      r = o.next_tick;  // the scheduler's own clock: on time
+      period = period_of(o.rate_hz);
+    } else if (o.trigger >= 0) {
+      const SensorState& sn = sensors[static_cast<std::size_t>(o.trigger)];
+      if (!sn.has_frame || sn.rate_hz <= 0) continue;
+      period = period_of(sn.rate_hz);
+      allowance = late_allowance(period);
+      // A sensor silent for two periods has stopped, or is not periodic: predict nothing.
+      if (now - sn.time > 2 * period + allowance) continue;
+      r = sn.time + period;
+      while (r + allowance < now) r += period;
+    }
+    if (r == kNever || period <= Duration{0} || r >= end) continue;
+    Duration w{0};
+    for (int src : o.g->sources) w = std::max(w, o.g->units[static_cast<std::size_t>(src)].tail[k]);
+    w = padded(w, margin);
+    if (g.rt + w > o.g->deadline) continue;  // it cannot make it even on a free lane
+    const TimePoint start = std::max(r, blocked_until);
+    if (start + g.rt + w <= r + o.g->deadline ||
+        (must_afford && !guard_affords(g, own, std::max(r, now) + g.rt + w, w)))
+      continue;
+    v.blocks = true;
+    v.until = std::min(v.until, r > now ? r : r + allowance);
+  }
 }
 
 bool Scheduler::Impl::guard_join(std::span<const int> members, int joining, TimePoint begin,

@@ -23,7 +23,7 @@ void Scheduler::Impl::notify_job(const Job& j, JobOutcome o, TimePoint finish, b
   r.outcome = o;
   r.counted = j.counted;
   r.frame_age = j.oldest_frame == kNever ? Duration{0} : finish - j.oldest_frame;
-  r.reason = j.reason;
+  r.reason = reason_text(j);
   r.graph = j.g;
   for (Observer* ob : observers) release_event ? ob->on_job_release(r) : ob->on_job_end(r);
 }
@@ -104,7 +104,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   // first frame there is nothing to read, so this tick or trigger frame releases no job.
   if (!inputs_ready(*o.g, trigger_sensor)) return;
   if (o.remaining > 0 && --o.remaining == 0) {
-    rates_changed = true;
+    by_rate.on_workload();
     plan_work();
   }
   const std::uint64_t seq = o.released++;
@@ -122,19 +122,16 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     tmp.release = now;
     tmp.deadline = now + g.deadline;
     tmp.counted = now >= s.config_.warmup;
-    tmp.reason = "max_inflight";
+    tmp.reason = DropReason::MaxInflight;
     notify_job(tmp, JobOutcome::Skipped, now, true);
     notify_job(tmp, JobOutcome::Skipped, now, false);
     return;
   }
   // docs/DESIGN.md, "Overload": past capacity, the jobs of an operation that cheaper ones outrank
-  // are rejected before they cost anything (plan_rates).
-  const bool reject =
-      opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality && [&] {
-        if (rates_changed) plan_rates();
-        return outranked[static_cast<std::size_t>(op_index)] != 0 && past_capacity() &&
-               evidenced(now) && ahead_shed(op_index, now);
-      }();
+  // are rejected before they cost anything (shedding by rate, shed_by_rate.hpp).
+  const bool reject = opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality &&
+                      by_rate.rejects(op_index, now, ops, s.config_.lanes, idx(opt.drop_estimate),
+                                      [&] { return past_capacity() && evidenced(now); });
   const int slot = alloc_job();
   Job& j = job(slot);
   j.id = next_job_id++;
@@ -151,7 +148,8 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   j.unfinished = static_cast<int>(g.units.size());
   j.running = 0;
   j.oldest_frame = kNever;
-  j.reason.clear();
+  j.reason = DropReason::None;
+  j.failure.clear();
   j.dependents.clear();
   j.dependent_ids.clear();
   j.stamp = 0;
@@ -211,11 +209,9 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
   if (opt.admission == Admission::Shed) note_offered(j, now);
   if (reject) {
-    j.reason = "rejected at release";
+    j.reason = DropReason::RejectedByRate;
     ++s.stats_.rejected;
-    rejecting_by_rate = true;
     end_job(slot, JobOutcome::Dropped, now);
-    rejecting_by_rate = false;
   }
 }
 
@@ -225,8 +221,7 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   j.ended = true;
   --s.in_flight_;
   --ops[static_cast<std::size_t>(j.op)].inflight;
-  if (outcome == JobOutcome::Dropped && !rejecting_by_rate)
-    ops[static_cast<std::size_t>(j.op)].last_shed = now;
+  by_rate.on_end(j.op, outcome, j.reason, now);
   if (outcome == JobOutcome::Missed || outcome == JobOutcome::Dropped) last_miss = now;
   const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
                                    [this](int a, int b) { return earlier(a, b); });

@@ -346,40 +346,6 @@ bool Scheduler::Impl::past_capacity() const {
   return offered > kOfferedWindow * static_cast<double>(s.config_.lanes);
 }
 
-void Scheduler::Impl::plan_rates() {
-  rates_changed = false;
-  const std::size_t k = idx(opt.drop_estimate);
-  outranked.assign(ops.size(), 0);
-  rate_order.clear();
-  // Operations that read sensors are left out (neither outranked nor counted): a job's own
-  // cost says little where encoder runs are shared and heads batched across jobs; with
-  // them in, 17 more grid points fell below 0.9 x the bound, every one a MIMONet set.
-  for (std::size_t i = 0; i < ops.size(); ++i) {
-    const OpState& o = ops[i];
-    if (o.g == nullptr || o.remaining == 0 || !o.own_rate || !o.g->sensors.empty()) continue;
-    Duration w{0};
-    for (const RefinedUnit& ru : o.g->units) w += ru.costs[k];
-    rate_order.push_back({w, static_cast<int>(i)});
-  }
-  std::sort(rate_order.begin(), rate_order.end());
-  double used = 0.0;  // lanes asked for by the operations with cheaper jobs
-  for (const auto& [w, i] : rate_order) {
-    const auto ii = static_cast<std::size_t>(i);
-    if (used >= static_cast<double>(s.config_.lanes)) outranked[ii] = 1;
-    used += ops[ii].rate_hz * std::chrono::duration<double>(w).count();
-  }
-}
-
-bool Scheduler::Impl::ahead_shed(int op, TimePoint now) const {
-  const Duration window = from_s(kOfferedWindow);
-  for (const auto& [w, i] : rate_order) {
-    if (i == op) return false;
-    const TimePoint t = ops[static_cast<std::size_t>(i)].last_shed;
-    if (t != kNever && now - t < window) return true;
-  }
-  return false;
-}
-
 void Scheduler::Impl::admit(TimePoint now) {
   const std::size_t k = idx(opt.drop_estimate);
   // Below capacity the list schedule's order (jobs by deadline) is not the policy's, and
@@ -450,7 +416,7 @@ void Scheduler::Impl::admit(TimePoint now) {
       if (largest > victim_work) continue;
     }
     from = 0;
-    job(victim).reason = "rejected at release";
+    job(victim).reason = DropReason::Rejected;
     ++s.stats_.rejected;
     end_job(victim, JobOutcome::Dropped, now);
   }
@@ -523,7 +489,7 @@ void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin)
     });
   }
   for (const int slot : lone) {
-    job(slot).reason = "rejected at release";
+    job(slot).reason = DropReason::Rejected;
     ++s.stats_.rejected;
     end_job(slot, JobOutcome::Dropped, now);
   }

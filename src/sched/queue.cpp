@@ -3,6 +3,8 @@
 // successor of a unit the lane holds is ready for that lane alone, in the lane's order.
 // The lane's slots themselves are sched_detail::Lane (scheduler_impl.hpp).
 
+#include <algorithm>
+
 #include "scheduler_impl.hpp"
 
 namespace red {
@@ -31,6 +33,15 @@ void Scheduler::Impl::ready_in_lane_order(int lane_index) {
 bool Scheduler::has_room_ahead(int lane) const {
   const auto& l = impl_->lanes[static_cast<std::size_t>(lane)];
   return l.busy() && l.count < config_.queue_depth;
+}
+
+bool Scheduler::queues_ahead() const {
+  return config_.queue_depth > 1 && policy_->options().sync == SyncMode::OnDemand;
+}
+
+TimePoint Scheduler::queue_ahead_at(TimePoint held_start, Duration held_p50,
+                                    Duration enqueue_cost) const {
+  return held_start + held_p50 - std::max(config_.ahead_lead, enqueue_cost * 2);
 }
 
 std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {

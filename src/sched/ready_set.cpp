@@ -27,8 +27,7 @@ bool Scheduler::Impl::group_key(int t, TimePoint now, GroupKey& gk) {
   // job deadline reads none) or depend on `now` (a unit running) stays out.
   if (j.dirty || !j.running_units.empty()) return false;
   const int height = k.member_at.front().first;
-  const bool shared = opt.reassign && (opt.deadlines == DeadlineMode::Proportional ||
-                                       opt.deadlines == DeadlineMode::Equal);
+  const bool shared = opt.reassign && splits_budget(opt.deadlines);
   if (shared) {
     gk.deadline = j.plan;  // what from_share reads
     gk.share = j.frac[static_cast<std::size_t>(height)];

@@ -132,7 +132,7 @@ void Scheduler::apply_events(TimePoint now) {
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
-    m.rates_changed = true;
+    m.by_rate.on_workload();
     m.plan_work();
     for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
     ++m.next_event;
@@ -207,7 +207,8 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
     if (status != UnitStatus::Completed) {
       u.state = UState::Cancelled;
       m.touch(j);
-      j.reason = reason.empty() ? std::string(to_string(status)) : std::string(reason);
+      j.reason = DropReason::Failed;
+      j.failure = reason.empty() ? std::string(to_string(status)) : std::string(reason);
       m.end_job(mb.slot, JobOutcome::Failed, now);
       continue;
     }
@@ -229,7 +230,7 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
       // aborted and the unit's output discarded, even where the completion reached the scheduler
       // before the deadline's own event (the runtime's timer; the simulator orders them by time).
       if (now > j.deadline && m.opt.drop != DropMode::None) {
-        j.reason = "deadline passed";
+        j.reason = DropReason::DeadlinePassed;
         m.end_job(mb.slot, JobOutcome::Dropped, now);
       } else {
         m.end_job(mb.slot, now <= j.deadline ? JobOutcome::Met : JobOutcome::Missed, now);
@@ -267,7 +268,7 @@ void Scheduler::advance(TimePoint now) {
     h.pop_back();
     Job& j = m.job(slot);
     if (j.live && !j.ended && j.id == id) {
-      j.reason = "deadline passed";
+      j.reason = DropReason::DeadlinePassed;
       m.end_job(slot, JobOutcome::Dropped, now);
     }
   }

@@ -20,6 +20,7 @@
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
+#include "shed_by_rate.hpp"
 #include "state.hpp"
 
 namespace red {
@@ -132,6 +133,9 @@ struct Scheduler::Impl {
     int criticality;
     UnitKind kind;  // the task's, for batching without another look at it
     bool deadline_known;
+    // Taken out of this pick: its task began a wait (merge wait, the guard's hold until a
+    // release), or yielded to more critical work (the guard; it may still join a batch).
+    enum class Out : std::uint8_t { No, Waits, Yields } out;
     int head;
   };
   static_assert(sizeof(Scan) <= 64);
@@ -207,22 +211,15 @@ struct Scheduler::Impl {
   // batching, the ready set's groups and Scheduler::unit_deadline all read it. Inline: ranking
   // calls it for every member of every ready task.
   TimePoint unit_deadline(Job& j, int h, TimePoint now) {
-    const auto hi = static_cast<std::size_t>(h);
-    switch (opt.deadlines) {
-      case DeadlineMode::None:
-        return j.release;
-      case DeadlineMode::EndToEnd:
-        return j.plan;
-      case DeadlineMode::Proportional:
-      case DeadlineMode::Equal:
-        break;
-    }
-    if (!opt.reassign) return j.release + j.g->static_offset[hi];
-    // Re-assignment: the shares of the job's cache, as they are at `now`.
-    refresh(j);
-    if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
-    eval(j, now);
-    return from_share(j, j.frac_now[hi], now);
+    return height_deadline(opt.deadlines, j.release, j.plan, [&] {
+      const auto hi = static_cast<std::size_t>(h);
+      if (!opt.reassign) return j.release + j.g->static_offset[hi];
+      // Re-assignment: the shares of the job's cache, as they are at `now`.
+      refresh(j);
+      if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
+      eval(j, now);
+      return from_share(j, j.frac_now[hi], now);
+    });
   }
 
   // Estimated work left in a job (Σ remaining level costs: its critical-path estimate).
@@ -387,20 +384,10 @@ struct Scheduler::Impl {
   // from demand).
   bool past_capacity() const;
 
-  // docs/DESIGN.md, "Overload" "shed early", by rate (the work bound's rule, cheapest jobs first;
-  // opt.shed_by_rate): periodic operations without sensors ordered by the lane time one job needs;
-  // one whose cheaper ones alone ask for every lane at their rates is `outranked`, and while past
-  // capacity, with equal criticalities, and while one of those cheaper operations sheds
-  // jobs itself (ahead_shed), its jobs are rejected at release. Recomputed when rates or
-  // graphs change (rates_changed).
-  void plan_rates();
-  bool rates_changed = true;
-  bool rejecting_by_rate = false;  // a drop now is plan_rates' rejection, not for lane time
-  // True when an operation ahead of `op` in plan_rates' order shed a job within the last
-  // kOfferedWindow (rejected, hopeless or past its deadline; not by this rule).
-  bool ahead_shed(int op, TimePoint now) const;
-  std::vector<std::uint8_t> outranked;               // per operation
-  std::vector<std::pair<Duration, int>> rate_order;  // (a job's cost, operation), cheapest first
+  // docs/DESIGN.md, "Overload" "shed early", by rate (opt.shed_by_rate): its state and rule
+  // (shed_by_rate.hpp), called at a release, a job's end and a workload change.
+  ShedByRate by_rate;
+  static_assert(ShedByRate::kWindow == kOfferedWindow);
 
   // Adds a released job's work to the offered load (docs/DESIGN.md, "Overload" detect overload from
   // demand).
@@ -528,7 +515,28 @@ struct Scheduler::Impl {
   }
 
   // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
+  // Its stages (dispatch.cpp): scan, choose (best_candidate, the lane, guard_holds,
+  // abort_hopeless, merge_waits), form_batch.
   bool pick(TimePoint now);
+  // One pick's state between its stages.
+  struct Pick {
+    std::size_t least = 0;                             // the scan's least key
+    int shed_below = std::numeric_limits<int>::min();  // criticalities shed first (overload)
+    int out = 0;                                       // scan entries taken out (Scan::out)
+    const Scan* best = nullptr;                        // the task chosen
+    int lane = -1;                                     // its lane
+    Duration rt{0};                                    // the round trip the dispatch pays
+  };
+  enum class Chosen : std::uint8_t { Task, Nothing, Rescan };
+  void scan(TimePoint now, Pick& p);
+  const Scan* best_candidate(const Pick& p) const;
+  void set_out(Pick& p, Scan& e, TimePoint until);
+  Chosen choose(TimePoint now, Pick& p);
+  bool guard_holds(TimePoint now, Pick& p);
+  bool abort_hopeless(TimePoint now, const Pick& p);
+  bool merge_waits(TimePoint now, Pick& p);
+  TimePoint form_batch(TimePoint now, const Pick& p);
+  void batch_candidates(TimePoint now, const Pick& p, bool by_job, int limit);
 
   // docs/DESIGN.md, "Criticality" guard (PolicyOptions::guard; guard.cpp): whether running the
   // dispatch of the tasks `run` on lane `lane` from `begin` (at mean costs) would make a more
@@ -540,6 +548,21 @@ struct Scheduler::Impl {
     TimePoint until = kNever;
   };
   GuardVerdict guard(std::span<const int> run, int lane, TimePoint now, TimePoint begin);
+  // guard()'s parts (guard.cpp): the dispatch judged, its run's cost, one judgement on an
+  // estimate kind (the jobs in flight, then the releases to come), whether a hold is affordable.
+  struct GuardRun {
+    std::span<const int> run;
+    TimePoint now, begin;
+    int crit;         // the dispatch's criticality: its most critical member's
+    Duration rt;      // a round trip
+    TimePoint other;  // when another lane frees first
+  };
+  bool guard_waits_on_run(int op);
+  Duration guard_run_cost(std::span<const int> run, EstimateKind kind);
+  void guard_check(const GuardRun& g, EstimateKind kind, bool must_afford, GuardVerdict& v);
+  bool guard_affords(const GuardRun& g, Duration own, TimePoint done, Duration w);
+  void guard_releases(const GuardRun& g, std::size_t k, int margin, Duration own, bool must_afford,
+                      TimePoint end, TimePoint blocked_until, GuardVerdict& v);
   // The guard on a batch (guard.cpp): whether task `joining` may join the tasks `members` of
   // the batch being formed, its run then costing `with` instead of `without` from `begin`: a
   // member more critical than it that makes its deadline without the join must still make it,
@@ -553,7 +576,6 @@ struct Scheduler::Impl {
   TimePoint dispatch_begin(int lane, TimePoint now) const {
     return ahead_lane >= 0 ? lane_free_at(lanes[static_cast<std::size_t>(lane)], now) : now;
   }
-  std::vector<int> guard_held;   // scratch of pick(): tasks that yielded to the guard this pick
   std::vector<int> guard_slots;  // scratch of guard(): the jobs of the dispatch
   std::vector<int> guard_units;  // beside guard_slots: each one's unit in the dispatch
 };

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <set>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -28,6 +29,18 @@ struct UnitRt {
   // Made ready before its one predecessor ended, for the lane that holds that predecessor
   // (dispatch_ahead: the lane runs its units in order); its completion then counts nothing.
   bool early = false;
+};
+
+// Why a job ended without completing its units (docs/DESIGN.md, "Drops"): JobRecord::reason
+// is its text (reason_text), written at the output edge only.
+enum class DropReason : std::uint8_t {
+  None,
+  MaxInflight,     // "max_inflight": the release was skipped (Skipped)
+  DeadlinePassed,  // "deadline passed" (Dropped, strict drops)
+  Hopeless,        // "hopeless": aborted at dispatch (Dropped)
+  Rejected,        // "rejected at release": admission or shed_lone (Dropped)
+  RejectedByRate,  // "rejected at release": shedding by rate, not for lane time (Dropped)
+  Failed,          // the executor's reason (Job::failure) (Failed)
 };
 
 inline constexpr std::size_t kEstimates = 4;  // EstimateKind values
@@ -83,9 +96,30 @@ struct Job {
   TimePoint oldest_frame = kNever;    // oldest frame any of its outputs used
   std::vector<int> dependents;        // slots of jobs waiting for this one (depends_on)
   std::vector<JobId> dependent_ids;
-  std::string reason;
-  int grouped = 0;  // its ready tasks kept in a ReadyGroup (ready_set.cpp)
+  DropReason reason = DropReason::None;
+  std::string failure;  // with DropReason::Failed: the executor's reason
+  int grouped = 0;      // its ready tasks kept in a ReadyGroup (ready_set.cpp)
 };
+
+// The text of a job's drop reason, as JobRecord::reason carries it ("" for none).
+inline std::string_view reason_text(const Job& j) {
+  switch (j.reason) {
+    case DropReason::None:
+      return {};
+    case DropReason::MaxInflight:
+      return "max_inflight";
+    case DropReason::DeadlinePassed:
+      return "deadline passed";
+    case DropReason::Hopeless:
+      return "hopeless";
+    case DropReason::Rejected:
+    case DropReason::RejectedByRate:
+      return "rejected at release";
+    case DropReason::Failed:
+      return j.failure;
+  }
+  return {};
+}
 
 struct Key {
   std::int64_t rank;
@@ -178,8 +212,6 @@ struct OpState {
   int last_slot = -1;
   JobId last_job = 0;
   std::vector<int> sensors_read;  // sensors of its inference nodes
-  // Its last job shed for want of lane time (docs/DESIGN.md, "Overload"), kNever: none.
-  TimePoint last_shed = kNever;
   // Its last release skipped at max_inflight (docs/DESIGN.md, "max_inflight"), kNever: none.
   TimePoint last_skip = kNever;
 };

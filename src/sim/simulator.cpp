@@ -68,137 +68,166 @@ Simulator::Simulator(const Scenario& scenario, const Profile& profile,
   for (const std::string& h : scenario.model.heads) heads_.push_back(profile.find("head/" + h));
 }
 
-SimResult Simulator::run() {
-  SimResult r;
-  std::priority_queue<Ev, std::vector<Ev>, std::greater<>> q;
-  std::uint64_t seq = 0;
-  const std::size_t nsensors = scenario_.sensors.size();
-  std::vector<TimePoint> base(nsensors);  // un-jittered time of each sensor's next frame
-  auto jitter = [&](std::size_t s, std::uint64_t k) {
-    const SensorSpec& sp = scenario_.sensors[s];
-    if (sp.jitter <= Duration{0}) return Duration{0};
-    // Jitter stays below one period so frames of a sensor arrive in order.
-    const Duration cap =
-        std::min(sp.jitter, period_of(scheduler_.sensor_rate(static_cast<int>(s))) - Duration{1});
-    const double u = unit_uniform(hash_combine(hash_combine(options_.seed ^ 0x4a4954ULL, s), k));
-    return Duration{static_cast<std::int64_t>(u * static_cast<double>(cap.count()))};
-  };
-  for (std::size_t s = 0; s < nsensors; ++s) {
-    base[s] = scenario_.sensors[s].phase;
-    q.push({base[s] + jitter(s, 0), seq++, EvKind::Frame, static_cast<int>(s), 0});
-  }
-  TimePoint now{0};
-  const auto nlanes = static_cast<std::size_t>(scenario_.device.lanes);
+// One run's state: the event queue, what each lane holds, and the round's steps.
+struct Simulator::Run {
   // Per lane: the dispatches it holds, oldest first (one, or up to the queue depth), with
-  // their starts and profiled p50, and when the last of them ends.
+  // their starts and profiled p50.
   struct HeldUnit {
     std::uint64_t id;
     TimePoint start;
     Duration p50;
   };
-  std::vector<std::deque<HeldUnit>> held(nlanes);
-  std::vector<TimePoint> lane_end(nlanes, TimePoint{0});
+
+  Simulator& sim;
+  Scheduler& sched;
+  SimResult r;
+  std::priority_queue<Ev, std::vector<Ev>, std::greater<>> q;
+  std::uint64_t seq = 0;
+  std::vector<TimePoint> base;  // un-jittered time of each sensor's next frame
+  TimePoint now{0};
+  std::size_t nlanes;
+  std::vector<std::deque<HeldUnit>> held;
+  std::vector<TimePoint> lane_end;  // when the last unit each lane holds ends
   // docs/DESIGN.md, "Queued lanes": with on-demand synchronization, a lane's handler queues its
-  // next unit behind what it holds `ahead_lead` before that is expected to end (the runtime's
-  // rule).
-  const bool ahead = scheduler_.config().queue_depth > 1 &&
-                     scheduler_.policy().options().sync == SyncMode::OnDemand;
+  // next unit behind what it holds a lead before that is expected to end (the scheduler's rule,
+  // Scheduler::queue_ahead_at; an enqueue costs the simulated host nothing).
+  bool ahead;
   std::vector<int> touched;  // lanes whose handler decides its queue this round
-  touched.reserve(nlanes);
-  auto plan_ahead = [&](int lane) {
+  bool releasing = true;
+
+  explicit Run(Simulator& s)
+      : sim(s),
+        sched(s.scheduler_),
+        base(s.scenario_.sensors.size()),
+        nlanes(static_cast<std::size_t>(s.scenario_.device.lanes)),
+        held(nlanes),
+        lane_end(nlanes, TimePoint{0}),
+        ahead(s.scheduler_.queues_ahead()) {
+    touched.reserve(nlanes);
+    for (std::size_t i = 0; i < base.size(); ++i) {
+      base[i] = sim.scenario_.sensors[i].phase;
+      q.push({base[i] + jitter(i, 0), seq++, EvKind::Frame, static_cast<int>(i), 0});
+    }
+  }
+
+  Duration jitter(std::size_t s, std::uint64_t k) const {
+    const SensorSpec& sp = sim.scenario_.sensors[s];
+    if (sp.jitter <= Duration{0}) return Duration{0};
+    // Jitter stays below one period so frames of a sensor arrive in order.
+    const Duration cap =
+        std::min(sp.jitter, period_of(sched.sensor_rate(static_cast<int>(s))) - Duration{1});
+    const double u =
+        unit_uniform(hash_combine(hash_combine(sim.options_.seed ^ 0x4a4954ULL, s), k));
+    return Duration{static_cast<std::int64_t>(u * static_cast<double>(cap.count()))};
+  }
+
+  void plan_ahead(int lane) {
     const auto& h = held[static_cast<std::size_t>(lane)];
-    if (!ahead || h.empty() || !scheduler_.has_room_ahead(lane)) return;
-    TimePoint at = h.front().start - scheduler_.config().ahead_lead;
-    for (const HeldUnit& u : h) at += u.p50;
+    if (!ahead || h.empty() || !sched.has_room_ahead(lane)) return;
+    Duration p50{0};
+    for (const HeldUnit& u : h) p50 += u.p50;
+    const TimePoint at = sched.queue_ahead_at(h.front().start, p50);
     q.push({std::max(at, now), seq++, EvKind::Ahead, lane, h.back().id});
-  };
-  auto start_unit = [&](Dispatch& d, TimePoint start) {
-    scheduler_.on_start(d.lane, start);
+  }
+
+  void start_unit(Dispatch& d, TimePoint start) {
+    sched.on_start(d.lane, start);
     int busy_others = 0;
     for (std::size_t l = 0; l < nlanes; ++l)
       busy_others += static_cast<int>(!held[l].empty() && static_cast<int>(l) != d.lane);
-    const TimePoint end = start + sampler_.sample(d, start, busy_others);
+    const TimePoint end = start + sim.sampler_.sample(d, start, busy_others);
     const auto l = static_cast<std::size_t>(d.lane);
     held[l].push_back(
         {d.id, start,
-         ahead ? profiled_cost(d, encoder_, heads_, &LatencyStats::p50) : Duration{0}});
+         ahead ? profiled_cost(d, sim.encoder_, sim.heads_, &LatencyStats::p50) : Duration{0}});
     lane_end[l] = end;
     q.push({end, seq++, EvKind::Complete, d.lane, d.id});
     ++r.unit_events;
-  };
+  }
 
-  const TimePoint stop_releases = scenario_.duration;
-  const TimePoint hard_stop = scenario_.duration + options_.drain_limit;
-  bool releasing = true;
-  std::uint64_t rounds = 0;
-  for (;;) {
-    const TimePoint t_ext = q.empty() ? kNever : q.top().t;
-    const TimePoint t_int = scheduler_.next_wakeup();
-    TimePoint t = std::min(t_ext, t_int);
-    if (releasing && t >= stop_releases) {
-      // The scenario is over: nothing new is released; in-flight jobs may still finish.
-      releasing = false;
-      scheduler_.apply_events(stop_releases - Duration{1});
-      scheduler_.stop_releases();
-      continue;
-    }
-    if (t == kNever || t > hard_stop || (!releasing && scheduler_.jobs_in_flight() == 0)) break;
-    // A stop signal ends a long simulation within about a millisecond of host time.
-    if ((++rounds & 1023U) == 0 && stop_requested()) {
-      r.stopped = true;
-      break;
-    }
-    now = t;
-    // One round (red/sched/round.hpp): events, then what happened at `now`, then releases.
-    const auto started = run_round(scheduler_, now, [&] {
-      while (!q.empty() && q.top().t == now) {
-        const Ev e = q.top();
-        q.pop();
-        ++r.events;
-        if (e.kind == EvKind::Complete) {
-          auto& h = held[static_cast<std::size_t>(e.index)];
-          if (h.empty() || h.front().id != e.value) continue;
-          h.pop_front();
-          ++r.unit_events;
-          scheduler_.on_complete(e.index, now, UnitStatus::Completed);
-          plan_ahead(e.index);
-        } else if (e.kind == EvKind::Ahead) {
-          // Still holding what it held when this was planned, with room: decide now.
-          const auto& h = held[static_cast<std::size_t>(e.index)];
-          if (!h.empty() && h.back().id == e.value) touched.push_back(e.index);
-        } else {
-          if (!releasing) continue;  // a frame
-          const auto s = static_cast<std::size_t>(e.index);
-          scheduler_.on_frame(e.index, e.value, now);
-          base[s] += period_of(scheduler_.sensor_rate(e.index));
-          q.push({base[s] + jitter(s, e.value + 1), seq++, EvKind::Frame, e.index, e.value + 1});
-        }
+  // The round's inputs: every event at `now` (completions, queue-ahead decisions, frames).
+  void events_now() {
+    while (!q.empty() && q.top().t == now) {
+      const Ev e = q.top();
+      q.pop();
+      ++r.events;
+      if (e.kind == EvKind::Complete) {
+        auto& h = held[static_cast<std::size_t>(e.index)];
+        if (h.empty() || h.front().id != e.value) continue;
+        h.pop_front();
+        ++r.unit_events;
+        sched.on_complete(e.index, now, UnitStatus::Completed);
+        plan_ahead(e.index);
+      } else if (e.kind == EvKind::Ahead) {
+        // Still holding what it held when this was planned, with room: decide now.
+        const auto& h = held[static_cast<std::size_t>(e.index)];
+        if (!h.empty() && h.back().id == e.value) touched.push_back(e.index);
+      } else {
+        if (!releasing) continue;  // a frame
+        const auto s = static_cast<std::size_t>(e.index);
+        sched.on_frame(e.index, e.value, now);
+        base[s] += period_of(sched.sensor_rate(e.index));
+        q.push({base[s] + jitter(s, e.value + 1), seq++, EvKind::Frame, e.index, e.value + 1});
       }
-    });
-    for (Dispatch* d : started) {
-      // A calibrated profile measured the hand-off without a round trip too.
-      start_unit(*d, now + (d->round_trip ? sync_cost_ : handoff_));
-      plan_ahead(d->lane);
     }
-    // A lane whose lead came fills its queue: a queued unit starts when the one before it
-    // ends (plus the device's gap between two queued units), or once its handler has
-    // decided and enqueued it, whichever is later. Nothing to queue now: it tries again at
-    // its next unit boundary.
+  }
+
+  // A lane whose lead came fills its queue: a queued unit starts when the one before it
+  // ends (plus the device's gap between two queued units), or once its handler has
+  // decided and enqueued it, whichever is later. Nothing to queue now: it tries again at
+  // its next unit boundary.
+  void fill_queues() {
     for (int l : touched) {
       bool queued = false;
-      while (scheduler_.has_room_ahead(l)) {
-        const auto ds = scheduler_.dispatch_ahead(now, l);
+      while (sched.has_room_ahead(l)) {
+        const auto ds = sched.dispatch_ahead(now, l);
         if (ds.empty()) break;
-        start_unit(*ds.front(),
-                   std::max(now + handoff_, lane_end[static_cast<std::size_t>(l)] + queued_gap_));
+        start_unit(*ds.front(), std::max(now + sim.handoff_,
+                                         lane_end[static_cast<std::size_t>(l)] + sim.queued_gap_));
         queued = true;
       }
       if (queued) plan_ahead(l);
     }
     touched.clear();
+  }
+};
+
+SimResult Simulator::run() {
+  Run run(*this);
+  SimResult& r = run.r;
+  const TimePoint stop_releases = scenario_.duration;
+  const TimePoint hard_stop = scenario_.duration + options_.drain_limit;
+  std::uint64_t rounds = 0;
+  for (;;) {
+    const TimePoint t_ext = run.q.empty() ? kNever : run.q.top().t;
+    const TimePoint t_int = scheduler_.next_wakeup();
+    TimePoint t = std::min(t_ext, t_int);
+    if (run.releasing && t >= stop_releases) {
+      // The scenario is over: nothing new is released; in-flight jobs may still finish.
+      run.releasing = false;
+      scheduler_.apply_events(stop_releases - Duration{1});
+      scheduler_.stop_releases();
+      continue;
+    }
+    if (t == kNever || t > hard_stop || (!run.releasing && scheduler_.jobs_in_flight() == 0)) break;
+    // A stop signal ends a long simulation within about a millisecond of host time.
+    if ((++rounds & 1023U) == 0 && stop_requested()) {
+      r.stopped = true;
+      break;
+    }
+    run.now = t;
+    // One round (red/sched/round.hpp): events, then what happened at `now`, then releases.
+    const auto started = run_round(scheduler_, run.now, [&] { run.events_now(); });
+    for (Dispatch* d : started) {
+      // A calibrated profile measured the hand-off without a round trip too.
+      run.start_unit(*d, run.now + (d->round_trip ? sync_cost_ : handoff_));
+      run.plan_ahead(d->lane);
+    }
+    run.fill_queues();
     ++r.events;
   }
-  r.end = releasing ? std::min(now, stop_releases) : std::max(now, stop_releases);
+  const TimePoint now = run.now;
+  r.end = run.releasing ? std::min(now, stop_releases) : std::max(now, stop_releases);
   scheduler_.finish(r.end);
   r.stats = scheduler_.stats();
   return r;

@@ -13,10 +13,11 @@
 #include <vector>
 
 #include "red/core/time.hpp"
-#include "red/profile/profile.hpp"
 #include "red/scenario/scenario.hpp"
 
 namespace red {
+
+struct Profile;
 
 /// How an operation's nodes become schedulable units.
 enum class GraphMode : std::uint8_t { Coarse, Fine, Mono };
@@ -193,6 +194,62 @@ Duration resolve_deadline(const OperationSpec& op, const CostModel& costs);
 /// deadlines (docs/DESIGN.md, "Intermediate deadlines").
 std::shared_ptr<const RefinedGraph> refine(std::shared_ptr<const OperationSpec> op, int operation,
                                            const CostModel& costs, const RefineOptions& opt);
+
+// ---- The deadline split --------------------------------------------------------------------
+// docs/DESIGN.md, "Intermediate deadlines": how a job's end-to-end deadline becomes the deadlines
+// of its heights. The one rule, read by refinement (static offsets, split_budget), the scheduler
+// (unit_deadline, re-assignment's shares) and the nptest export (priorities).
+
+/// True when `m` splits the budget over the heights (proportional, equal). Under none every
+/// height's deadline is the job's release (release order); under e2e the job's deadline.
+constexpr bool splits_budget(DeadlineMode m) noexcept {
+  return m == DeadlineMode::Proportional || m == DeadlineMode::Equal;
+}
+
+/// The absolute deadline of a height of a job released at `release`, due at `end`, under mode
+/// `m`: `split()` gives it where `m` splits the budget (static offsets or re-assignment).
+template <class Split>
+TimePoint height_deadline(DeadlineMode m, TimePoint release, TimePoint end, Split&& split) {
+  switch (m) {
+    case DeadlineMode::None:
+      return release;
+    case DeadlineMode::EndToEnd:
+      return end;
+    case DeadlineMode::Proportional:
+    case DeadlineMode::Equal:
+      break;
+  }
+  return split();
+}
+
+/// A height's weight in the split: the per-node override budget where one of its nodes has one,
+/// else `level`, its level cost (static, or what is left of it at a re-assignment).
+inline Duration split_weight(const RefinedGraph& g, std::size_t h, Duration level) {
+  return g.override_budget[h] > Duration{0} ? g.override_budget[h] : level;
+}
+
+/// The split's cumulative shares over `levels` heights: f(h, counts, cum, denom) for every
+/// height in order, `counts` = has(h) (the height still has work), `cum` the weight of the
+/// heights with work up to h and `denom` that of all of them: weight(h) each, or 1 each under
+/// Equal or where none weighs anything.
+template <class Weight, class Has, class F>
+void for_each_share(DeadlineMode m, std::size_t levels, Weight&& weight, Has&& has, F&& f) {
+  std::int64_t total = 0;
+  std::int64_t n = 0;
+  for (std::size_t h = 0; h < levels; ++h) {
+    if (!has(h)) continue;
+    ++n;
+    total += weight(h).count();
+  }
+  const bool equal = m == DeadlineMode::Equal || total <= 0;
+  const std::int64_t denom = equal ? n : total;
+  std::int64_t cum = 0;
+  for (std::size_t h = 0; h < levels; ++h) {
+    const bool counts = has(h);
+    if (counts) cum += equal ? 1 : weight(h).count();
+    f(h, counts, cum, denom);
+  }
+}
 
 /// Static proportional/equal split of `budget` over heights with weights `weights`
 /// (zero-weight heights get nothing under Proportional unless all are zero).

@@ -65,7 +65,4 @@ Expected<ModelManifest> parse_manifest(const std::string& yaml_text, const std::
 /// manifest (left empty for a built-in model).
 std::optional<Error> check_model(Scenario& s, std::optional<ModelManifest>* manifest = nullptr);
 
-/// "[3,128,256]".
-std::string shape_label(const std::vector<std::int64_t>& input);
-
 }  // namespace red

@@ -115,6 +115,13 @@ struct ModelSpec {
   }
 };
 
+/// A model input's shape as text, "[3,128,256]" (ModelSpec::input; a profile's model label).
+inline std::string shape_label(const std::vector<std::int64_t>& input) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < input.size(); ++i) s += (i > 0 ? "," : "") + std::to_string(input[i]);
+  return s + "]";
+}
+
 /// Executors and what a synchronization round trip costs on them.
 /// Most units a lane holds at once (DeviceSpec::queue_depth).
 inline constexpr int kMaxQueueDepth = 4;

@@ -134,6 +134,18 @@ class Scheduler {
   std::span<Dispatch* const> dispatch_ahead(TimePoint now, int lane);
   /// Whether `lane` holds a unit and has room for one more (dispatch_ahead()).
   [[nodiscard]] bool has_room_ahead(int lane) const;
+  /// Whether lanes' handlers queue units ahead (docs/DESIGN.md, "Queued lanes"): queue_depth > 1
+  /// under on-demand synchronization.
+  [[nodiscard]] bool queues_ahead() const;
+  /// The queue-ahead rule (docs/DESIGN.md, "Queued lanes"), the one every driver follows: when a
+  /// lane's handler decides the units its queue has room for (dispatch_ahead()). That is a lead
+  /// before what the lane holds is expected to end: `held_start`, the oldest held unit's start,
+  /// plus `held_p50`, the held units' profiled p50 summed. The lead is
+  /// SchedulerConfig::ahead_lead, or twice `enqueue_cost` (what an enqueue costs the host: the
+  /// runtime's, smoothed; nothing in the simulator) where that is more. Reads only the
+  /// configuration: a lane's handler may ask without the scheduler's lock.
+  [[nodiscard]] TimePoint queue_ahead_at(TimePoint held_start, Duration held_p50,
+                                         Duration enqueue_cost = Duration{0}) const;
   /// The earliest time the scheduler needs to run again without external input (releases,
   /// events, deadlines, merge waits), or kNever.
   [[nodiscard]] TimePoint next_wakeup() const;

@@ -55,6 +55,8 @@ class Simulator {
   [[nodiscard]] Duration sync_cost() const noexcept { return sync_cost_; }
 
  private:
+  struct Run;  // one run's state (simulator.cpp)
+
   const Scenario& scenario_;
   SimOptions options_;
   Scheduler scheduler_;
