@@ -10,9 +10,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -20,6 +23,9 @@
 #include <vector>
 
 #include "../support/cli.hpp"
+#include "red/dds/messages.hpp"
+#include "red/dds/ros.hpp"
+#include "red/dds/security.hpp"
 #include "support.hpp"
 
 namespace red::dds {
@@ -39,12 +45,52 @@ int sh(const std::string& cmd) {
 
 // Runs a shell command on its own thread; its exit code when joined.
 struct Command {
-  std::thread thread;
+  std::atomic<bool> done{false};
   int code = -1;
-  explicit Command(const std::string& cmd) : thread([this, cmd] { code = sh(cmd); }) {}
+  std::thread thread;
+  explicit Command(const std::string& cmd)
+      : thread([this, cmd] {
+          code = sh(cmd);
+          done = true;
+        }) {}
   int join() {
     thread.join();
     return code;
+  }
+};
+
+// The node's /diagnostics as a participant of this process sees them: the last value of each
+// "status/key".
+struct DiagnosticsWatch {
+  dds_entity_t reader = 0;
+  std::map<std::string, std::string> last;
+  explicit DiagnosticsWatch(dds_entity_t pp) {
+    const dds_entity_t t =
+        dds_create_topic(pp, &diagnostic_msgs_msg_dds__DiagnosticArray__desc,
+                         dds_topic_name("/diagnostics").c_str(), nullptr, nullptr);
+    dds_qos_t* q = make_qos(EndpointQos{true, 50, false});
+    reader = dds_create_reader(pp, t, q, nullptr);
+    dds_delete_qos(q);
+  }
+  void drain() {
+    void* samples[8] = {};
+    dds_sample_info_t infos[8];
+    for (;;) {
+      std::fill(std::begin(samples), std::end(samples), nullptr);
+      const dds_return_t n = dds_take(reader, samples, infos, 8, 8);
+      if (n <= 0) return;
+      for (dds_return_t i = 0; i < n; ++i) {
+        if (!infos[i].valid_data) continue;
+        const auto& m = *static_cast<const DiagnosticArray*>(samples[i]);
+        for (std::uint32_t j = 0; j < m.status_._length; ++j) {
+          const DiagnosticStatus& st = m.status_._buffer[j];
+          for (std::uint32_t k = 0; k < st.values_._length; ++k)
+            last[std::string(st.name_) + "/" + st.values_._buffer[k].key_] =
+                st.values_._buffer[k].value_;
+        }
+      }
+      dds_return_loan(reader, samples, n);
+    }
   }
 };
 
@@ -171,11 +217,17 @@ TEST_F(DdsNodeSecure, ASecureFastDdsPeerExchangesFramesAndResults) {
   ASSERT_FALSE(nj.is_discarded());
   EXPECT_GT(nj["released"].get<int>(), 0) << nj.dump();
   EXPECT_EQ(nj["security"]["enclave"], "/red/node") << nj.dump();
+  // The peer authenticated (it matched): nothing refused.
+  EXPECT_EQ(nj["security"]["refused_participants"], 0) << nj.dump();
+  EXPECT_EQ(nj["security"]["refused_endpoints"], 0) << nj.dump();
 }
 
 // Each peer the node must refuse writes 20 frames at it (unmatched: Fast DDS has no reader to
 // send them to, the node no writer to take them from); the node releases none of them and
-// reports the writers it saw on its sensor topics but never matched.
+// counts the refusal: the participant without security or from another CA, the intruder's
+// writer. A secure Cyclone participant of this test process (keystore A's camera enclave: any
+// two Cyclone participants authenticate each other) watches the node's /diagnostics. The peer
+// stays (LINGER 4 s) longer than the node's grace for an authentication (kAuthenticationGrace).
 class DdsNodeSecureRefuses : public DdsNodeSecure,
                              public ::testing::WithParamInterface<std::string> {};
 
@@ -185,17 +237,27 @@ TEST_P(DdsNodeSecureRefuses, APeerTheNodeMustRefuse) {
   const std::string enclave = GetParam() == "unauthenticated" ? ""
                               : GetParam() == "other-ca"      ? (k.b / "enclaves/cam4").string()
                                                          : (k.a / "enclaves/intruder1").string();
-  Command node(node_command(d, 6, dir_));
+  auto witness = resolve_security({k.a.string(), "", "true", "Enforce"}, "/cam4");
+  ASSERT_TRUE(witness && witness->enclave);
+  auto dom = Domain::open(test_domain(), "", false, &*witness->enclave);
+  ASSERT_TRUE(dom.has_value()) << dom.error().to_string();
+  DiagnosticsWatch diag((*dom)->participant());
+  ASSERT_GT(diag.reader, 0);
+  Command node(node_command(d, 8, dir_));
   const fs::path out = dir_ / "peer.json";
-  const int peer =
-      sh("RED_PEER_FORCE=3 " +
-         (GetParam() == "no-permission"
-              ? "RED_PEER_GOVERNANCE=" + quote(k.intruder_governance.string()) + " "
-              : std::string()) +
-         quote(kPeer) + " " + d + " 20 20 0.5 " + (enclave.empty() ? "" : quote(enclave)) + " > " +
-         quote(out.string()) + " 2> " + quote((dir_ / "peer.err").string()));
+  Command peer("RED_PEER_FORCE=3 " +
+               (GetParam() == "no-permission"
+                    ? "RED_PEER_GOVERNANCE=" + quote(k.intruder_governance.string()) + " "
+                    : std::string()) +
+               quote(kPeer) + " " + d + " 20 20 4 " + (enclave.empty() ? "" : quote(enclave)) +
+               " > " + quote(out.string()) + " 2> " + quote((dir_ / "peer.err").string()));
+  while (!node.done || !peer.done) {
+    diag.drain();
+    std::this_thread::sleep_for(std::chrono::milliseconds{50});
+  }
   EXPECT_EQ(node.join(), 0) << read_text(dir_ / "node.err");
-  EXPECT_EQ(peer, 0) << read_text(dir_ / "peer.err");
+  EXPECT_EQ(peer.join(), 0) << read_text(dir_ / "peer.err");
+  diag.drain();
   const auto r = read_json(out);
   ASSERT_FALSE(r.is_discarded()) << read_text(out) << read_text(dir_ / "peer.err");
   EXPECT_EQ(r["sent"], 20) << r.dump();
@@ -207,16 +269,23 @@ TEST_P(DdsNodeSecureRefuses, APeerTheNodeMustRefuse) {
   ASSERT_FALSE(nj.is_discarded()) << read_text(dir_ / "node.err");
   EXPECT_EQ(nj["frames"], 0) << nj.dump();
   EXPECT_EQ(nj["released"], 0) << nj.dump();
-  // Counted as Cyclone's log reports them. The intruder authenticates, and its writer is
-  // refused for its security attributes (its governance turned access control off): an
-  // endpoint. Cyclone 0.10 refuses a participant without security, or with a certificate of
-  // another CA, without a warning (only its trace says so): those are not counted.
+  // The refusal, counted. The intruder authenticates, and its writer is refused for its
+  // security attributes (its governance turned access control off): an endpoint, from
+  // Cyclone's log. A participant without security, or whose certificate is of another CA (the
+  // node initiates the handshake, which Fast DDS never answers), from Cyclone's discovery
+  // trace: a participant.
   const auto& sec = nj["security"];
-  if (GetParam() == "no-permission") {
-    EXPECT_GT(sec["refused_endpoints"].get<int>(), 0) << nj.dump();
-  }
+  const std::string kind =
+      GetParam() == "no-permission" ? "refused_endpoints" : "refused_participants";
+  EXPECT_GT(sec[kind].get<int>(), 0) << nj.dump() << "\n" << read_text(dir_ / "node.err");
+  ASSERT_FALSE(diag.last.empty()) << "the witness saw no /diagnostics\n"
+                                  << read_text(dir_ / "node.err");
+  const std::string seen = diag.last["red: node/" + kind];
+  EXPECT_GT(std::stoul(seen.empty() ? "0" : seen), 0U) << kind << " in /diagnostics: " << seen;
+  EXPECT_EQ(diag.last["red: node/released"], "0");
   RecordProperty("refused_participants", sec["refused_participants"].dump());
   RecordProperty("refused_endpoints", sec["refused_endpoints"].dump());
+  RecordProperty("diagnostics_refused_participants", diag.last["red: node/refused_participants"]);
 }
 
 INSTANTIATE_TEST_SUITE_P(DdsNodeSecure, DdsNodeSecureRefuses,

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "../support/cli.hpp"
+#include "red/dds/ros.hpp"
 
 namespace red::dds {
 namespace {
@@ -161,6 +162,109 @@ TEST(DdsSecurityLog, CyclonesRefusalsAreCountedByKind) {
             2);
   EXPECT_EQ(classify_security_log("Non secure remote writer 1:2:3:4 is not allowed."), 2);
   EXPECT_EQ(classify_security_log("ddsi_udp_conn_write to udp/127.0.0.1:7410 failed"), 0);
+}
+
+// Refused participants, each once by its GUID prefix, from Cyclone DDS 0.10's own lines: its
+// discovery trace ("SPDP ST0 ... NEW", "handshake ... succeeded", "ddsi_delete_proxy_...") and
+// its log (warnings and errors).
+TEST(DdsSecurityLog, GuidPrefixesAreTakenFromTheRemoteSide) {
+  EXPECT_EQ(remote_guid_prefix("handshake (lguid=e92bded0:767448c4:933b7298:1c1 "
+                               "rguid=fce7bc83:1b53702d:f56deb7f:1c1) failed: (3) Failed"),
+            "fce7bc83:1b53702d:f56deb7f");
+  EXPECT_EQ(remote_guid_prefix("received handshake message (1:2:3:1c1 --> a:b:c:1c1) does not "
+                               "contain a handshake message token"),
+            "a:b:c");
+  EXPECT_EQ(remote_guid_prefix("Remote secure participant fce7bc83:1b53702d:f56deb7f:1c1 not "
+                               "allowed"),
+            "fce7bc83:1b53702d:f56deb7f");
+  EXPECT_EQ(remote_guid_prefix("fsm: Begin handshake reply failed: Failed to convert"), "");
+  EXPECT_EQ(remote_guid_prefix("udp/127.0.0.1:7410 failed"), "");
+}
+
+using Clock = RefusalCounter::Clock;
+const std::string kNew = "SPDP ST0 1f0c1a2b:3c4d5e6f:708192a3:1c1 bes fc03";
+const std::string kGuid = "1f0c1a2b:3c4d5e6f:708192a3";
+
+TEST(DdsSecurityLog, AParticipantWithoutSecurityIsRefusedOnceUnlessTheGovernanceAllowsIt) {
+  const Clock::time_point t0{};
+  RefusalCounter c;
+  c.trace(kNew + " NEW (data udp/127.0.0.1:7412) QOS={}", t0);
+  EXPECT_EQ(c.refusals(t0).participants, 1U);
+  // Announced again (an update, or a new lease): the same participant.
+  c.trace(kNew + " NEW QOS={}", t0 + std::chrono::seconds{1});
+  c.trace("SPDP ST0 1f0c1a2b:3c4d5e6f:708192a3:1c1 (update)", t0 + std::chrono::seconds{2});
+  EXPECT_EQ(c.refusals(t0 + std::chrono::seconds{2}).participants, 1U);
+  EXPECT_NE(c.refusals(t0).last.find(kGuid), std::string::npos);
+  RefusalCounter allowed(false);
+  allowed.trace(kNew + " NEW QOS={}", t0);
+  EXPECT_EQ(allowed.refusals(t0 + std::chrono::seconds{60}).participants, 0U);
+}
+
+TEST(DdsSecurityLog, ASecureParticipantCountsWhenNotAuthenticatedInTime) {
+  const Clock::time_point t0{};
+  const auto later = t0 + kAuthenticationGrace;
+  RefusalCounter c;
+  c.trace(kNew + " (secure) NEW QOS={}", t0);
+  EXPECT_EQ(c.refusals(t0).participants, 0U) << "its handshake has just begun";
+  EXPECT_EQ(c.refusals(later).participants, 1U) << "still not authenticated";
+  c.trace("handshake (lguid=e92bded0:767448c4:933b7298:1c1 rguid=" + kGuid + ":1c1) succeeded",
+          later + std::chrono::seconds{1});
+  EXPECT_EQ(c.refusals(later + std::chrono::seconds{2}).participants, 0U) << "authenticated late";
+  // One that leaves unauthenticated: counted if it stayed the grace, not if it left sooner.
+  RefusalCounter stayed, blinked;
+  stayed.trace(kNew + " (secure) NEW QOS={}", t0);
+  blinked.trace(kNew + " (secure) NEW QOS={}", t0);
+  const std::string gone = "ddsi_delete_proxy_participant_by_guid(" + kGuid + ":1c1) - deleting";
+  stayed.trace(gone, later);
+  blinked.trace(gone, t0 + std::chrono::milliseconds{500});
+  EXPECT_EQ(stayed.refusals(later + std::chrono::hours{1}).participants, 1U);
+  EXPECT_EQ(blinked.refusals(later + std::chrono::hours{1}).participants, 0U);
+  // Back with the same GUID prefix: still one participant, counted.
+  stayed.trace(kNew + " (secure) NEW QOS={}", later + std::chrono::seconds{5});
+  stayed.trace("handshake (lguid=1:2:3:1c1 rguid=" + kGuid + ":1c1) succeeded",
+               later + std::chrono::seconds{6});
+  EXPECT_EQ(stayed.refusals(later + std::chrono::seconds{7}).participants, 1U);
+}
+
+TEST(DdsSecurityLog, TheLogsRefusalsOfOneParticipantCountOnce) {
+  const Clock::time_point t0{};
+  RefusalCounter c;
+  c.trace(kNew + " (secure) NEW QOS={}", t0);
+  c.log("fsm: Begin handshake reply failed: Failed to convert octet sequence", t0);
+  EXPECT_EQ(c.refusals(t0).participants, 0U) << "no GUID: the next line names it";
+  c.log("handshake (lguid=1:2:3:1c1 rguid=" + kGuid + ":1c1) failed: (3) Failed", t0);
+  c.log("Remote secure participant " + kGuid + ":1c1 not allowed", t0);
+  EXPECT_EQ(c.refusals(t0).participants, 1U);
+  c.log(
+      "match_remote_writer f51efec2:47b30f4c:a0929860:103 with reader "
+      "e92bded0:767448c4:933b7298:204 security_attributes mismatch",
+      t0);
+  const SecurityRefusals r = c.refusals(t0);
+  EXPECT_EQ(r.participants, 1U);
+  EXPECT_EQ(r.endpoints, 1U);
+  EXPECT_NE(r.last.find("match_remote_writer"), std::string::npos) << r.last;
+  // Lines that are none of these change nothing.
+  c.trace("SPDP ST0 1:2:3:1c1 (local)", t0);
+  c.log("ddsi_udp_conn_write to udp/127.0.0.1:7410 failed", t0);
+  EXPECT_EQ(c.refusals(t0).participants, 1U);
+}
+
+TEST_F(DdsSecurity, TheNodesTraceIsDiscoveryOnlyAndTheGovernanceIsRead) {
+  const std::string t = security_trace_config();
+  EXPECT_NE(t.find("<Category>discovery</Category>"), std::string::npos) << t;
+  EXPECT_EQ(t.find("trace<"), std::string::npos) << t;
+  EXPECT_TRUE(configures_tracing(t));
+  EXPECT_TRUE(configures_tracing("<CycloneDDS><Domain><tracing><Verbosity>fine</Verbosity>"));
+  EXPECT_FALSE(configures_tracing(loopback_config()));
+  make_enclave(dir_ / "e");
+  const Enclave e{"/e", (dir_ / "e").string()};
+  std::ofstream(e.file(4)) << "Content-Type: text/plain\n\n" << governance_xml();
+  EXPECT_FALSE(governance_allows_unauthenticated(e));
+  std::string open = governance_xml();
+  const std::string f = "<allow_unauthenticated_participants>false";
+  open.replace(open.find(f), f.size(), "<allow_unauthenticated_participants>true");
+  std::ofstream(e.file(4)) << open;
+  EXPECT_TRUE(governance_allows_unauthenticated(e));
 }
 
 // The keystore tool: `red security` with openssl, in SROS2's layout, its signatures checked by

@@ -216,7 +216,7 @@ void print_node_end(const std::string& policy, const std::optional<dds::Enclave>
   if (security)
     std::cerr << fmt::format(
         "red node: DDS Security (enclave {}) refused {} participant(s) and {} endpoint(s), as "
-        "Cyclone DDS's log reports them\n",
+        "Cyclone DDS's log and discovery trace report them\n",
         security->name, c.refused_participants, c.refused_endpoints);
   print_runtime_report(policy, report);
   const dds::Node::Timings tm = node.timings();
@@ -276,7 +276,8 @@ nlohmann::json node_json(const std::string& run_id, const dds::NodeCounters& c,
     by_reason[dds::to_string(static_cast<dds::Reject>(r))] =
         c.rejected[static_cast<std::size_t>(r)];
   nj["not_taken_by_reason"] = std::move(by_reason);
-  // What DDS Security refused, as Cyclone's log reports it (docs/ROS2.md, "Security").
+  // What DDS Security refused, from Cyclone's log and discovery trace (docs/ROS2.md,
+  // "Security").
   nj["security"] = security ? nlohmann::json{{"enclave", security->name},
                                              {"refused_participants", c.refused_participants},
                                              {"refused_endpoints", c.refused_endpoints}}

@@ -59,8 +59,17 @@ Node::Impl::~Impl() {
 }
 
 Expected<bool> Node::Impl::open() {
-  if (options.security) watch_security_log();  // counts what DDS Security refuses
-  auto d = Domain::open(options.domain, options.config, options.shared_memory,
+  // What DDS Security refuses is counted from Cyclone's log and, unless the configuration
+  // traces on its own, from its discovery trace (docs/ROS2.md, "Security").
+  std::string config = options.config;
+  if (options.security) {
+    watch_security_log();
+    if (!configures_tracing(config)) {
+      config = (config.empty() ? loopback_config() : config) + "," + security_trace_config();
+      watch_security_trace(!governance_allows_unauthenticated(*options.security));
+    }
+  }
+  auto d = Domain::open(options.domain, config, options.shared_memory,
                         options.security ? &*options.security : nullptr);
   if (!d) return d.error();
   domain = std::move(*d);

@@ -1,9 +1,12 @@
 #include "red/dds/security.hpp"
 
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
+#include <sstream>
 
 #include "red/dds/ros.hpp"
 
@@ -218,25 +221,47 @@ namespace red::dds {
 
 namespace {
 
-std::mutex g_log_mu;
-SecurityRefusals g_refusals;
-bool g_watching = false;
-
-void on_log(void*, const dds_log_data_t* d) {
-  const std::string_view m(d->message, d->size);
-  const int kind = classify_security_log(m);
-  if (kind != 0) {
-    std::lock_guard lock(g_log_mu);
-    (kind == 1 ? g_refusals.participants : g_refusals.endpoints) += 1;
-    g_refusals.last = std::string(m);
-    while (!g_refusals.last.empty() && g_refusals.last.back() == '\n') g_refusals.last.pop_back();
-  }
-  std::fwrite(d->message, 1, d->size, stderr);
-  if (d->size == 0 || d->message[d->size - 1] != '\n') std::fputc('\n', stderr);  // Cyclone's own
-}
-
 bool contains(std::string_view m, std::string_view what) {
   return m.find(what) != std::string_view::npos;
+}
+
+bool is_hex(char c) {
+  return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
+}
+
+// The GUID ("a:b:c:d", hexadecimal) at `at` in `m`: its prefix "a:b:c" and its end; empty
+// when there is none there.
+std::pair<std::string, std::size_t> guid_at(std::string_view m, std::size_t at) {
+  std::size_t i = at;
+  std::size_t prefix_end = 0;
+  for (int part = 0; part < 4; ++part) {
+    const std::size_t b = i;
+    while (i < m.size() && is_hex(m[i])) ++i;
+    if (i == b || i - b > 8) return {{}, at};
+    if (part == 2) prefix_end = i;
+    if (part < 3) {
+      if (i >= m.size() || m[i] != ':') return {{}, at};
+      ++i;
+    }
+  }
+  if (i < m.size() && (is_hex(m[i]) || m[i] == ':')) return {{}, at};
+  return {std::string(m.substr(at, prefix_end - at)), i};
+}
+
+// The first GUID in `m` from `from` on.
+std::pair<std::string, std::size_t> first_guid(std::string_view m, std::size_t from) {
+  for (std::size_t i = from; i < m.size(); ++i) {
+    if (!is_hex(m[i]) || (i > 0 && (is_hex(m[i - 1]) || m[i - 1] == ':'))) continue;
+    auto g = guid_at(m, i);
+    if (!g.first.empty()) return g;
+  }
+  return {{}, std::string_view::npos};
+}
+
+std::string trimmed(std::string_view m) {
+  while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.remove_suffix(1);
+  while (!m.empty() && m.front() == ' ') m.remove_prefix(1);
+  return std::string(m);
 }
 
 }  // namespace
@@ -250,12 +275,119 @@ int classify_security_log(std::string_view m) noexcept {
       contains(m, "not permitted"))
     return 2;
   // A participant: "Remote secure participant ... not allowed" (its identity or permissions
-  // failed validation), "Begin handshake ... failed".
+  // failed validation), "handshake (lguid=... rguid=...) failed", "Begin handshake ... failed".
   if ((contains(m, "participant") && contains(m, "not allowed")) ||
       (contains(m, "andshake") && contains(m, "failed")))
     return 1;
   return 0;
 }
+
+std::string remote_guid_prefix(std::string_view m) {
+  if (const auto r = m.find("rguid="); r != std::string_view::npos) return guid_at(m, r + 6).first;
+  if (const auto arrow = m.find(" --> "); arrow != std::string_view::npos)
+    return guid_at(m, arrow + 5).first;
+  return first_guid(m, 0).first;
+}
+
+bool RefusalCounter::counts(const Remote& r, Clock::time_point now) const {
+  if (r.refused) return true;
+  if (!r.secure) return count_unsecured_;
+  if (r.authenticated) return false;
+  return (r.left ? r.left_at : now) - r.seen >= kAuthenticationGrace;
+}
+
+void RefusalCounter::log(std::string_view m, Clock::time_point now) {
+  const int kind = classify_security_log(m);
+  if (kind == 0) return;
+  last_ = trimmed(m);
+  if (kind == 2) {
+    ++endpoints_;
+    return;
+  }
+  // A participant: counted once by its GUID prefix. A line without one (the plugin's
+  // "Begin handshake reply failed: ...") is followed by Cyclone's "handshake (lguid=...
+  // rguid=...) failed", which has it.
+  const std::string g = remote_guid_prefix(m);
+  if (g.empty()) return;
+  auto [it, added] = remotes_.try_emplace(g);
+  if (added) it->second.seen = now;
+  it->second.refused = true;
+}
+
+void RefusalCounter::trace(std::string_view m, Clock::time_point now) {
+  if (const auto at = m.find("SPDP ST0 "); at != std::string_view::npos) {
+    const auto [g, end] = guid_at(m, at + 9);
+    if (g.empty() || m.substr(end, 5) != " bes ") return;
+    std::size_t i = end + 5;
+    while (i < m.size() && is_hex(m[i])) ++i;
+    const std::string_view rest = m.substr(i);
+    const bool secure = rest.starts_with(" (secure) NEW");
+    if (!secure && !rest.starts_with(" NEW")) return;
+    auto [it, added] = remotes_.try_emplace(g);
+    Remote& r = it->second;
+    if (!added && counts(r, now)) r.refused = true;  // back after it was refused: stays counted
+    r.seen = now;
+    r.secure = secure;
+    r.authenticated = r.left = false;
+    if (!secure && count_unsecured_ && !r.refused)
+      last_ = "remote participant " + g + " has no security (the governance allows none)";
+    return;
+  }
+  if (contains(m, "handshake (lguid=") &&
+      (contains(m, ") succeeded") || contains(m, ") processed"))) {
+    if (auto it = remotes_.find(remote_guid_prefix(m)); it != remotes_.end())
+      it->second.authenticated = true;
+    return;
+  }
+  if (const auto at = m.find("ddsi_delete_proxy_participant_by_guid(");
+      at != std::string_view::npos && contains(m, "- deleting")) {
+    auto it = remotes_.find(guid_at(m, at + 38).first);
+    if (it == remotes_.end() || it->second.left) return;
+    Remote& r = it->second;
+    r.left = true;
+    r.left_at = now;
+    if (r.secure && !r.authenticated && counts(r, now) && !r.refused) {
+      r.refused = true;
+      last_ = "remote participant " + it->first + " left without authenticating";
+    }
+  }
+}
+
+SecurityRefusals RefusalCounter::refusals(Clock::time_point now) const {
+  SecurityRefusals s;
+  for (const auto& [g, r] : remotes_)
+    if (counts(r, now)) ++s.participants;
+  s.endpoints = endpoints_;
+  s.last = last_;
+  return s;
+}
+
+namespace {
+
+std::mutex g_log_mu;
+RefusalCounter g_counter;
+bool g_watching = false;
+bool g_tracing = false;
+
+void on_log(void*, const dds_log_data_t* d) {
+  const std::string_view m(d->message, d->size);
+  {
+    std::lock_guard lock(g_log_mu);
+    g_counter.log(m, RefusalCounter::Clock::now());
+  }
+  std::fwrite(d->message, 1, d->size, stderr);
+  if (d->size == 0 || d->message[d->size - 1] != '\n') std::fputc('\n', stderr);  // Cyclone's own
+}
+
+// Cyclone's trace: with security_trace_config(), the discovery category only, plus every log
+// line (warnings and errors also reach the trace when it is on): those are on_log's.
+void on_trace(void*, const dds_log_data_t* d) {
+  if ((d->priority & DDS_LOG_MASK) != 0) return;
+  std::lock_guard lock(g_log_mu);
+  g_counter.trace(std::string_view(d->message, d->size), RefusalCounter::Clock::now());
+}
+
+}  // namespace
 
 void watch_security_log() {
   std::lock_guard lock(g_log_mu);
@@ -264,9 +396,42 @@ void watch_security_log() {
   dds_set_log_sink(on_log, nullptr);
 }
 
+std::string security_trace_config() {
+  return "<CycloneDDS><Domain Id=\"any\"><Tracing><Category>discovery</Category>"
+         "<OutputFile>/dev/null</OutputFile></Tracing></Domain></CycloneDDS>";
+}
+
+bool configures_tracing(std::string_view config) {
+  std::string lower(config);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return contains(lower, "<tracing") || contains(lower, "<cyclonedds:tracing");
+}
+
+bool governance_allows_unauthenticated(const Enclave& e) {
+  std::ifstream f(e.file(4));
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const std::string text = ss.str();
+  static constexpr std::string_view tag = "<allow_unauthenticated_participants>";
+  for (std::size_t at = text.find(tag); at != std::string::npos; at = text.find(tag, at + 1)) {
+    std::size_t i = at + tag.size();
+    while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+    if (text.compare(i, 4, "true") == 0 || text.compare(i, 1, "1") == 0) return true;
+  }
+  return false;
+}
+
+void watch_security_trace(bool count_unsecured) {
+  std::lock_guard lock(g_log_mu);
+  g_counter.set_count_unsecured(count_unsecured);
+  if (g_tracing) return;
+  g_tracing = true;
+  dds_set_trace_sink(on_trace, nullptr);
+}
+
 SecurityRefusals security_refusals() {
   std::lock_guard lock(g_log_mu);
-  return g_refusals;
+  return g_counter.refusals(RefusalCounter::Clock::now());
 }
 
 }  // namespace red::dds

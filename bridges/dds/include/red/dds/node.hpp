@@ -82,7 +82,8 @@ struct NodeCounters {
   std::uint64_t masks = 0, twists = 0, detections = 0, diagnostics = 0;  ///< published
   std::uint64_t jobs_without_output = 0;  ///< ended dropped/skipped/failed: nothing published
   /// With DDS Security: remote participants refused (authentication) and remote endpoints
-  /// refused (access control), as Cyclone DDS's log reports them (security_refusals()).
+  /// refused (access control), from Cyclone DDS's log and discovery trace
+  /// (security_refusals()).
   std::uint64_t refused_participants = 0, refused_endpoints = 0;
 };
 

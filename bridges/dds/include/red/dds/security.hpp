@@ -13,7 +13,9 @@
 #include <dds/dds.h>
 
 #include <array>
+#include <chrono>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -107,23 +109,86 @@ std::string permissions_xml(const std::string& enclave, const Grant& g,
 
 namespace red::dds {
 
-/// What DDS Security refused, as Cyclone DDS's log reports it (Cyclone 0.10 has no status or
-/// listener for it): remote participants that failed authentication (no security, a
-/// certificate of another CA, a failed handshake) and remote endpoints that access control
-/// did not allow (a writer on a topic its permissions do not grant).
+/// What DDS Security refused (docs/ROS2.md, "What the node refuses, and what it counts").
+/// Cyclone DDS 0.10 has no status or listener for it: the counts come from its log (warnings
+/// and errors) and from its discovery trace.
 struct SecurityRefusals {
-  std::uint64_t participants = 0;  ///< authentication refused
-  std::uint64_t endpoints = 0;     ///< access control refused
-  std::string last;                ///< the last such message
+  /// Remote participants not admitted, each counted once (by GUID prefix): one without
+  /// security (when the governance allows no unauthenticated participant), one whose
+  /// authentication failed (a handshake that failed, a "remote secure participant ... not
+  /// allowed"), and one still not authenticated kAuthenticationGrace after its discovery (a
+  /// certificate of another CA when the node initiates the handshake: the peer never answers),
+  /// or that left unauthenticated after that long.
+  std::uint64_t participants = 0;
+  std::uint64_t endpoints = 0;  ///< remote endpoints access control refused (one per warning)
+  std::string last;             ///< the last refusal, in words
 };
 
 /// What a line of Cyclone's log says about security: 0 nothing, 1 a participant refused, 2 an
 /// endpoint refused.
 int classify_security_log(std::string_view message) noexcept;
 
+/// The GUID prefix ("a:b:c", hexadecimal, as Cyclone prints it) of the remote participant a
+/// line of Cyclone's log or trace names: after "rguid=" in a handshake's line, else the
+/// second of "(local --> remote)", else the first GUID in the line; empty when none.
+std::string remote_guid_prefix(std::string_view line);
+
+/// How long a secure remote participant may stay unauthenticated before it counts as refused
+/// (Cyclone resends its handshake every second and gives up only after 100 s, with an error).
+inline constexpr std::chrono::seconds kAuthenticationGrace{3};
+
+/// The count of refused participants and endpoints from Cyclone's log and discovery trace
+/// (not thread-safe; watch_security_log() holds one under a lock).
+class RefusalCounter {
+ public:
+  using Clock = std::chrono::steady_clock;
+  /// `count_unsecured`: whether a participant without security is refused (the governance
+  /// does not allow unauthenticated participants, as SROS2's never does).
+  explicit RefusalCounter(bool count_unsecured = true) : count_unsecured_(count_unsecured) {}
+  void set_count_unsecured(bool on) { count_unsecured_ = on; }
+  /// A line of Cyclone's log (warnings, errors).
+  void log(std::string_view message, Clock::time_point now);
+  /// A line of Cyclone's discovery trace: a new remote participant ("SPDP ST0 <guid> bes <x>
+  /// [(secure)] NEW"), a handshake that succeeded ("handshake (lguid=.. rguid=<guid>)
+  /// succeeded"), a remote participant deleted ("ddsi_delete_proxy_participant_by_guid(<guid>)
+  /// - deleting").
+  void trace(std::string_view line, Clock::time_point now);
+  /// The refusals as of `now`.
+  [[nodiscard]] SecurityRefusals refusals(Clock::time_point now) const;
+
+ private:
+  struct Remote {
+    Clock::time_point seen, left_at;
+    bool secure = false, authenticated = false, left = false, refused = false;
+  };
+  [[nodiscard]] bool counts(const Remote& r, Clock::time_point now) const;
+  std::map<std::string, Remote> remotes_;  // by GUID prefix
+  std::uint64_t endpoints_ = 0;
+  std::string last_;
+  bool count_unsecured_;
+};
+
 /// Watches Cyclone's log (warnings and errors; process-wide, idempotent) and counts the
 /// refusals; every line still goes to stderr, as without it.
 void watch_security_log();
+
+/// A Cyclone configuration fragment (to append after a comma) that turns on the discovery
+/// category of Cyclone's trace and nothing else (no data path), to /dev/null: the lines reach
+/// the sink watch_security_trace() sets, not a file.
+std::string security_trace_config();
+
+/// Whether a Cyclone configuration has a Tracing element of its own (then the node leaves
+/// the trace to it and does not count what only the trace shows).
+bool configures_tracing(std::string_view config);
+
+/// Whether the enclave's governance (governance.p7s, its XML signed in clear as SROS2 does)
+/// allows unauthenticated participants in some domain rule.
+bool governance_allows_unauthenticated(const Enclave& e);
+
+/// Takes Cyclone's trace (process-wide, idempotent; with security_trace_config() only the
+/// discovery category) into the refusal count; nothing of it is printed.
+/// `count_unsecured` as in RefusalCounter.
+void watch_security_trace(bool count_unsecured);
 
 /// The refusals counted since watch_security_log() (thread-safe).
 SecurityRefusals security_refusals();
