@@ -197,7 +197,7 @@ Scheduler::Impl::Chosen Scheduler::Impl::choose(TimePoint now, Pick& p) {
     p.rt = round_trip_cost(
         ahead_lane < 0 && !on_demand_continuation(lanes[static_cast<std::size_t>(p.lane)], k, now));
     if (guard_holds(now, p)) continue;
-    if (abort_hopeless(now, p)) return Chosen::Rescan;
+    if (shedding.abort_hopeless(*this, p.best->task, p.rt, now)) return Chosen::Rescan;
     if (merge_waits(now, p)) continue;
     return Chosen::Task;
   }
@@ -216,34 +216,6 @@ bool Scheduler::Impl::guard_holds(TimePoint now, Pick& p) {
   set_out(p, scanned[static_cast<std::size_t>(p.best - scanned.data())], wakes ? g.until : kNever);
   if (wakes) ++s.stats_.guard_holds;
   return true;
-}
-
-// docs/DESIGN.md, "Drops" hopeless, on the drop estimate and with the round trip this
-// dispatch pays: aborts the first member job of the best that cannot make its deadline. An
-// overload-aware policy (rank=overload) aborts only while overloaded: with the lanes to spare,
-// a job that may still make it costs no other job anything; nor does a job alone in flight
-// (the estimate may be pessimistic, and its deadline still ends it).
-bool Scheduler::Impl::abort_hopeless(TimePoint now, const Pick& p) {
-  if (opt.drop != DropMode::Hopeless ||
-      (opt.rank == RankMode::Overload && !(overloaded && by_deadline.size() > 1)))
-    return false;
-  for (const auto& [slot, unit] : task(p.best->task).members) {
-    Job& j = job(slot);
-    // Below capacity a job is kept while its best case (0.9 × the drop estimate, the
-    // default profile's min) still makes it: aborting it frees lanes no one lacks.
-    // So is a job of the most critical operations at any load: it runs first under
-    // overload (docs/DESIGN.md, "Criticality"), so keeping it costs only less critical work.
-    const Duration cp = remaining_for_drop(j, now);
-    const bool most_critical =
-        mixed_criticality && ops[static_cast<std::size_t>(j.op)].criticality >= top_criticality;
-    if (now + p.rt + (past_capacity() && !most_critical ? cp : cp * 9 / 10) > j.deadline) {
-      j.reason = DropReason::Hopeless;
-      ++s.stats_.hopeless;
-      end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again
-      return true;
-    }
-  }
-  return false;
 }
 
 // docs/DESIGN.md, "DynamicMerge" rule 2: a γ-mergeable encoder task waits for the predicted

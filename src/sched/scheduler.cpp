@@ -4,8 +4,9 @@
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
 // ready_set.cpp (the ready set's groups), dispatch.cpp (ranking, pick), merge.cpp (merge
 // waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
-// (the demand test, admission, drops' estimates), queue.cpp (queued lanes); online_costs.cpp
-// (what units cost in this run, and the profile plans are made on: use_costs()).
+// (the demand test and its work figures), shedding.cpp (how a job is shed: admission, shed_lone,
+// shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued lanes);
+// online_costs.cpp (what units cost in this run, and the profile plans are made on: use_costs()).
 
 #include "red/sched/scheduler.hpp"
 
@@ -132,7 +133,7 @@ void Scheduler::apply_events(TimePoint now) {
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
-    m.by_rate.on_workload();
+    m.shedding.on_workload();
     m.plan_work();
     for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
     ++m.next_event;
@@ -280,7 +281,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   ++m.stamp;  // one scheduling point: deadlines are re-assigned from now
   // docs/DESIGN.md, "Overload": admission right after releases; the demand test that tells
   // overload, when the policy or the scenario's criticalities use it.
-  m.admit_released(now);
+  m.shedding.admit_released(m, now);
   int idle = 0;
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
   if (idle > 0 && m.ready_count() > 0) {
