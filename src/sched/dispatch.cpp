@@ -176,13 +176,7 @@ void Scheduler::Impl::set_out(Pick& p, Scan& e, TimePoint until) {
     return;
   }
   e.out = Scan::Out::Waits;
-  Task& k = task(e.task);
-  k.wait_until = until;
-  if (!k.in_waits) {
-    k.in_waits = true;
-    waits.push_back(e.task);
-  }
-  min_wait = std::min(min_wait, until);
+  merge.begin_wait(task(e.task), e.task, until);
 }
 
 // Stage 2, the choice: the best candidate, its lane and round trip, then what may keep it
@@ -222,9 +216,8 @@ bool Scheduler::Impl::guard_holds(TimePoint now, Pick& p) {
 // release of another operation on its sensor, when every member's slack covers the wait.
 bool Scheduler::Impl::merge_waits(TimePoint now, Pick& p) {
   Task& k = task(p.best->task);
-  if (!opt.merge || k.kind != UnitKind::Encoder || !k.gamma) return false;
-  const TimePoint until = predicted_member(k, now);
-  if (until == kNever || !slack_covers(k, now, until)) return false;
+  const TimePoint until = merge.wait_until(*this, k, now);
+  if (until == kNever) return false;
   set_out(p, scanned[static_cast<std::size_t>(p.best - scanned.data())], until);
   ++s.stats_.merge_waits;
   for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);

@@ -54,7 +54,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   if (s.config_.measure_costs) online.emplace(p, sc.model, s.config_.online_costs);
   sensors.resize(sc.sensors.size());
   for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
-  open_enc.resize(sc.sensors.size());
+  merge.set_sensors(sc.sensors.size());
   lanes.resize(static_cast<std::size_t>(s.config_.lanes));
   ops.resize(static_cast<std::size_t>(sc.operation_count()));
   for (int i = 0; i < sc.operation_count(); ++i)
@@ -289,25 +289,8 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
     m.assess_overload(now);
     while (idle > 0 && m.pick(now)) --idle;
   }
-  // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed
-  // after every round from the waits that end after now, so a wait that is over (its member
-  // came, or every lane is busy) never becomes a wake-up in the past.
-  // Only tasks that began a wait can be waiting: m.waits lists them (a wait ends for good
-  // once it is over or the task left the ready set).
-  int waiting = 0;
-  m.min_wait = kNever;
-  for (std::size_t i = 0; i < m.waits.size();) {
-    Task& k = m.task(m.waits[i]);
-    if (!k.live || k.ready_pos < 0 || k.wait_until <= now) {
-      k.in_waits = false;
-      m.waits[i] = m.waits.back();
-      m.waits.pop_back();
-      continue;
-    }
-    ++waiting;
-    m.min_wait = std::min(m.min_wait, k.wait_until);
-    ++i;
-  }
+  // The waits still running; the earliest end of one is a wake-up (next_wakeup).
+  const int waiting = m.merge.sweep(m, now);
   if (!m.observers.empty()) {
     // Ready for any lane: a task ready only behind a busy lane's unit (queue_depth > 1)
     // cannot take an idle lane.
@@ -325,7 +308,7 @@ TimePoint Scheduler::next_wakeup() const {
   if (m.next_event < scenario_.events.size()) t = std::min(t, scenario_.events[m.next_event].at);
   t = std::min(t, m.next_tick().first);
   if (!m.deadlines.empty()) t = std::min(t, m.deadlines.front().first);
-  if (m.ready_count() > 0) t = std::min(t, m.min_wait);
+  if (m.ready_count() > 0) t = std::min(t, m.merge.earliest_wait());
   return t;
 }
 

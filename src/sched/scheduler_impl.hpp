@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "merge.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
@@ -80,16 +81,13 @@ struct Scheduler::Impl {
   std::map<GroupKey, int> group_of;
   int grouped_tasks = 0;
   std::vector<int> to_group;  // scratch of pick(): tasks that can join a group after the scan
-  std::vector<int> waits;     // tasks that began a merge wait (a superset of those still waiting)
   int ready_encoders = 0;     // encoder tasks in `ready`
-  std::vector<std::vector<int>> open_enc;  // per sensor: queued encoder tasks
   std::vector<Lane> lanes;
   std::vector<Dispatch*> out;
   std::vector<std::pair<TimePoint, std::pair<int, JobId>>> deadlines;  // min-heap
   std::vector<Observer*> observers;
   std::uint64_t stamp = 1;
   std::uint64_t dispatch_seq = 0;
-  TimePoint min_wait = kNever;
   // Overload (docs/DESIGN.md, "Overload"): live jobs by (deadline, id), for the demand test;
   // whether the lanes are judged overloaded this round.
   std::vector<int> by_deadline;
@@ -344,8 +342,6 @@ struct Scheduler::Impl {
     k.ready_pos = -1;
   }
 
-  void drop_open(int t);
-
   void free_task(int t);
 
   void remove_member(int t, int slot, int unit);
@@ -406,13 +402,10 @@ struct Scheduler::Impl {
     return Key{0, j.release, j.op, j.seq, node, unit};
   }
 
-  // The predicted release, within γ of the task's first member, of another operation that
-  // samples the same sensor (docs/DESIGN.md, "DynamicMerge" rule 2); kNever if none.
-  TimePoint predicted_member(const Task& k, TimePoint now) const;
-
-  // A merge wait until `until` is taken only if every member's slack still covers it; the
-  // run after the wait pays a round trip (the handler parked meanwhile).
-  bool slack_covers(Task& k, TimePoint now, TimePoint until);
+  // DynamicMerge (docs/DESIGN.md, "DynamicMerge"; merge.hpp): joins of encoder units into
+  // queued encoder tasks, merge waits and the list of every wait a pick takes, the newest frame
+  // a γ-merged run reads; its state.
+  DynamicMerge merge;
 
   Duration round_trip_cost(bool round_trip) const;
 
