@@ -224,77 +224,13 @@ bool Scheduler::Impl::merge_waits(TimePoint now, Pick& p) {
   return true;
 }
 
-// Stage 3, batching: the best's batch (`batch`, the best first) and the deadline the
-// dispatch is checked against.
+// Stage 3, batching (batching.hpp): the best's batch (Batching::batch, the best first) and the
+// deadline the dispatch is checked against.
 TimePoint Scheduler::Impl::form_batch(TimePoint now, const Pick& p) {
   const int best = p.best->task;
-  Task& k = task(best);
-  batch.clear();
-  batch.push_back(best);
-  TimePoint deadline = p.best->deadline_known ? p.best->deadline : task_deadline(k, now);
-  if (!opt.batching || (k.kind != UnitKind::Encoder && k.kind != UnitKind::Head)) return deadline;
-  // docs/DESIGN.md, "Overload" batch_by_job: while ranked by job deadline, a head batch is
-  // checked against what each member's job still needs after the head, not the task's
-  // intermediate deadline (past due under overload, it let no batch form).
-  const bool by_job = opt.batch_by_job && k.kind == UnitKind::Head && by_job_deadline(k);
-  if (by_job) deadline = std::max(deadline, latest_batch_end(k));
-  const int limit = batch_limit(k);
-  const Duration single =
-      k.kind == UnitKind::Encoder ? enc_single : head_single[static_cast<std::size_t>(k.head)];
-  // The first to join makes a batch of two, checked below against the best's deadline or
-  // an earlier one: where two are dearer than two runs or miss that deadline, none joins,
-  // and the candidates are not ranked.
-  const bool joinable = limit >= 2 && [&] {
-    const Duration cb = batch_estimate(k, 2);
-    return cb < single * 2 && now + p.rt + cb <= deadline;
-  }();
-  if (!joinable) return deadline;
-  batch_candidates(now, p, by_job, limit);
-  const bool guarding = opt.guard && mixed_criticality;
-  for (const auto& [kk, t] : cand) {
-    const int b = static_cast<int>(batch.size()) + 1;
-    if (b > limit) break;
-    // Batch only when it is cheaper than running one by one and, by estimate, still
-    // meets the earliest member deadline once the round trip it pays is over (docs/DESIGN.md,
-    // "Refinement" inter-DAG batching).
-    const Duration cb = batch_estimate(k, b);
-    const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
-    if (cb >= single * b || now + p.rt + cb > dl) break;
-    // Nor may the larger run make more critical work miss (the criticality guard): work
-    // outside the batch, or a more critical member of it.
-    if (guarding) {
-      const TimePoint begin = dispatch_begin(p.lane, now) + p.rt;
-      if (!guard_join(batch, t, begin, cb, batch_estimate(k, b - 1))) break;
-      batch.push_back(t);
-      const bool blocks = guard(batch, p.lane, now, begin).blocks;
-      batch.pop_back();
-      if (blocks) break;
-    }
-    batch.push_back(t);
-    deadline = dl;
-  }
-  return deadline;
-}
-
-// The scanned tasks that may join the best's batch (`cand`): of its kind and head, not
-// waiting, by deadline; only the limit − 1 earliest, ordered.
-void Scheduler::Impl::batch_candidates(TimePoint now, const Pick& p, bool by_job, int limit) {
-  const Task& k = task(p.best->task);
-  cand.clear();
-  for (const Scan& e : scanned) {
-    if (e.task == p.best->task || e.kind != k.kind || e.head != k.head || e.out == Scan::Out::Waits)
-      continue;
-    Key byd = e.key;
-    // A batch takes its members by deadline.
-    byd.rank = (e.deadline_known ? e.deadline : task_deadline(task(e.task), now)).count();
-    if (by_job) byd.rank = std::max(byd.rank, latest_batch_end(task(e.task)).count());
-    cand.emplace_back(byd, e.task);
-  }
-  // Only the max_batch − 1 earliest can join: order just those.
-  const auto take = std::min(cand.size(), static_cast<std::size_t>(std::max(0, limit - 1)));
-  std::partial_sort(cand.begin(), cand.begin() + static_cast<std::ptrdiff_t>(take), cand.end(),
-                    [](const auto& a, const auto& b) { return a.first < b.first; });
-  cand.resize(take);
+  const TimePoint deadline =
+      p.best->deadline_known ? p.best->deadline : task_deadline(task(best), now);
+  return batching.form(*this, now, best, deadline, p.lane, p.rt);
 }
 
 }  // namespace red

@@ -81,8 +81,7 @@ Duration Scheduler::Impl::guard_run_cost(std::span<const int> run, EstimateKind 
     const auto [slot, unit] = first.members.front();
     return job(slot).g->units[static_cast<std::size_t>(unit)].costs[k];
   }
-  const UnitProfile* p =
-      first.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(first.head)];
+  const UnitProfile* p = batching.unit_profile(first);
   return p != nullptr ? p->at(static_cast<int>(run.size())).estimate(kind)
                       : first.cost * static_cast<std::int64_t>(run.size());
 }

@@ -53,6 +53,7 @@ int Scheduler::Impl::choose_lane(const Task& k, TimePoint now) const {
 void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint deadline) {
   Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
   Dispatch& d = lane.next_slot();
+  const std::span<const int> batch = batching.batch();
   const Task& first = task(batch.front());
   d.id = ++dispatch_seq;
   d.lane = lane_index;
@@ -66,7 +67,7 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
   d.decided_at = now;
   d.start = now;
   d.expected = first.kind == UnitKind::Encoder || first.kind == UnitKind::Head
-                   ? batch_estimate(first, d.batch)
+                   ? batching.estimate(*this, first, d.batch)
                    : first.cost;
   // Queued behind the lane's running unit by its own handler: no round trip.
   d.round_trip = ahead_lane < 0 && !on_demand_continuation(lane, first, now);

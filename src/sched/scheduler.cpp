@@ -83,15 +83,7 @@ void Scheduler::Impl::price(const Profile& p) {
   const Scenario& sc = s.scenario_;
   profile = &p;
   costs = CostModel{profile, &sc.model, s.config_.estimate};
-  enc_prof = profile->find("encoder");
-  enc_single = costs.encoder();
-  enc_max_batch = enc_prof != nullptr ? enc_prof->max_batch() : 1;
-  head_single.clear();
-  head_prof.clear();
-  for (std::size_t h = 0; h < sc.model.heads.size(); ++h) {
-    head_single.push_back(costs.head(static_cast<int>(h)));
-    head_prof.push_back(profile->find("head/" + sc.model.heads[h]));
-  }
+  batching.price(*profile, costs, sc.model);
 }
 
 void Scheduler::Impl::use_costs(const Profile& p) {

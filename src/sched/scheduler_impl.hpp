@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "batching.hpp"
 #include "merge.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
@@ -113,9 +114,7 @@ struct Scheduler::Impl {
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
   std::vector<TimePoint> unit_end;
   std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
-  // scratch for batching
-  std::vector<std::pair<Key, int>> cand;
-  struct Scan {  // one cache line
+  struct Scan {                               // one cache line
     Key key;
     TimePoint deadline;  // valid where deadline_known; else task_deadline() gives it
     int task;
@@ -129,12 +128,9 @@ struct Scheduler::Impl {
   };
   static_assert(sizeof(Scan) <= 64);
   std::vector<Scan> scanned;
-  std::vector<int> batch;
-  Duration enc_single{0};
-  int enc_max_batch = 1;
-  std::vector<Duration> head_single;
-  std::vector<const UnitProfile*> head_prof;
-  const UnitProfile* enc_prof = nullptr;
+  // Inter-DAG batching (docs/DESIGN.md, "Refinement"; batching.hpp): batch costs and the batch
+  // a pick forms; its state.
+  Batching batching;
 
   Impl(Scheduler& owner, const Profile& p);
 
@@ -306,11 +302,6 @@ struct Scheduler::Impl {
   // "max_inflight").
   bool saturated() const;
 
-  // The latest a batch may end for every member of task k to finish its job by the job's
-  // deadline: the earliest over the members of the job deadline less the longest path
-  // after the member's unit (scheduler estimate). docs/DESIGN.md, "Overload" batch_by_job.
-  TimePoint latest_batch_end(const Task& k) const;
-
   // The longest path after a unit of j (the unit itself not counted) on the scheduler's
   // estimate (p99 by default): what j still needs once the unit has ended.
   Duration path_after(const Job& j, int unit) const {
@@ -409,10 +400,6 @@ struct Scheduler::Impl {
 
   Duration round_trip_cost(bool round_trip) const;
 
-  Duration batch_estimate(const Task& k, int b) const;
-
-  int batch_limit(const Task& k) const;
-
   // docs/DESIGN.md, "Synchronization" on-demand: the task continues the run the lane's handler
   // holds — its last unit completed just now and the task is ready work of a job of the run (a
   // merged encoder's member heads, a job's ready units of a height, their successors) — so the
@@ -463,7 +450,6 @@ struct Scheduler::Impl {
   bool guard_holds(TimePoint now, Pick& p);
   bool merge_waits(TimePoint now, Pick& p);
   TimePoint form_batch(TimePoint now, const Pick& p);
-  void batch_candidates(TimePoint now, const Pick& p, bool by_job, int limit);
 
   // docs/DESIGN.md, "Criticality" guard (PolicyOptions::guard; guard.cpp): whether running the
   // dispatch of the tasks `run` on lane `lane` from `begin` (at mean costs) would make a more
