@@ -87,9 +87,9 @@ TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint 
     // outside the batch, or a more critical member of it.
     if (guarding) {
       const TimePoint begin = m.dispatch_begin(lane, now) + rt;
-      if (!m.guard_join(batch_, t, begin, cb, estimate(m, k, b - 1))) break;
+      if (!CriticalityGuard::join(m, batch_, t, begin, cb, estimate(m, k, b - 1))) break;
       batch_.push_back(t);
-      const bool blocks = m.guard(batch_, lane, now, begin).blocks;
+      const bool blocks = m.crit_guard.check(m, batch_, lane, now, begin).blocks;
       batch_.pop_back();
       if (blocks) break;
     }

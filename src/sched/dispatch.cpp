@@ -202,8 +202,8 @@ Scheduler::Impl::Chosen Scheduler::Impl::choose(TimePoint now, Pick& p) {
 bool Scheduler::Impl::guard_holds(TimePoint now, Pick& p) {
   if (!opt.guard || !mixed_criticality || p.best->criticality >= top_criticality) return false;
   const int t = p.best->task;
-  const GuardVerdict g =
-      guard(std::span<const int>(&t, 1), p.lane, now, dispatch_begin(p.lane, now) + p.rt);
+  const CriticalityGuard::Verdict g = crit_guard.check(*this, std::span<const int>(&t, 1), p.lane,
+                                                       now, dispatch_begin(p.lane, now) + p.rt);
   if (!g.blocks) return false;
   // Held until the more critical release it would block; a job in flight: yields this pick.
   const bool wakes = g.until != kNever && g.until > now;

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "batching.hpp"
+#include "guard.hpp"
 #include "merge.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
@@ -451,37 +452,9 @@ struct Scheduler::Impl {
   bool merge_waits(TimePoint now, Pick& p);
   TimePoint form_batch(TimePoint now, const Pick& p);
 
-  // docs/DESIGN.md, "Criticality" guard (PolicyOptions::guard; guard.cpp): whether running the
-  // dispatch of the tasks `run` on lane `lane` from `begin` (at mean costs) would make a more
-  // critical job miss that could make it otherwise. `until`: when the reason is a predicted
-  // release, the time to look again (the task waits until then); kNever when it is a job in flight
-  // (the task only yields this pick).
-  struct GuardVerdict {
-    bool blocks = false;
-    TimePoint until = kNever;
-  };
-  GuardVerdict guard(std::span<const int> run, int lane, TimePoint now, TimePoint begin);
-  // guard()'s parts (guard.cpp): the dispatch judged, its run's cost, one judgement on an
-  // estimate kind (the jobs in flight, then the releases to come), whether a hold is affordable.
-  struct GuardRun {
-    std::span<const int> run;
-    TimePoint now, begin;
-    int crit;         // the dispatch's criticality: its most critical member's
-    Duration rt;      // a round trip
-    TimePoint other;  // when another lane frees first
-  };
-  bool guard_waits_on_run(int op);
-  Duration guard_run_cost(std::span<const int> run, EstimateKind kind);
-  void guard_check(const GuardRun& g, EstimateKind kind, bool must_afford, GuardVerdict& v);
-  bool guard_affords(const GuardRun& g, Duration own, TimePoint done, Duration w);
-  void guard_releases(const GuardRun& g, std::size_t k, int margin, Duration own, bool must_afford,
-                      TimePoint end, TimePoint blocked_until, GuardVerdict& v);
-  // The guard on a batch (guard.cpp): whether task `joining` may join the tasks `members` of
-  // the batch being formed, its run then costing `with` instead of `without` from `begin`: a
-  // member more critical than it that makes its deadline without the join must still make it,
-  // by the plan's estimate with the guard's margin, after the larger batch.
-  bool guard_join(std::span<const int> members, int joining, TimePoint begin, Duration with,
-                  Duration without);
+  // The criticality guard (docs/DESIGN.md, "Criticality"; guard.hpp): whether a dispatch would
+  // make a more critical job miss; its state.
+  CriticalityGuard crit_guard;
   // When a lane is free to start more work, by the plan's estimates of what it holds.
   TimePoint lane_free_at(const Lane& l, TimePoint now) const;
   // When a dispatch picked now for lane `lane` begins: now, or after what the lane holds when
@@ -489,8 +462,6 @@ struct Scheduler::Impl {
   TimePoint dispatch_begin(int lane, TimePoint now) const {
     return ahead_lane >= 0 ? lane_free_at(lanes[static_cast<std::size_t>(lane)], now) : now;
   }
-  std::vector<int> guard_slots;  // scratch of guard(): the jobs of the dispatch
-  std::vector<int> guard_units;  // beside guard_slots: each one's unit in the dispatch
 };
 
 }  // namespace red
