@@ -176,13 +176,7 @@ void Scheduler::Impl::set_out(Pick& p, Scan& e, TimePoint until) {
     return;
   }
   e.out = Scan::Out::Waits;
-  Task& k = task(e.task);
-  k.wait_until = until;
-  if (!k.in_waits) {
-    k.in_waits = true;
-    waits.push_back(e.task);
-  }
-  min_wait = std::min(min_wait, until);
+  merge.begin_wait(task(e.task), e.task, until);
 }
 
 // Stage 2, the choice: the best candidate, its lane and round trip, then what may keep it
@@ -197,7 +191,7 @@ Scheduler::Impl::Chosen Scheduler::Impl::choose(TimePoint now, Pick& p) {
     p.rt = round_trip_cost(
         ahead_lane < 0 && !on_demand_continuation(lanes[static_cast<std::size_t>(p.lane)], k, now));
     if (guard_holds(now, p)) continue;
-    if (abort_hopeless(now, p)) return Chosen::Rescan;
+    if (shedding.abort_hopeless(*this, p.best->task, p.rt, now)) return Chosen::Rescan;
     if (merge_waits(now, p)) continue;
     return Chosen::Task;
   }
@@ -208,8 +202,8 @@ Scheduler::Impl::Chosen Scheduler::Impl::choose(TimePoint now, Pick& p) {
 bool Scheduler::Impl::guard_holds(TimePoint now, Pick& p) {
   if (!opt.guard || !mixed_criticality || p.best->criticality >= top_criticality) return false;
   const int t = p.best->task;
-  const GuardVerdict g =
-      guard(std::span<const int>(&t, 1), p.lane, now, dispatch_begin(p.lane, now) + p.rt);
+  const CriticalityGuard::Verdict g = crit_guard.check(*this, std::span<const int>(&t, 1), p.lane,
+                                                       now, dispatch_begin(p.lane, now) + p.rt);
   if (!g.blocks) return false;
   // Held until the more critical release it would block; a job in flight: yields this pick.
   const bool wakes = g.until != kNever && g.until > now;
@@ -218,118 +212,25 @@ bool Scheduler::Impl::guard_holds(TimePoint now, Pick& p) {
   return true;
 }
 
-// docs/DESIGN.md, "Drops" hopeless, on the drop estimate and with the round trip this
-// dispatch pays: aborts the first member job of the best that cannot make its deadline. An
-// overload-aware policy (rank=overload) aborts only while overloaded: with the lanes to spare,
-// a job that may still make it costs no other job anything; nor does a job alone in flight
-// (the estimate may be pessimistic, and its deadline still ends it).
-bool Scheduler::Impl::abort_hopeless(TimePoint now, const Pick& p) {
-  if (opt.drop != DropMode::Hopeless ||
-      (opt.rank == RankMode::Overload && !(overloaded && by_deadline.size() > 1)))
-    return false;
-  for (const auto& [slot, unit] : task(p.best->task).members) {
-    Job& j = job(slot);
-    // Below capacity a job is kept while its best case (0.9 × the drop estimate, the
-    // default profile's min) still makes it: aborting it frees lanes no one lacks.
-    // So is a job of the most critical operations at any load: it runs first under
-    // overload (docs/DESIGN.md, "Criticality"), so keeping it costs only less critical work.
-    const Duration cp = remaining_for_drop(j, now);
-    const bool most_critical =
-        mixed_criticality && ops[static_cast<std::size_t>(j.op)].criticality >= top_criticality;
-    if (now + p.rt + (past_capacity() && !most_critical ? cp : cp * 9 / 10) > j.deadline) {
-      j.reason = DropReason::Hopeless;
-      ++s.stats_.hopeless;
-      end_job(slot, JobOutcome::Dropped, now);  // may free this task: rank again
-      return true;
-    }
-  }
-  return false;
-}
-
 // docs/DESIGN.md, "DynamicMerge" rule 2: a γ-mergeable encoder task waits for the predicted
 // release of another operation on its sensor, when every member's slack covers the wait.
 bool Scheduler::Impl::merge_waits(TimePoint now, Pick& p) {
   Task& k = task(p.best->task);
-  if (!opt.merge || k.kind != UnitKind::Encoder || !k.gamma) return false;
-  const TimePoint until = predicted_member(k, now);
-  if (until == kNever || !slack_covers(k, now, until)) return false;
+  const TimePoint until = merge.wait_until(*this, k, now);
+  if (until == kNever) return false;
   set_out(p, scanned[static_cast<std::size_t>(p.best - scanned.data())], until);
   ++s.stats_.merge_waits;
   for (Observer* ob : observers) ob->on_merge_wait(k.sensor, now, until);
   return true;
 }
 
-// Stage 3, batching: the best's batch (`batch`, the best first) and the deadline the
-// dispatch is checked against.
+// Stage 3, batching (batching.hpp): the best's batch (Batching::batch, the best first) and the
+// deadline the dispatch is checked against.
 TimePoint Scheduler::Impl::form_batch(TimePoint now, const Pick& p) {
   const int best = p.best->task;
-  Task& k = task(best);
-  batch.clear();
-  batch.push_back(best);
-  TimePoint deadline = p.best->deadline_known ? p.best->deadline : task_deadline(k, now);
-  if (!opt.batching || (k.kind != UnitKind::Encoder && k.kind != UnitKind::Head)) return deadline;
-  // docs/DESIGN.md, "Overload" batch_by_job: while ranked by job deadline, a head batch is
-  // checked against what each member's job still needs after the head, not the task's
-  // intermediate deadline (past due under overload, it let no batch form).
-  const bool by_job = opt.batch_by_job && k.kind == UnitKind::Head && by_job_deadline(k);
-  if (by_job) deadline = std::max(deadline, latest_batch_end(k));
-  const int limit = batch_limit(k);
-  const Duration single =
-      k.kind == UnitKind::Encoder ? enc_single : head_single[static_cast<std::size_t>(k.head)];
-  // The first to join makes a batch of two, checked below against the best's deadline or
-  // an earlier one: where two are dearer than two runs or miss that deadline, none joins,
-  // and the candidates are not ranked.
-  const bool joinable = limit >= 2 && [&] {
-    const Duration cb = batch_estimate(k, 2);
-    return cb < single * 2 && now + p.rt + cb <= deadline;
-  }();
-  if (!joinable) return deadline;
-  batch_candidates(now, p, by_job, limit);
-  const bool guarding = opt.guard && mixed_criticality;
-  for (const auto& [kk, t] : cand) {
-    const int b = static_cast<int>(batch.size()) + 1;
-    if (b > limit) break;
-    // Batch only when it is cheaper than running one by one and, by estimate, still
-    // meets the earliest member deadline once the round trip it pays is over (docs/DESIGN.md,
-    // "Refinement" inter-DAG batching).
-    const Duration cb = batch_estimate(k, b);
-    const TimePoint dl = std::min(deadline, TimePoint{kk.rank});
-    if (cb >= single * b || now + p.rt + cb > dl) break;
-    // Nor may the larger run make more critical work miss (the criticality guard): work
-    // outside the batch, or a more critical member of it.
-    if (guarding) {
-      const TimePoint begin = dispatch_begin(p.lane, now) + p.rt;
-      if (!guard_join(batch, t, begin, cb, batch_estimate(k, b - 1))) break;
-      batch.push_back(t);
-      const bool blocks = guard(batch, p.lane, now, begin).blocks;
-      batch.pop_back();
-      if (blocks) break;
-    }
-    batch.push_back(t);
-    deadline = dl;
-  }
-  return deadline;
-}
-
-// The scanned tasks that may join the best's batch (`cand`): of its kind and head, not
-// waiting, by deadline; only the limit − 1 earliest, ordered.
-void Scheduler::Impl::batch_candidates(TimePoint now, const Pick& p, bool by_job, int limit) {
-  const Task& k = task(p.best->task);
-  cand.clear();
-  for (const Scan& e : scanned) {
-    if (e.task == p.best->task || e.kind != k.kind || e.head != k.head || e.out == Scan::Out::Waits)
-      continue;
-    Key byd = e.key;
-    // A batch takes its members by deadline.
-    byd.rank = (e.deadline_known ? e.deadline : task_deadline(task(e.task), now)).count();
-    if (by_job) byd.rank = std::max(byd.rank, latest_batch_end(task(e.task)).count());
-    cand.emplace_back(byd, e.task);
-  }
-  // Only the max_batch − 1 earliest can join: order just those.
-  const auto take = std::min(cand.size(), static_cast<std::size_t>(std::max(0, limit - 1)));
-  std::partial_sort(cand.begin(), cand.begin() + static_cast<std::ptrdiff_t>(take), cand.end(),
-                    [](const auto& a, const auto& b) { return a.first < b.first; });
-  cand.resize(take);
+  const TimePoint deadline =
+      p.best->deadline_known ? p.best->deadline : task_deadline(task(best), now);
+  return batching.form(*this, now, best, deadline, p.lane, p.rt);
 }
 
 }  // namespace red

@@ -2,11 +2,14 @@
 // critical work does not start where it would make a more critical job miss that could make it
 // otherwise. Lanes do not preempt a unit once it runs, so the order under overload alone (the most
 // critical ready work first) does not protect a job released while a long, less critical unit
-// holds its lane. Part of the scheduler (scheduler_impl.hpp); pick() asks it.
+// holds its lane. The type CriticalityGuard (guard.hpp); part of the scheduler
+// (scheduler_impl.hpp), whose pick() asks it.
 
 #include <algorithm>
 #include <cstdint>
 #include <span>
+
+#include "guard.hpp"
 
 #include "scheduler_impl.hpp"
 
@@ -34,101 +37,104 @@ TimePoint Scheduler::Impl::lane_free_at(const Lane& l, TimePoint now) const {
   return t;
 }
 
+namespace sched_detail {
+
 // Whether a more critical operation waits on the dispatch's jobs (depends_on, directly or down
 // a chain): work it waits on is not held back for it, as holding it would hold that operation.
-bool Scheduler::Impl::guard_waits_on_run(int op) {
-  for (int d = ops[static_cast<std::size_t>(op)].depends_on, hops = 0;
-       d >= 0 && hops < static_cast<int>(ops.size());
-       d = ops[static_cast<std::size_t>(d)].depends_on, ++hops)
-    for (int slot : guard_slots)
-      if (job(slot).op == d) return true;
+bool CriticalityGuard::waits_on_run(Scheduler::Impl& m, int op) {
+  for (int d = m.ops[static_cast<std::size_t>(op)].depends_on, hops = 0;
+       d >= 0 && hops < static_cast<int>(m.ops.size());
+       d = m.ops[static_cast<std::size_t>(d)].depends_on, ++hops)
+    for (int slot : slots_)
+      if (m.job(slot).op == d) return true;
   return false;
 }
 
-Scheduler::Impl::GuardVerdict Scheduler::Impl::guard(std::span<const int> run, int lane,
-                                                     TimePoint now, TimePoint begin) {
-  GuardVerdict v;
+CriticalityGuard::Verdict CriticalityGuard::check(Scheduler::Impl& m, std::span<const int> run,
+                                                  int lane, TimePoint now, TimePoint begin) {
+  Verdict v;
   // The dispatch's criticality is its most critical member's: only more critical work is
   // protected from it, and not its own members.
-  GuardRun g{run, now, begin, std::numeric_limits<int>::min(), round_trip_cost(true), kNever};
-  guard_slots.clear();
-  guard_units.clear();
+  Run g{run, now, begin, std::numeric_limits<int>::min(), m.round_trip_cost(true), kNever};
+  slots_.clear();
+  units_.clear();
   for (int t : run)
-    for (const auto& [slot, unit] : task(t).members) {
-      g.crit = std::max(g.crit, ops[static_cast<std::size_t>(job(slot).op)].criticality);
-      guard_slots.push_back(slot);
-      guard_units.push_back(unit);
+    for (const auto& [slot, unit] : m.task(t).members) {
+      g.crit = std::max(g.crit, m.ops[static_cast<std::size_t>(m.job(slot).op)].criticality);
+      slots_.push_back(slot);
+      units_.push_back(unit);
     }
-  if (g.crit >= top_criticality) return v;
+  if (g.crit >= m.top_criticality) return v;
   // Where another lane frees first, more critical work can go there instead.
-  for (std::size_t i = 0; i < lanes.size(); ++i)
-    if (static_cast<int>(i) != lane) g.other = std::min(g.other, lane_free_at(lanes[i], now));
+  for (std::size_t i = 0; i < m.lanes.size(); ++i)
+    if (static_cast<int>(i) != lane) g.other = std::min(g.other, m.lane_free_at(m.lanes[i], now));
   // Judged twice. On mean costs, where the blocking is what typically happens, the dispatch is
   // held whatever the hold costs its own jobs. On the plan's estimate (SchedulerConfig::estimate,
   // p99 by default), which foresees more blocking than happens, it is held only where the hold
   // costs none of its jobs a deadline it would meet by running now.
-  guard_check(g, EstimateKind::Mean, false, v);
-  if (!v.blocks && s.config_.estimate != EstimateKind::Mean)
-    guard_check(g, s.config_.estimate, true, v);
+  judge(m, g, EstimateKind::Mean, false, v);
+  if (!v.blocks && m.s.config().estimate != EstimateKind::Mean)
+    judge(m, g, m.s.config().estimate, true, v);
   return v;
 }
 
 // The dispatch's run on estimate `kind`: a unit's cost, or a batch's from the profile.
-Duration Scheduler::Impl::guard_run_cost(std::span<const int> run, EstimateKind kind) {
+Duration CriticalityGuard::run_cost(Scheduler::Impl& m, std::span<const int> run,
+                                    EstimateKind kind) {
   const auto k = static_cast<std::size_t>(kind);
-  const Task& first = task(run.front());
+  const Task& first = m.task(run.front());
   if (run.size() == 1) {
     const auto [slot, unit] = first.members.front();
-    return job(slot).g->units[static_cast<std::size_t>(unit)].costs[k];
+    return m.job(slot).g->units[static_cast<std::size_t>(unit)].costs[k];
   }
-  const UnitProfile* p =
-      first.kind == UnitKind::Encoder ? enc_prof : head_prof[static_cast<std::size_t>(first.head)];
+  const UnitProfile* p = m.batching.unit_profile(first);
   return p != nullptr ? p->at(static_cast<int>(run.size())).estimate(kind)
                       : first.cost * static_cast<std::int64_t>(run.size());
 }
 
 // One judgement of guard(), on estimate `kind`; with `must_afford`, the hold must cost none of
 // the dispatch's jobs a deadline.
-void Scheduler::Impl::guard_check(const GuardRun& g, EstimateKind kind, bool must_afford,
-                                  GuardVerdict& v) {
+void CriticalityGuard::judge(Scheduler::Impl& m, const Run& g, EstimateKind kind, bool must_afford,
+                             Verdict& v) {
   const auto k = static_cast<std::size_t>(kind);
   // On the plan's estimate, with a margin: on a busy machine units overran even their p99
   // by a few percent, and a critical job that by estimate kept 1.6 ms of its 50 missed.
   const int margin = must_afford ? kMargin : 0;
-  const Duration own = guard_run_cost(g.run, kind);  // the held jobs: on the estimate itself
-  const TimePoint end = g.begin + padded(own, margin);
+  const Duration own = run_cost(m, g.run, kind);  // the held jobs: on the estimate itself
+  const TimePoint end = g.begin + m.padded(own, margin);
   const TimePoint blocked_until = std::min(end, g.other);
 
   // More critical jobs in flight with work ready for a lane: each needs its remaining work (its
   // critical path) from when a lane frees. A job whose units all run, or wait on units that run,
   // goes on on their lane (docs/DESIGN.md, "Synchronization": the run continues).
-  for (int slot : by_deadline) {
-    Job& j = job(slot);
-    if (!j.live || j.ended || ops[static_cast<std::size_t>(j.op)].criticality <= g.crit) continue;
-    if (std::find(guard_slots.begin(), guard_slots.end(), slot) != guard_slots.end()) continue;
-    if (guard_waits_on_run(j.op)) continue;
+  for (int slot : m.by_deadline) {
+    Job& j = m.job(slot);
+    if (!j.live || j.ended || m.ops[static_cast<std::size_t>(j.op)].criticality <= g.crit) continue;
+    if (std::find(slots_.begin(), slots_.end(), slot) != slots_.end()) continue;
+    if (waits_on_run(m, j.op)) continue;
     bool waiting = false;
     for (std::size_t u = 0; !waiting && u < j.u.size(); ++u)
       waiting = j.u[u].state == UState::Queued;
     if (!waiting) continue;
-    const Duration w = padded(critical_path(j, g.now, k), margin);
+    const Duration w = m.padded(m.critical_path(j, g.now, k), margin);
     if (g.now + g.rt + w <= j.deadline && blocked_until + g.rt + w > j.deadline) {
       v.blocks = true;
       return;  // yield this pick: the job's work is ready, it goes next or on its lane
     }
   }
-  guard_releases(g, k, margin, own, must_afford, end, blocked_until, v);
+  releases(m, g, k, margin, own, must_afford, end, blocked_until, v);
 }
 
 // Whether the dispatch can wait until more critical work (of path `w`) is done at `done`:
 // none of its jobs that would make its deadline by running now misses it by running then.
 // Run now, a job of the dispatch still has the more critical work go ahead of its later
 // units; held, it runs after that work: the hold costs it the lane's idle time.
-bool Scheduler::Impl::guard_affords(const GuardRun& g, Duration own, TimePoint done, Duration w) {
-  for (std::size_t i = 0; i < guard_slots.size(); ++i) {
-    Job& m = job(guard_slots[i]);
-    const Duration after = path_after(m, guard_units[i]);
-    if (g.begin + own + w + after <= m.deadline && done + g.rt + own + after > m.deadline)
+bool CriticalityGuard::affords(Scheduler::Impl& m, const Run& g, Duration own, TimePoint done,
+                               Duration w) {
+  for (std::size_t i = 0; i < slots_.size(); ++i) {
+    Job& jm = m.job(slots_[i]);
+    const Duration after = m.path_after(jm, units_[i]);
+    if (g.begin + own + w + after <= jm.deadline && done + g.rt + own + after > jm.deadline)
       return false;
   }
   return true;
@@ -136,14 +142,14 @@ bool Scheduler::Impl::guard_affords(const GuardRun& g, Duration own, TimePoint d
 
 // The next release of each more critical operation before the dispatch would end (`end`): its
 // job needs its whole critical path within its deadline.
-void Scheduler::Impl::guard_releases(const GuardRun& g, std::size_t k, int margin, Duration own,
-                                     bool must_afford, TimePoint end, TimePoint blocked_until,
-                                     GuardVerdict& v) {
+void CriticalityGuard::releases(Scheduler::Impl& m, const Run& g, std::size_t k, int margin,
+                                Duration own, bool must_afford, TimePoint end,
+                                TimePoint blocked_until, Verdict& v) {
   const TimePoint now = g.now;
-  for (std::size_t i = 0; i < ops.size(); ++i) {
-    const OpState& o = ops[i];
+  for (std::size_t i = 0; i < m.ops.size(); ++i) {
+    const OpState& o = m.ops[i];
     if (o.g == nullptr || o.remaining == 0 || o.criticality <= g.crit) continue;
-    if (guard_waits_on_run(static_cast<int>(i))) continue;
+    if (waits_on_run(m, static_cast<int>(i))) continue;
     if (o.inflight >= o.max_inflight) continue;  // its next release is skipped
     TimePoint r = kNever;
     Duration period{0};
@@ -152,7 +158,7 @@ void Scheduler::Impl::guard_releases(const GuardRun& g, std::size_t k, int margi
       r = o.next_tick;  // the scheduler's own clock: on time
       period = period_of(o.rate_hz);
     } else if (o.trigger >= 0) {
-      const SensorState& sn = sensors[static_cast<std::size_t>(o.trigger)];
+      const SensorState& sn = m.sensors[static_cast<std::size_t>(o.trigger)];
       if (!sn.has_frame || sn.rate_hz <= 0) continue;
       period = period_of(sn.rate_hz);
       allowance = late_allowance(period);
@@ -164,36 +170,37 @@ void Scheduler::Impl::guard_releases(const GuardRun& g, std::size_t k, int margi
     if (r == kNever || period <= Duration{0} || r >= end) continue;
     Duration w{0};
     for (int src : o.g->sources) w = std::max(w, o.g->units[static_cast<std::size_t>(src)].tail[k]);
-    w = padded(w, margin);
+    w = m.padded(w, margin);
     if (g.rt + w > o.g->deadline) continue;  // it cannot make it even on a free lane
     const TimePoint start = std::max(r, blocked_until);
     if (start + g.rt + w <= r + o.g->deadline ||
-        (must_afford && !guard_affords(g, own, std::max(r, now) + g.rt + w, w)))
+        (must_afford && !affords(m, g, own, std::max(r, now) + g.rt + w, w)))
       continue;
     v.blocks = true;
     v.until = std::min(v.until, r > now ? r : r + allowance);
   }
 }
 
-bool Scheduler::Impl::guard_join(std::span<const int> members, int joining, TimePoint begin,
-                                 Duration with, Duration without) {
+bool CriticalityGuard::join(Scheduler::Impl& m, std::span<const int> members, int joining,
+                            TimePoint begin, Duration with, Duration without) {
   int crit = std::numeric_limits<int>::min();
-  for (const auto& [slot, unit] : task(joining).members)
-    crit = std::max(crit, ops[static_cast<std::size_t>(job(slot).op)].criticality);
-  if (crit >= top_criticality) return true;
+  for (const auto& [slot, unit] : m.task(joining).members)
+    crit = std::max(crit, m.ops[static_cast<std::size_t>(m.job(slot).op)].criticality);
+  if (crit >= m.top_criticality) return true;
   // A batch of frames costs more than one frame, and on a busy machine a larger run overran its
   // estimate more: a less critical frame joins a more critical job's run only where that job
   // still makes its deadline with the margin (else the frame runs after, in a run of its own).
   for (int t : members)
-    for (const auto& [slot, unit] : task(t).members) {
-      const Job& m = job(slot);
-      if (ops[static_cast<std::size_t>(m.op)].criticality <= crit) continue;
-      const Duration after = path_after(m, unit);
-      if (begin + without + after <= m.deadline &&
-          begin + padded(with, kMargin) + after > m.deadline)
+    for (const auto& [slot, unit] : m.task(t).members) {
+      const Job& jm = m.job(slot);
+      if (m.ops[static_cast<std::size_t>(jm.op)].criticality <= crit) continue;
+      const Duration after = m.path_after(jm, unit);
+      if (begin + without + after <= jm.deadline &&
+          begin + m.padded(with, kMargin) + after > jm.deadline)
         return false;
     }
   return true;
 }
 
+}  // namespace sched_detail
 }  // namespace red

@@ -104,7 +104,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   // first frame there is nothing to read, so this tick or trigger frame releases no job.
   if (!inputs_ready(*o.g, trigger_sensor)) return;
   if (o.remaining > 0 && --o.remaining == 0) {
-    by_rate.on_workload();
+    shedding.on_workload();
     plan_work();
   }
   const std::uint64_t seq = o.released++;
@@ -127,11 +127,8 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     notify_job(tmp, JobOutcome::Skipped, now, false);
     return;
   }
-  // docs/DESIGN.md, "Overload": past capacity, the jobs of an operation that cheaper ones outrank
-  // are rejected before they cost anything (shedding by rate, shed_by_rate.hpp).
-  const bool reject = opt.admission == Admission::Shed && opt.shed_by_rate && !mixed_criticality &&
-                      by_rate.rejects(op_index, now, ops, s.config_.lanes, idx(opt.drop_estimate),
-                                      [&] { return past_capacity() && evidenced(now); });
+  // Shedding by rate (shedding.hpp) decides before the job is made; it ends once released.
+  const bool reject = shedding.rejects_at_release(*this, op_index, now);
   const int slot = alloc_job();
   Job& j = job(slot);
   j.id = next_job_id++;
@@ -199,7 +196,6 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   by_deadline.insert(std::upper_bound(by_deadline.begin(), by_deadline.end(), slot,
                                       [this](int a, int b) { return earlier(a, b); }),
                      slot);
-  released_since_admission = true;
   if (opt.drop != DropMode::None) {
     deadlines.push_back({j.deadline, {slot, j.id}});
     std::push_heap(deadlines.begin(), deadlines.end(), std::greater<>{});
@@ -207,12 +203,8 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   notify_job(j, JobOutcome::Unfinished, now, true);
   for (std::size_t i = 0; i < g.units.size(); ++i)
     if (j.u[i].pending == 0) make_ready(slot, static_cast<int>(i));
-  if (opt.admission == Admission::Shed) note_offered(j, now);
-  if (reject) {
-    j.reason = DropReason::RejectedByRate;
-    ++s.stats_.rejected;
-    end_job(slot, JobOutcome::Dropped, now);
-  }
+  // The offered load; admission before the next decision; the rejection by rate.
+  shedding.released(*this, slot, reject, now);
 }
 
 void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
@@ -221,7 +213,7 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   j.ended = true;
   --s.in_flight_;
   --ops[static_cast<std::size_t>(j.op)].inflight;
-  by_rate.on_end(j.op, outcome, j.reason, now);
+  shedding.on_end(j.op, outcome, j.reason, now);
   if (outcome == JobOutcome::Missed || outcome == JobOutcome::Dropped) last_miss = now;
   const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
                                    [this](int a, int b) { return earlier(a, b); });

@@ -53,6 +53,7 @@ int Scheduler::Impl::choose_lane(const Task& k, TimePoint now) const {
 void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint deadline) {
   Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
   Dispatch& d = lane.next_slot();
+  const std::span<const int> batch = batching.batch();
   const Task& first = task(batch.front());
   d.id = ++dispatch_seq;
   d.lane = lane_index;
@@ -66,7 +67,7 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
   d.decided_at = now;
   d.start = now;
   d.expected = first.kind == UnitKind::Encoder || first.kind == UnitKind::Head
-                   ? batch_estimate(first, d.batch)
+                   ? batching.estimate(*this, first, d.batch)
                    : first.cost;
   // Queued behind the lane's running unit by its own handler: no round trip.
   d.round_trip = ahead_lane < 0 && !on_demand_continuation(lane, first, now);
@@ -77,16 +78,7 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
   for (int t : batch) {
     Task& k = task(t);
     d.task_begin.push_back(static_cast<int>(d.members.size()));
-    if (opt.merge && k.kind == UnitKind::Encoder && k.gamma) {
-      // A γ-merged run uses the newest frame available when it starts (docs/DESIGN.md,
-      // "Refinement"). Without DynamicMerge a job keeps the frame it sampled at release: its
-      // encoders on one sensor run as separate tasks, and their heads must all read that one frame.
-      const SensorState& sn = sensors[static_cast<std::size_t>(k.sensor)];
-      if (sn.has_frame && sn.frame > k.frame) {
-        k.frame = sn.frame;
-        k.frame_time = sn.time;
-      }
-    }
+    merge.at_start(*this, k);  // a γ-merged run reads the newest frame (merge.hpp)
     for (auto [slot, unit] : k.members) {
       Job& j = job(slot);
       // Where ranking did not look into the jobs, the job's evaluation at `now` is taken

@@ -1,7 +1,8 @@
 // Overload (docs/DESIGN.md, "Overload"): the demand test (the work due by each deadline against
-// what the lanes can do by then), admission at release, and the critical-path estimates hopeless
-// aborts use. Part of the scheduler (scheduler_impl.hpp): scheduler.cpp calls these in the order of
-// a decision.
+// what the lanes can do by then), the work figures it counts (plan_work, work_left, critical
+// paths) and the round's overload state (assess_overload). Part of the scheduler
+// (scheduler_impl.hpp): scheduler.cpp calls these in the order of a decision. Shedding (admission,
+// shed_lone, shedding by rate, hopeless aborts), which asks the demand test, is shedding.cpp.
 
 #include <algorithm>
 #include <chrono>
@@ -46,31 +47,13 @@ void Scheduler::Impl::plan_work() {
   // The jobs' cached work figures were counted at the costs before.
   for (Job& j : jobs)
     if (j.live) j.dirty = true;
-  expected_stale = true;
+  shedding.on_costs();
 }
 
 bool Scheduler::Impl::earlier(int a, int b) const {
   const Job& x = jobs[static_cast<std::size_t>(a)];
   const Job& y = jobs[static_cast<std::size_t>(b)];
   return x.deadline != y.deadline ? x.deadline < y.deadline : x.id < y.id;
-}
-
-Duration Scheduler::Impl::remaining_for_drop(Job& j, TimePoint now) {
-  // The remaining critical path on the drop estimate, no longer than with every unit not started
-  // at its least time in any batch (a batch may cost less than a run alone: docs/DESIGN.md,
-  // "Overload"; red/graph/necessary_work.hpp).
-  const std::size_t k = idx(opt.drop_estimate);
-  const Duration cp = critical_path(j, now, k);
-  Duration least = j.cp_least;
-  const RefinedGraph& g = *j.g;
-  for (int r : j.running_units) {
-    const auto ur = static_cast<std::size_t>(r);
-    Duration after{0};
-    for (int sx : g.units[ur].succs)
-      after = std::max(after, g.units[static_cast<std::size_t>(sx)].least_tail);
-    least = std::max(least, residual(j, ur, now, k) + after);
-  }
-  return std::min(cp, least);
 }
 
 Duration Scheduler::Impl::critical_path(Job& j, TimePoint now, std::size_t k) {
@@ -102,66 +85,11 @@ Duration Scheduler::Impl::work_left(Job& j, TimePoint now, std::size_t k) {
   return w;
 }
 
-bool Scheduler::Impl::looking_ahead(TimePoint now) const {
-  return opt.lookahead && evidenced(now) &&
-         offered > kLookaheadAt * kOfferedWindow * static_cast<double>(s.config_.lanes);
-}
-
-Duration Scheduler::Impl::expected_due(TimePoint now, TimePoint t, std::size_t k, Duration* largest,
-                                       int criticality, int min_crit) {
-  if (expected_stale) {
-    expected_stale = false;
-    // A job to come: its heads and plain nodes, and its share of its cameras' encoder runs as
-    // the model of necessary work counts them (plan_work).
-    expected_work.assign(ops.size(), {});
-    for (std::size_t i = 0; i < ops.size(); ++i) {
-      const OpState& o = ops[i];
-      if (o.g == nullptr) continue;
-      bool encoders = false;
-      for (const RefinedUnit& ru : o.g->units) {
-        encoders = encoders || ru.kind == UnitKind::Encoder;
-        if (ru.kind == UnitKind::Encoder) continue;
-        for (std::size_t e = 0; e < kEstimates; ++e) expected_work[i][e] += unit_cost(ru, e);
-      }
-      if (!encoders || i >= encoder_runs_per_job.size()) continue;
-      for (std::size_t e = 0; e < kEstimates; ++e)
-        expected_work[i][e] += scaled_by(run_cost[WorkModel::kEncoder][e], encoder_runs_per_job[i]);
-    }
-  }
-  Duration due{0};
-  for (std::size_t i = 0; i < ops.size(); ++i) {
-    const OpState& o = ops[i];
-    if (o.g == nullptr || o.remaining == 0 || o.criticality < min_crit) continue;
-    // The next release: the own-rate tick, or the triggering sensor's next frame.
-    double hz = 0;
-    TimePoint next = kNever;
-    if (o.own_rate) {
-      hz = o.rate_hz;
-      next = o.next_tick;
-    } else if (o.trigger >= 0) {
-      const SensorState& sn = sensors[static_cast<std::size_t>(o.trigger)];
-      hz = sn.rate_hz;
-      if (sn.has_frame && hz > 0) next = sn.time + from_s(1.0 / hz);
-    }
-    if (hz <= 0 || next == kNever) continue;
-    if (next <= now)
-      next += from_s(std::ceil(std::chrono::duration<double>(now - next).count() * hz + 1e-9) / hz);
-    const TimePoint first_deadline = next + o.g->deadline;
-    if (first_deadline > t) continue;
-    const auto count = 1 + static_cast<std::int64_t>(
-                               std::chrono::duration<double>(t - first_deadline).count() * hz);
-    const Duration w = expected_work[i][k];
-    due += w * count;
-    if (largest != nullptr && o.criticality <= criticality) *largest = std::max(*largest, w);
-  }
-  return due;
-}
-
 int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, int margin,
                                    std::size_t from, bool skip_doomed, int min_crit) {
   // Admission (skip_doomed) looking ahead counts, by each job's deadline, the work of the
   // jobs still to come that are due by then too.
-  const bool ahead = skip_doomed && looking_ahead(now);
+  const bool ahead = skip_doomed && shedding.looking_ahead(*this, now);
   const auto lane_count = static_cast<std::int64_t>(s.config_.lanes);
   if (lane_count > 1 && schedule)
     return first_overrun_lanes(now, k, margin, from, skip_doomed, min_crit);
@@ -192,7 +120,8 @@ int Scheduler::Impl::first_overrun(TimePoint now, std::size_t k, bool schedule, 
       }
     if (i < from) continue;
     const Duration coming =
-        ahead ? expected_due(now, j.deadline, k, nullptr, 0, min_crit) : Duration{0};
+        ahead ? shedding.expected_due(*this, now, j.deadline, k, nullptr, 0, min_crit)
+              : Duration{0};
     if (lane_count == 1) {
       if (now + padded(due + coming, margin) > j.deadline) return static_cast<int>(i);
       continue;
@@ -333,166 +262,6 @@ bool Scheduler::Impl::saturated() const {
   for (const OpState& o : ops)
     if (o.g != nullptr && o.remaining != 0 && o.inflight >= o.max_inflight) return true;
   return false;
-}
-
-void Scheduler::Impl::note_offered(Job& j, TimePoint now) {
-  const double dt = std::chrono::duration<double>(now - offered_at).count();
-  offered = offered * std::exp(-dt / kOfferedWindow) +
-            std::chrono::duration<double>(work_left(j, now, idx(opt.drop_estimate))).count();
-  offered_at = now;
-}
-
-bool Scheduler::Impl::past_capacity() const {
-  return offered > kOfferedWindow * static_cast<double>(s.config_.lanes);
-}
-
-void Scheduler::Impl::admit(TimePoint now) {
-  const std::size_t k = idx(opt.drop_estimate);
-  // Below capacity the list schedule's order (jobs by deadline) is not the policy's, and
-  // it would reject jobs that the policy's intermediate deadlines fit in; the lower bound
-  // decides there. Past capacity the list schedule keeps what the lanes cannot finish out.
-  const bool schedule = past_capacity();
-  // The margin keeps room for overruns where the lanes are full (below capacity the idle
-  // time absorbs them).
-  const int margin = schedule ? opt.admit_margin : 0;
-  // Moore and Hodgson over the jobs by deadline: at each window that overruns, the victim
-  // goes and the test starts again; a window with nothing to shed is passed over. A job that
-  // cannot make it even alone (on the estimate, from now) counts for nothing: the hopeless
-  // check ends it, and its work would make every later window overrun.
-  const bool ahead = looking_ahead(now);
-  if (opt.shed_lone && schedule && evidenced(now)) shed_lone_jobs(now, k, margin);
-  // Criticality (docs/DESIGN.md, "Criticality"): under overload pick() runs the most critical work
-  // first, so a job is in the way of a more critical one only through the units the lanes hold. A
-  // job is rejected for a window only if the jobs of its criticality or more overrun by themselves;
-  // jobs at carried_from or above are known not to (rejections only make room).
-  int carried_from = std::numeric_limits<int>::max();
-  // The workload's least critical operations: only their jobs are victims. Nothing in here
-  // changes which operations are live.
-  const int least_op = mixed_criticality ? least_op_criticality() : 0;
-  std::size_t from = 0;
-  for (;;) {
-    const int over = first_overrun(now, k, schedule, margin, from, true);
-    if (over < 0) return;
-    from = static_cast<std::size_t>(over) + 1;
-    // The first job alone overrunning its deadline on the estimate: rejecting it frees the
-    // lanes for nobody now, and the estimate may be pessimistic (a profile taken under
-    // load); the hopeless check decides on its progress instead. Not alone when looking
-    // ahead: the jobs to come before its deadline are what it would take the lane from.
-    if (over == 0 && !ahead) continue;
-    int victim = -1;
-    Duration victim_work{0};
-    int victim_crit = 0;
-    for (int i = 0; i <= over; ++i) {
-      const int slot = by_deadline[static_cast<std::size_t>(i)];
-      Job& j = job(slot);
-      refresh(j);
-      if (j.started || doomed(j, now, k)) continue;
-      const int crit = ops[static_cast<std::size_t>(j.op)].criticality;
-      if (crit >= carried_from || (mixed_criticality && crit > least_op)) continue;
-      const Duration w = work_left(j, now, k);
-      const bool better = victim < 0 || crit < victim_crit ||
-                          (crit == victim_crit && w > victim_work) ||
-                          (crit == victim_crit && w == victim_work);  // later deadline wins
-      if (better) {
-        victim = slot;
-        victim_work = w;
-        victim_crit = crit;
-      }
-    }
-    if (victim < 0) continue;  // only started jobs are due by then: hopeless checks decide
-    if (mixed_criticality && victim_crit > least_criticality()) {
-      // Less critical jobs (started, or past this window) share the overrun: whether the
-      // victim's class alone overruns decides. The victim is the least critical candidate.
-      const int own = first_overrun(now, k, schedule, margin, 0, true, victim_crit);
-      if (own < 0) carried_from = victim_crit;
-      if (own < 0 || own > over) continue;
-    }
-    if (ahead) {
-      // Moore and Hodgson over the jobs to come as well: where one of them, no more critical,
-      // has more work due by then than the victim, it is that job that goes, at its release.
-      Duration largest{0};
-      expected_due(now, job(by_deadline[static_cast<std::size_t>(over)]).deadline, k, &largest,
-                   victim_crit);
-      if (largest > victim_work) continue;
-    }
-    from = 0;
-    job(victim).reason = DropReason::Rejected;
-    ++s.stats_.rejected;
-    end_job(victim, JobOutcome::Dropped, now);
-  }
-}
-
-int Scheduler::Impl::least_op_criticality() const {
-  int least = std::numeric_limits<int>::max();
-  for (const OpState& o : ops)
-    if (o.g != nullptr && o.remaining != 0) least = std::min(least, o.criticality);
-  return least;
-}
-
-int Scheduler::Impl::least_criticality() {
-  int least = std::numeric_limits<int>::max();
-  for (const int slot : by_deadline)
-    least = std::min(least, ops[static_cast<std::size_t>(job(slot).op)].criticality);
-  return least;
-}
-
-void Scheduler::Impl::shed_lone_jobs(TimePoint now, std::size_t est, int margin) {
-  // With max_inflight, an operation's throughput is its slots over its jobs' response time.
-  // Past capacity every operation of a MIMONet set fills its slots, each skips the frames
-  // that come while it is full, and the frames each one takes drift apart: an encoder run
-  // then serves one or two jobs, not one per operation. Rejecting a job that would run its
-  // frame's encoder alone, when it would leave its operation fewer than half its slots,
-  // keeps the slot for a frame the operations share (docs/journal/overload-grid.md, round 7).
-  auto reads = [](const OpState& o, int sensor) {
-    return std::find(o.sensors_read.begin(), o.sensors_read.end(), sensor) != o.sensors_read.end();
-  };
-  lone.clear();
-  for (const int slot : by_deadline) {
-    const Job& j = job(slot);
-    const OpState& o = ops[static_cast<std::size_t>(j.op)];
-    if (j.release != now || j.started || o.own_rate || o.trigger < 0) continue;
-    if (2 * o.inflight <= o.max_inflight) continue;  // half its slots or more still free
-    // Its slots must be what limits it: a release of it skipped at max_inflight within the
-    // offered-load window, or the demand test overrun. Past capacity by the offered load
-    // alone is not enough (issue 37: on a robot workload at 1x with max_inflight 1 this rule
-    // lost 41 % of the jobs, all of which red met). Gating on the demand test alone cost the
-    // overload grid 31 of 464 points (worst -8.2 points); with the skips, 11 (worst -5.7).
-    if ((o.last_skip == kNever || now - o.last_skip > from_s(kOfferedWindow)) && !demand_overrun)
-      continue;
-    const int t = o.trigger;
-    const auto tu = static_cast<std::size_t>(t);
-    bool others = false;  // another operation reads the sensor: the frame could be shared
-    for (const OpState& p : ops)
-      others = others || (&p != &o && p.g != nullptr && p.remaining != 0 && reads(p, t));
-    if (!others) continue;
-    bool shared = false;
-    for (const int other : by_deadline) {
-      if (other == slot) continue;
-      const Job& k = job(other);
-      if (k.frame[tu] == j.frame[tu] && reads(ops[static_cast<std::size_t>(k.op)], t)) {
-        shared = true;
-        break;
-      }
-    }
-    if (!shared) lone.push_back(slot);
-  }
-  // Criticality (docs/DESIGN.md, "Criticality"): a lone job more critical than some job in flight
-  // goes only when the jobs of its criticality or more overrun by themselves (pick() runs them
-  // ahead of the others under overload).
-  if (mixed_criticality && !lone.empty()) {
-    const int least = least_criticality();
-    const int least_op = least_op_criticality();
-    std::erase_if(lone, [&](int slot) {
-      const int crit = ops[static_cast<std::size_t>(job(slot).op)].criticality;
-      return crit > least_op ||
-             (crit > least && first_overrun(now, est, true, margin, 0, true, crit) < 0);
-    });
-  }
-  for (const int slot : lone) {
-    job(slot).reason = DropReason::Rejected;
-    ++s.stats_.rejected;
-    end_job(slot, JobOutcome::Dropped, now);
-  }
 }
 
 void Scheduler::Impl::assess_overload(TimePoint now) {

@@ -52,7 +52,7 @@ std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
   // A decision like dispatch()'s: admission of what was released since, then the overload
   // state (the demand test) at this instant. With queued lanes most decisions are these:
   // a lane that always holds a unit is never idle at dispatch().
-  m.admit_released(now);
+  m.shedding.admit_released(m, now);
   m.ready_in_lane_order(lane);
   if (m.ready_count() == 0) return m.out;
   ++stats_.decisions;

@@ -4,8 +4,9 @@
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
 // ready_set.cpp (the ready set's groups), dispatch.cpp (ranking, pick), merge.cpp (merge
 // waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
-// (the demand test, admission, drops' estimates), queue.cpp (queued lanes); online_costs.cpp
-// (what units cost in this run, and the profile plans are made on: use_costs()).
+// (the demand test and its work figures), shedding.cpp (how a job is shed: admission, shed_lone,
+// shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued lanes);
+// online_costs.cpp (what units cost in this run, and the profile plans are made on: use_costs()).
 
 #include "red/sched/scheduler.hpp"
 
@@ -53,7 +54,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   if (s.config_.measure_costs) online.emplace(p, sc.model, s.config_.online_costs);
   sensors.resize(sc.sensors.size());
   for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
-  open_enc.resize(sc.sensors.size());
+  merge.set_sensors(sc.sensors.size());
   lanes.resize(static_cast<std::size_t>(s.config_.lanes));
   ops.resize(static_cast<std::size_t>(sc.operation_count()));
   for (int i = 0; i < sc.operation_count(); ++i)
@@ -82,15 +83,7 @@ void Scheduler::Impl::price(const Profile& p) {
   const Scenario& sc = s.scenario_;
   profile = &p;
   costs = CostModel{profile, &sc.model, s.config_.estimate};
-  enc_prof = profile->find("encoder");
-  enc_single = costs.encoder();
-  enc_max_batch = enc_prof != nullptr ? enc_prof->max_batch() : 1;
-  head_single.clear();
-  head_prof.clear();
-  for (std::size_t h = 0; h < sc.model.heads.size(); ++h) {
-    head_single.push_back(costs.head(static_cast<int>(h)));
-    head_prof.push_back(profile->find("head/" + sc.model.heads[h]));
-  }
+  batching.price(*profile, costs, sc.model);
 }
 
 void Scheduler::Impl::use_costs(const Profile& p) {
@@ -132,7 +125,7 @@ void Scheduler::apply_events(TimePoint now) {
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
-    m.by_rate.on_workload();
+    m.shedding.on_workload();
     m.plan_work();
     for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
     ++m.next_event;
@@ -280,7 +273,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   ++m.stamp;  // one scheduling point: deadlines are re-assigned from now
   // docs/DESIGN.md, "Overload": admission right after releases; the demand test that tells
   // overload, when the policy or the scenario's criticalities use it.
-  m.admit_released(now);
+  m.shedding.admit_released(m, now);
   int idle = 0;
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
   if (idle > 0 && m.ready_count() > 0) {
@@ -288,25 +281,8 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
     m.assess_overload(now);
     while (idle > 0 && m.pick(now)) --idle;
   }
-  // The earliest end of a merge wait still running is a wake-up (next_wakeup). Recomputed
-  // after every round from the waits that end after now, so a wait that is over (its member
-  // came, or every lane is busy) never becomes a wake-up in the past.
-  // Only tasks that began a wait can be waiting: m.waits lists them (a wait ends for good
-  // once it is over or the task left the ready set).
-  int waiting = 0;
-  m.min_wait = kNever;
-  for (std::size_t i = 0; i < m.waits.size();) {
-    Task& k = m.task(m.waits[i]);
-    if (!k.live || k.ready_pos < 0 || k.wait_until <= now) {
-      k.in_waits = false;
-      m.waits[i] = m.waits.back();
-      m.waits.pop_back();
-      continue;
-    }
-    ++waiting;
-    m.min_wait = std::min(m.min_wait, k.wait_until);
-    ++i;
-  }
+  // The waits still running; the earliest end of one is a wake-up (next_wakeup).
+  const int waiting = m.merge.sweep(m, now);
   if (!m.observers.empty()) {
     // Ready for any lane: a task ready only behind a busy lane's unit (queue_depth > 1)
     // cannot take an idle lane.
@@ -324,7 +300,7 @@ TimePoint Scheduler::next_wakeup() const {
   if (m.next_event < scenario_.events.size()) t = std::min(t, scenario_.events[m.next_event].at);
   t = std::min(t, m.next_tick().first);
   if (!m.deadlines.empty()) t = std::min(t, m.deadlines.front().first);
-  if (m.ready_count() > 0) t = std::min(t, m.min_wait);
+  if (m.ready_count() > 0) t = std::min(t, m.merge.earliest_wait());
   return t;
 }
 

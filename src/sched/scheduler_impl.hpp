@@ -17,10 +17,13 @@
 #include <utility>
 #include <vector>
 
+#include "batching.hpp"
+#include "guard.hpp"
+#include "merge.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
-#include "shed_by_rate.hpp"
+#include "shedding.hpp"
 #include "state.hpp"
 
 namespace red {
@@ -80,28 +83,16 @@ struct Scheduler::Impl {
   std::map<GroupKey, int> group_of;
   int grouped_tasks = 0;
   std::vector<int> to_group;  // scratch of pick(): tasks that can join a group after the scan
-  std::vector<int> waits;     // tasks that began a merge wait (a superset of those still waiting)
   int ready_encoders = 0;     // encoder tasks in `ready`
-  std::vector<std::vector<int>> open_enc;  // per sensor: queued encoder tasks
   std::vector<Lane> lanes;
   std::vector<Dispatch*> out;
   std::vector<std::pair<TimePoint, std::pair<int, JobId>>> deadlines;  // min-heap
   std::vector<Observer*> observers;
   std::uint64_t stamp = 1;
   std::uint64_t dispatch_seq = 0;
-  TimePoint min_wait = kNever;
   // Overload (docs/DESIGN.md, "Overload"): live jobs by (deadline, id), for the demand test;
-  // whether a release came since the last admission test; whether the lanes are judged overloaded
-  // this round.
+  // whether the lanes are judged overloaded this round.
   std::vector<int> by_deadline;
-  bool released_since_admission = false;
-  // The offered load: work released (drop estimate, seconds), decayed over kOfferedWindow.
-  static constexpr double kOfferedWindow = 0.25;  // seconds
-  // Offered load (× the lanes) past which admission looks ahead (opt.lookahead): with less,
-  // a momentary burst would reject jobs the idle time absorbs.
-  static constexpr double kLookaheadAt = 1.1;
-  double offered = 0.0;
-  TimePoint offered_at{0};
   bool overloaded = false;
   // Evidence of overload (opt.miss_gate): when a job last ended without meeting its deadline
   // (missed, dropped, skipped at max_inflight). The mechanisms that act on signs of overload
@@ -124,9 +115,7 @@ struct Scheduler::Impl {
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
   std::vector<TimePoint> unit_end;
   std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
-  // scratch for batching
-  std::vector<std::pair<Key, int>> cand;
-  struct Scan {  // one cache line
+  struct Scan {                               // one cache line
     Key key;
     TimePoint deadline;  // valid where deadline_known; else task_deadline() gives it
     int task;
@@ -140,12 +129,9 @@ struct Scheduler::Impl {
   };
   static_assert(sizeof(Scan) <= 64);
   std::vector<Scan> scanned;
-  std::vector<int> batch;
-  Duration enc_single{0};
-  int enc_max_batch = 1;
-  std::vector<Duration> head_single;
-  std::vector<const UnitProfile*> head_prof;
-  const UnitProfile* enc_prof = nullptr;
+  // Inter-DAG batching (docs/DESIGN.md, "Refinement"; batching.hpp): batch costs and the batch
+  // a pick forms; its state.
+  Batching batching;
 
   Impl(Scheduler& owner, const Profile& p);
 
@@ -230,12 +216,6 @@ struct Scheduler::Impl {
     return j.remaining;
   }
 
-  // The job's remaining critical path under the drop estimate (docs/DESIGN.md, "Overload":
-  // optimistic, so that a job that can still make it is kept): the longest path through its
-  // unfinished units, a running unit counting its remainder. A lower bound on its response from now
-  // on any number of lanes, unlike the docs/DESIGN.md, "Intermediate deadlines" sum of level costs.
-  Duration remaining_for_drop(Job& j, TimePoint now);
-
   // The longest path through a job's unfinished units under estimate kind k, a running unit
   // counting its remainder.
   Duration critical_path(Job& j, TimePoint now, std::size_t k);
@@ -252,20 +232,6 @@ struct Scheduler::Impl {
   // queued encoder run is shared by the members of its task and a running unit by the members of
   // its dispatch, so shared encoder runs are counted once.
   Duration work_left(Job& j, TimePoint now, std::size_t k);
-  // Lookahead (docs/DESIGN.md, "Overload", opt.lookahead): true while admission also counts the
-  // jobs periodic operations will release, i.e. once the offered load passes kLookaheadAt × the
-  // lanes.
-  bool looking_ahead(TimePoint now) const;
-  // The work of the jobs periodic operations (own rate or triggered by a sensor) will release
-  // after `now` with deadlines by `t`, at their current rates, on estimate kind k: a job its
-  // units' cost, a frame's encoder run divided among the operations it triggers. `largest`,
-  // when given, is raised to the largest one such job of criticality at most `criticality`
-  // needs. Operations less critical than `min_crit` are left out.
-  Duration expected_due(TimePoint now, TimePoint t, std::size_t k, Duration* largest = nullptr,
-                        int criticality = 0, int min_crit = kAnyCriticality);
-  static constexpr int kAnyCriticality = std::numeric_limits<int>::min();
-  std::vector<std::array<Duration, kEstimates>> expected_work;  // per operation: a job's work
-  bool expected_stale = true;  // graphs or rates changed since expected_work was computed
 
   // The necessary work of the workload in effect (red/graph/necessary_work.hpp): the lane time one
   // run of each unit takes as RED runs it (encoder runs shared, runs batched as the deadlines
@@ -337,34 +303,6 @@ struct Scheduler::Impl {
   // "max_inflight").
   bool saturated() const;
 
-  // Admission (docs/DESIGN.md, "Overload" "shed early, shed little"): while the work due by some
-  // deadline exceeds what the lanes can do by then (on the optimistic drop estimate), reject one
-  // unstarted job due by then: the least critical, then the one whose removal saves the most work,
-  // then the latest. On one lane this is Moore and Hodgson's rule (1968: drop the longest
-  // job when a deadline is overrun), which minimizes the number of late jobs.
-  void admit(TimePoint now);
-
-  // docs/DESIGN.md, "Overload" "shed early", by frame (opt.shed_lone, past capacity): rejects
-  // the jobs released now that no other job in flight shares a frame with (other operations
-  // read the sensor, but skipped or rejected this frame) and that leave their operation fewer
-  // than half its max_inflight slots free, while those slots limit it (a release of it
-  // skipped at max_inflight lately, or the demand test overrun). Called by admit() before
-  // Moore and Hodgson. Lone jobs more critical than some job in flight go only when the jobs
-  // of their criticality or more overrun by themselves (first_overrun's min_crit; k and
-  // margin its).
-  void shed_lone_jobs(TimePoint now, std::size_t k, int margin);
-  // The least criticality of the jobs in flight (INT_MAX with none).
-  int least_criticality();
-  // The least criticality of the workload's live operations: admission and shed_lone reject only
-  // jobs of it (docs/DESIGN.md, "Criticality").
-  int least_op_criticality() const;
-  std::vector<int> lone;  // shed_lone_jobs' victims, reused
-
-  // The latest a batch may end for every member of task k to finish its job by the job's
-  // deadline: the earliest over the members of the job deadline less the longest path
-  // after the member's unit (scheduler estimate). docs/DESIGN.md, "Overload" batch_by_job.
-  TimePoint latest_batch_end(const Task& k) const;
-
   // The longest path after a unit of j (the unit itself not counted) on the scheduler's
   // estimate (p99 by default): what j still needs once the unit has ended.
   Duration path_after(const Job& j, int unit) const {
@@ -379,19 +317,6 @@ struct Scheduler::Impl {
   TimePoint rank_deadline(const Job& j, int unit) const {
     return opt.path_rank ? j.plan - path_after(j, unit) : j.plan;
   }
-
-  // True when the offered load exceeds what the lanes can do (docs/DESIGN.md, "Overload" detect
-  // from demand).
-  bool past_capacity() const;
-
-  // docs/DESIGN.md, "Overload" "shed early", by rate (opt.shed_by_rate): its state and rule
-  // (shed_by_rate.hpp), called at a release, a job's end and a workload change.
-  ShedByRate by_rate;
-  static_assert(ShedByRate::kWindow == kOfferedWindow);
-
-  // Adds a released job's work to the offered load (docs/DESIGN.md, "Overload" detect overload from
-  // demand).
-  void note_offered(Job& j, TimePoint now);
 
   // ---- tasks --------------------------------------------------------------------------
 
@@ -408,8 +333,6 @@ struct Scheduler::Impl {
     ready.pop_back();
     k.ready_pos = -1;
   }
-
-  void drop_open(int t);
 
   void free_task(int t);
 
@@ -471,19 +394,12 @@ struct Scheduler::Impl {
     return Key{0, j.release, j.op, j.seq, node, unit};
   }
 
-  // The predicted release, within γ of the task's first member, of another operation that
-  // samples the same sensor (docs/DESIGN.md, "DynamicMerge" rule 2); kNever if none.
-  TimePoint predicted_member(const Task& k, TimePoint now) const;
-
-  // A merge wait until `until` is taken only if every member's slack still covers it; the
-  // run after the wait pays a round trip (the handler parked meanwhile).
-  bool slack_covers(Task& k, TimePoint now, TimePoint until);
+  // DynamicMerge (docs/DESIGN.md, "DynamicMerge"; merge.hpp): joins of encoder units into
+  // queued encoder tasks, merge waits and the list of every wait a pick takes, the newest frame
+  // a γ-merged run reads; its state.
+  DynamicMerge merge;
 
   Duration round_trip_cost(bool round_trip) const;
-
-  Duration batch_estimate(const Task& k, int b) const;
-
-  int batch_limit(const Task& k) const;
 
   // docs/DESIGN.md, "Synchronization" on-demand: the task continues the run the lane's handler
   // holds — its last unit completed just now and the task is ready work of a job of the run (a
@@ -507,16 +423,16 @@ struct Scheduler::Impl {
   // The round's overload state before a pick (docs/DESIGN.md, "Overload"): saturation, the demand
   // test, the hold of "finish what was started" (dispatch() and dispatch_ahead()).
   void assess_overload(TimePoint now);
-  // docs/DESIGN.md, "Overload" admission of the jobs released since the last decision (a policy
-  // that sheds).
-  void admit_released(TimePoint now) {
-    if (opt.admission == Admission::Shed && released_since_admission) admit(now);
-    released_since_admission = false;
-  }
+  // How red-robust sheds a job (docs/DESIGN.md, "Overload" and "Drops" hopeless; shedding.hpp):
+  // shedding by rate and the offered load at a release, admission before a decision, hopeless
+  // aborts at a pick; its state and constants.
+  Shedding shedding;
+  // The counters, for the mechanism types (which are not members of Scheduler).
+  SchedulerStats& stats() noexcept { return s.stats_; }
 
   // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
   // Its stages (dispatch.cpp): scan, choose (best_candidate, the lane, guard_holds,
-  // abort_hopeless, merge_waits), form_batch.
+  // shedding.abort_hopeless, merge_waits), form_batch.
   bool pick(TimePoint now);
   // One pick's state between its stages.
   struct Pick {
@@ -533,42 +449,12 @@ struct Scheduler::Impl {
   void set_out(Pick& p, Scan& e, TimePoint until);
   Chosen choose(TimePoint now, Pick& p);
   bool guard_holds(TimePoint now, Pick& p);
-  bool abort_hopeless(TimePoint now, const Pick& p);
   bool merge_waits(TimePoint now, Pick& p);
   TimePoint form_batch(TimePoint now, const Pick& p);
-  void batch_candidates(TimePoint now, const Pick& p, bool by_job, int limit);
 
-  // docs/DESIGN.md, "Criticality" guard (PolicyOptions::guard; guard.cpp): whether running the
-  // dispatch of the tasks `run` on lane `lane` from `begin` (at mean costs) would make a more
-  // critical job miss that could make it otherwise. `until`: when the reason is a predicted
-  // release, the time to look again (the task waits until then); kNever when it is a job in flight
-  // (the task only yields this pick).
-  struct GuardVerdict {
-    bool blocks = false;
-    TimePoint until = kNever;
-  };
-  GuardVerdict guard(std::span<const int> run, int lane, TimePoint now, TimePoint begin);
-  // guard()'s parts (guard.cpp): the dispatch judged, its run's cost, one judgement on an
-  // estimate kind (the jobs in flight, then the releases to come), whether a hold is affordable.
-  struct GuardRun {
-    std::span<const int> run;
-    TimePoint now, begin;
-    int crit;         // the dispatch's criticality: its most critical member's
-    Duration rt;      // a round trip
-    TimePoint other;  // when another lane frees first
-  };
-  bool guard_waits_on_run(int op);
-  Duration guard_run_cost(std::span<const int> run, EstimateKind kind);
-  void guard_check(const GuardRun& g, EstimateKind kind, bool must_afford, GuardVerdict& v);
-  bool guard_affords(const GuardRun& g, Duration own, TimePoint done, Duration w);
-  void guard_releases(const GuardRun& g, std::size_t k, int margin, Duration own, bool must_afford,
-                      TimePoint end, TimePoint blocked_until, GuardVerdict& v);
-  // The guard on a batch (guard.cpp): whether task `joining` may join the tasks `members` of
-  // the batch being formed, its run then costing `with` instead of `without` from `begin`: a
-  // member more critical than it that makes its deadline without the join must still make it,
-  // by the plan's estimate with the guard's margin, after the larger batch.
-  bool guard_join(std::span<const int> members, int joining, TimePoint begin, Duration with,
-                  Duration without);
+  // The criticality guard (docs/DESIGN.md, "Criticality"; guard.hpp): whether a dispatch would
+  // make a more critical job miss; its state.
+  CriticalityGuard crit_guard;
   // When a lane is free to start more work, by the plan's estimates of what it holds.
   TimePoint lane_free_at(const Lane& l, TimePoint now) const;
   // When a dispatch picked now for lane `lane` begins: now, or after what the lane holds when
@@ -576,8 +462,6 @@ struct Scheduler::Impl {
   TimePoint dispatch_begin(int lane, TimePoint now) const {
     return ahead_lane >= 0 ? lane_free_at(lanes[static_cast<std::size_t>(lane)], now) : now;
   }
-  std::vector<int> guard_slots;  // scratch of guard(): the jobs of the dispatch
-  std::vector<int> guard_units;  // beside guard_slots: each one's unit in the dispatch
 };
 
 }  // namespace red

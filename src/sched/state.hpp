@@ -153,7 +153,7 @@ struct Task {
   std::vector<std::pair<int, int>> member_at;
   TimePoint min_release{0};
   TimePoint wait_until{0};
-  bool in_waits = false;  // listed in Impl::waits (it began a merge wait)
+  bool in_waits = false;  // listed in DynamicMerge's waits (it began a wait: merge.hpp)
   int ready_pos = -1;     // in Impl::ready; -1 when not there (in a group, or not ready)
   int group = -1;         // its ReadyGroup (ready_set.cpp), -1: none
   Duration cost{0};

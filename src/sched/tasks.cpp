@@ -1,5 +1,5 @@
-// Tasks: a ready unit becomes a task (or joins a queued encoder run, docs/DESIGN.md,
-// "DynamicMerge"), enters the ready set and leaves it. Part of the scheduler
+// Tasks: a ready unit becomes a task (or joins a queued encoder run: DynamicMerge, merge.hpp),
+// enters the ready set and leaves it. Part of the scheduler
 // (scheduler_impl.hpp); the ready set's groups are in ready_set.cpp.
 
 #include <algorithm>
@@ -49,16 +49,9 @@ void Scheduler::Impl::pop_ready(int t) {
   unlist_ready(k);
 }
 
-void Scheduler::Impl::drop_open(int t) {
-  Task& k = task(t);
-  if (k.kind != UnitKind::Encoder) return;
-  auto& v = open_enc[static_cast<std::size_t>(k.sensor)];
-  v.erase(std::remove(v.begin(), v.end(), t), v.end());
-}
-
 void Scheduler::Impl::free_task(int t) {
   pop_ready(t);
-  drop_open(t);
+  merge.closed(task(t), t);
   task(t).live = false;
   free_tasks.push_back(t);
 }
@@ -101,31 +94,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
   UnitRt& u = j.u[static_cast<std::size_t>(unit)];
   u.state = UState::Queued;
-  if (ru.kind == UnitKind::Encoder && opt.merge) {
-    const auto si = static_cast<std::size_t>(ru.sensor);
-    const std::uint64_t frame = j.frame[si];
-    // DynamicMerge (docs/DESIGN.md, "DynamicMerge"): 1. same frame, unconditionally; 2. a γ-cluster
-    // of releases that sample the newest frame, while max(release) − min(release) ≤ γ.
-    for (int t : open_enc[si]) {
-      Task& k = task(t);
-      const bool same = k.frame == frame && (!k.gamma || j.samples_newest);
-      const bool gamma =
-          k.gamma && j.samples_newest && j.release - k.min_release <= s.config_.gamma;
-      if (!same && !gamma) continue;
-      k.members.emplace_back(slot, unit);
-      k.member_at.emplace_back(ru.height, ru.node);
-      TaskRank& r = task_rank(t);
-      r.job_deadline = std::min(r.job_deadline, rank_deadline(j, unit));
-      if (const Key mk = tie_key(slot, unit, ru.node); mk < r.tie) r.tie = mk;
-      if (gamma && frame > k.frame) {
-        k.frame = frame;
-        k.frame_time = j.frame_time[si];
-      }
-      k.wait_until = TimePoint{0};  // the member it may have waited for has come
-      u.task = t;
-      return;
-    }
-  }
+  if (merge.join(*this, slot, unit)) return;  // DynamicMerge (merge.hpp)
   const int t = alloc_task();
   Task& k = task(t);
   k.kind = ru.kind;
@@ -141,8 +110,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   k.cost = ru.estimate;
   u.task = t;
   push_ready(t);
-  if (ru.kind == UnitKind::Encoder && opt.merge)
-    open_enc[static_cast<std::size_t>(ru.sensor)].push_back(t);
+  merge.opened(*this, t);
 }
 
 }  // namespace red
