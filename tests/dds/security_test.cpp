@@ -60,6 +60,22 @@ TEST_F(DdsSecurity, TheEnclaveComesFromTheOverrideThenTheOptionThenTheRoot) {
   EXPECT_EQ(s->enclave->name, "/other");
 }
 
+// An enclave name follows ROS 2's namespace rules: absolute, tokens of letters, digits and _,
+// none starting with a digit, no empty token.
+TEST_F(DdsSecurity, AnEnclaveNameFollowsRos2sNamespaceRules) {
+  make_enclave(dir_ / "enclaves/cam4");
+  auto ok = resolve_security({dir_.string(), "", "true", "Enforce"}, "/cam4");
+  ASSERT_TRUE(ok) << ok.error().to_string();
+  for (const char* bad :
+       {"red/node", "/red//node", "/red/node/", "/4cam", "/red/2nd", "/red-node"}) {
+    SCOPED_TRACE(bad);
+    auto s = resolve_security({dir_.string(), "", "true", "Enforce"}, bad);
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.error().message.find("not an enclave name"), std::string::npos)
+        << s.error().to_string();
+  }
+}
+
 TEST_F(DdsSecurity, EnforceWithoutAUsableEnclaveNamesWhatIsMissing) {
   auto s = resolve_security({"", "", "true", "Enforce"}, "/red/node");
   ASSERT_FALSE(s);

@@ -19,19 +19,11 @@ std::string env_or_empty(const char* name) {
   return v == nullptr ? std::string{} : std::string{v};
 }
 
-// An enclave name as ROS 2 has it: "/" or absolute path tokens of [A-Za-z0-9_].
+// An enclave name as ROS 2 has it: "/", or checked as a namespace is (rcl validates an
+// enclave name with the namespace rules): absolute tokens of [A-Za-z0-9_], none starting
+// with a digit, which are a topic name's rules too.
 bool valid_enclave(const std::string& name) {
-  if (name == "/") return true;
-  if (name.size() < 2 || name.front() != '/' || name.back() == '/') return false;
-  char prev = '/';
-  for (std::size_t i = 1; i < name.size(); ++i) {
-    const char c = name[i];
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                    c == '_' || c == '/';
-    if (!ok || (c == '/' && prev == '/')) return false;
-    prev = c;
-  }
-  return true;
+  return name == "/" || valid_ros_topic(name);
 }
 
 }  // namespace
@@ -65,7 +57,8 @@ Expected<SecuritySettings> resolve_security(const SecurityEnv& env,
   if (!valid_enclave(name))
     return Error{"", 0,
                  origin + " '" + name +
-                     "': not an enclave name (absolute, like /red/node: letters, digits, _)"};
+                     "': not an enclave name (absolute, like /red/node: letters, digits, _, no "
+                     "token starting with a digit)"};
   std::string problem;
   namespace fs = std::filesystem;
   std::error_code ec;
