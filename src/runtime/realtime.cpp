@@ -93,10 +93,24 @@ void Runtime::Impl::interference_main(double intensity, std::atomic<bool>& on) {
   }
 }
 
+void Runtime::Impl::release_realtime() {
+  if (!options.realtime) return;
+  munlockall();
+  wakeup_latency.release();
+}
+
 void Runtime::Impl::apply_realtime() {
   if (!options.realtime) {
     report.realtime.push_back("real-time knobs: off (--no-realtime)");
     return;
+  }
+  // Idle cores poll for the run (red/runtime/wakeup_latency.hpp): on this project's quiet 2-vCPU
+  // virtual machine a completion's next unit then started after 8.5-10 us (p50; p99 28 us)
+  // instead of 15-20 us (p99 48-57 us), and decisions took 4.2-4.7 us instead of 6.2-6.7 us
+  // (docs/FIDELITY.md, "Idle cores").
+  if (options.hold_wakeup_latency) {
+    wakeup_latency = WakeupLatencyHold::zero();
+    report.realtime.push_back(wakeup_latency.report());
   }
   // Lock only the pages the process touches (MCL_ONFAULT): the ones resident after the
   // warm-up now, others as they are first touched. Locking every mapped page instead

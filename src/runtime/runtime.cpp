@@ -314,7 +314,7 @@ RuntimeReport Runtime::Impl::run() {
     take_sample();  // the end of the run
   }
   finish_run();
-  if (options.realtime) munlockall();
+  release_realtime();
   // decision_us_since() may read the report from another thread until now.
   std::lock_guard lock(report_mu);
   report.resident_bytes_after = resident_bytes();

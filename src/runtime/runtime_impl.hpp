@@ -25,6 +25,7 @@
 
 #include "red/core/clock.hpp"
 #include "red/runtime/runtime.hpp"
+#include "red/runtime/wakeup_latency.hpp"
 
 namespace red {
 namespace runtime_detail {
@@ -263,6 +264,10 @@ struct Runtime::Impl {
 
   // ---- realtime.cpp: the real-time knobs and background load.
   void apply_realtime();
+  // Ends what apply_realtime() holds for the run (memory locks, the wake-up latency).
+  void release_realtime();
+  // The CPU wake-up latency held at 0 while the run lasts (RuntimeOptions::hold_wakeup_latency).
+  WakeupLatencyHold wakeup_latency;
   // The machine's online cores and each lane's share of them: cores / lanes, at least one.
   struct CoreShare {
     long cores;

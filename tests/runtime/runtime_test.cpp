@@ -9,6 +9,8 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -282,6 +284,58 @@ TEST(Runtime, EveryHandlerIsPinnedToItsLanesShareOfTheCores) {
   for (const std::string& l : report.realtime)
     if (l.rfind("CPU affinity: ", 0) == 0) line = l;
   EXPECT_EQ(line, want);
+}
+
+// The CPU wake-up latency is held at 0 for the run's length only (PM QoS: the request lives
+// as long as /dev/cpu_dma_latency is open): reported either way (held, or not held and why:
+// no such file, no permission), open in the process while the run goes on when held, and
+// closed once run() returns; not asked for with hold_wakeup_latency off or without real-time.
+TEST(Runtime, TheCpuWakeupLatencyIsHeldForTheRunOnlyAndReported) {
+  auto latency_files = [] {
+    int n = 0;
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator("/proc/self/fd", ec)) {
+      std::error_code rec;
+      if (std::filesystem::read_symlink(e.path(), rec).string() == "/dev/cpu_dma_latency") ++n;
+    }
+    return n;
+  };
+  ASSERT_EQ(latency_files(), 0);
+  auto line_of = [](const RuntimeReport& r) {
+    for (const std::string& l : r.realtime)
+      if (l.rfind("CPU wake-up latency: ", 0) == 0) return l;
+    return std::string();
+  };
+  {
+    Rig rig("red", rt_scenario("", std::chrono::milliseconds{300}), scaled(0.3), no_watchdog(true));
+    // Looked at on the first release, while the run goes on (after the settings apply).
+    struct Look final : Observer {
+      std::function<int()> files;
+      int during = -1;
+      void on_job_release(const JobRecord& /*job*/) override {
+        if (during < 0) during = files();
+      }
+    } look;
+    look.files = latency_files;
+    rig.rt.add_observer(&look);
+    const RuntimeReport report = rig.rt.run();
+    const int during = look.during;
+    const std::string line = line_of(report);
+    ASSERT_FALSE(line.empty()) << "no wake-up latency line in the report";
+    if (line == "CPU wake-up latency: held at 0 us (/dev/cpu_dma_latency)") {
+      EXPECT_EQ(during, 1) << "held: the file is open while the run goes on";
+    } else {
+      EXPECT_EQ(line.rfind("CPU wake-up latency: not held (/dev/cpu_dma_latency: ", 0), 0U) << line;
+      EXPECT_EQ(during, 0);
+    }
+    EXPECT_EQ(latency_files(), 0) << "the hold ends with the run";
+  }
+  RuntimeOptions off = no_watchdog(true);
+  off.hold_wakeup_latency = false;
+  Rig rig("red", rt_scenario("", std::chrono::milliseconds{100}), scaled(0.3), off);
+  EXPECT_TRUE(line_of(rig.rt.run()).empty()) << "not asked for: not reported";
+  Rig plain("red", rt_scenario("", std::chrono::milliseconds{100}), scaled(0.3), no_watchdog());
+  EXPECT_TRUE(line_of(plain.rt.run()).empty()) << "without real-time settings: not asked for";
 }
 
 // decision_us_since() (the node's diagnostics read it while a run goes on): from cursor 0 the

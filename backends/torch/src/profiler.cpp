@@ -26,6 +26,7 @@
 
 #include "internal.hpp"
 #include "red/profile/quality.hpp"
+#include "red/runtime/wakeup_latency.hpp"
 #include "unit_timer.hpp"
 
 namespace red::torchb {
@@ -231,6 +232,10 @@ Expected<Profile> profile_model(const ModelOptions& model, const ProfileOptions&
   }
   const auto wall_start = Clock::now();
   Profiler prof(options, progress);
+  // Measured with idle cores polling, as a real run holds them (red/runtime/wakeup_latency.hpp):
+  // the profile's times are then those of the machine state its runs meet.
+  const WakeupLatencyHold wakeup = WakeupLatencyHold::zero();
+  prof.say(wakeup.report());
   const int coarse_batches = std::min(options.coarse_max_batch, options.max_batch);
   std::string stage = "creating the model";
   try {

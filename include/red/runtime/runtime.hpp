@@ -49,6 +49,9 @@ const char* to_string(HandlerState s) noexcept;
 /// Options of a real run.
 struct RuntimeOptions {
   bool realtime = true;  ///< try SCHED_FIFO, CPU affinity and mlockall (reported either way)
+  /// With `realtime`: hold the CPU wake-up latency at 0 while the run lasts, so that idle
+  /// cores poll (red/runtime/wakeup_latency.hpp; reported either way, never required).
+  bool hold_wakeup_latency = true;
   /// SCHED_FIFO priority of the lane handlers (and the backend's workers, which inherit it).
   /// The global synchronizer and the threads that release frames run one above, so that a
   /// deadline, a frame or a decision is not held up by a unit's compute threads.
