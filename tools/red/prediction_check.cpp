@@ -16,8 +16,11 @@ PredictionGap prediction_gap(double real_miss_pct, double real_mean_ms, double s
                              double sim_mean_ms) {
   PredictionGap g;
   g.miss_pts = sim_miss_pct - real_miss_pct;
-  if (real_mean_ms > 0.0) g.mean_pct = 100.0 * (sim_mean_ms - real_mean_ms) / real_mean_ms;
-  // Without a real mean (no job completed) only the miss rate can be held to the target.
+  // A mean latency is of the jobs that completed: where the run or the prediction completed
+  // none (a policy that misses nearly everything) there is no mean to compare, and only the
+  // miss rate can be held to the target.
+  if (real_mean_ms > 0.0 && sim_mean_ms > 0.0)
+    g.mean_pct = 100.0 * (sim_mean_ms - real_mean_ms) / real_mean_ms;
   g.within = std::abs(g.miss_pts) <= kMissTargetPts &&
              (!g.mean_pct || std::abs(*g.mean_pct) <= kMeanTargetPct);
   return g;

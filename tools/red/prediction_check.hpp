@@ -28,7 +28,8 @@ inline constexpr double kMissTargetPts = 5.0;
 inline constexpr double kMeanTargetPct = 10.0;
 
 /// A prediction against the real run: simulated minus real, in points of miss rate and in
-/// percent of the real mean latency (nullopt where the run completed no job to average).
+/// percent of the real mean latency (nullopt where the run or the prediction completed no job
+/// to average).
 struct PredictionGap {
   double miss_pts = 0.0;
   std::optional<double> mean_pct;
