@@ -133,18 +133,11 @@ void Scheduler::Impl::scan(TimePoint now, Pick& p) {
   // (groups hold plain units only) reads them.
   // Groups form only in a ready set this large (SchedulerConfig::group_from): below it a
   // scan of every task is as cheap.
-  const bool grouping = ready_count() >= s.config_.group_from;
-  to_group.clear();
-  for (int t : ready) {
-    rank_task(t);
-    if (grouping) to_group.push_back(t);
-  }
-  for (int g : live_groups) rank_task(groups[static_cast<std::size_t>(g)].tasks.begin()->second);
+  const bool grouping = ready.count() >= s.config_.group_from;
+  for (int t : ready.listed()) rank_task(t);
+  ready.for_each_group_least(rank_task);
   // Those that rank alike from now on join their group, with nothing changed since the scan.
-  for (int t : to_group) {
-    GroupKey gk;
-    if (group_key(t, now, gk)) join_group(t, gk);
-  }
+  if (grouping) ready.regroup(*this, now);
   p.least = least;
   p.shed_below = overload ? top : std::numeric_limits<int>::min();
 }

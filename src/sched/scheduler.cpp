@@ -2,7 +2,7 @@
 // order of one decision (dispatch(), dispatch_ahead() in queue.cpp) and its queries. The
 // mechanisms are one file each behind the one state in scheduler_impl.hpp: jobs.cpp (jobs
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
-// ready_set.cpp (the ready set's groups), dispatch.cpp (ranking, pick), merge.cpp (merge
+// ready_set.cpp (the ready set, ReadySet), dispatch.cpp (ranking, pick), merge.cpp (merge
 // waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
 // (the demand test and its work figures), shedding.cpp (how a job is shed: admission, shed_lone,
 // shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued lanes);
@@ -89,7 +89,7 @@ void Scheduler::Impl::price(const Profile& p) {
 void Scheduler::Impl::use_costs(const Profile& p) {
   price(p);
   // Ranking reads the tasks' costs through the ready set's groups: they form again.
-  ungroup_all();
+  ready.ungroup_all(*this);
   for (std::size_t i = 0; i < ops.size(); ++i) {
     OpState& o = ops[i];
     if (o.g == nullptr) continue;
@@ -121,7 +121,7 @@ void Scheduler::apply_events(TimePoint now) {
     const EventSpec& e = scenario_.events[m.next_event];
     // A new version may change an operation's criticality, which ranking reads: the ready
     // set's groups (ready_set.cpp) form again from the next scan.
-    m.ungroup_all();
+    m.ready.ungroup_all(m);
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
     for (const auto& [sensor, rate] : e.sensor_rates)
       m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
@@ -276,7 +276,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   m.shedding.admit_released(m, now);
   int idle = 0;
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
-  if (idle > 0 && m.ready_count() > 0) {
+  if (idle > 0 && m.ready.count() > 0) {
     ++stats_.decisions;
     m.assess_overload(now);
     while (idle > 0 && m.pick(now)) --idle;
@@ -286,9 +286,9 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (!m.observers.empty()) {
     // Ready for any lane: a task ready only behind a busy lane's unit (queue_depth > 1)
     // cannot take an idle lane.
-    int ready = m.ready_count();  // grouped tasks are for any lane
+    int ready = m.ready.count();  // grouped tasks are for any lane
     if (config_.queue_depth > 1)
-      for (int t : m.ready) ready -= m.task(t).lane_only >= 0 ? 1 : 0;
+      for (int t : m.ready.listed()) ready -= m.task(t).lane_only >= 0 ? 1 : 0;
     for (Observer* ob : m.observers) ob->on_decision(now, ready, idle, waiting);
   }
   return {m.out.data(), m.out.size()};
@@ -300,7 +300,7 @@ TimePoint Scheduler::next_wakeup() const {
   if (m.next_event < scenario_.events.size()) t = std::min(t, scenario_.events[m.next_event].at);
   t = std::min(t, m.next_tick().first);
   if (!m.deadlines.empty()) t = std::min(t, m.deadlines.front().first);
-  if (m.ready_count() > 0) t = std::min(t, m.merge.earliest_wait());
+  if (m.ready.count() > 0) t = std::min(t, m.merge.earliest_wait());
   return t;
 }
 
@@ -323,7 +323,7 @@ void Scheduler::finish(TimePoint end) {
 }
 
 int Scheduler::ready_tasks() const noexcept {
-  return impl_->ready_count();
+  return impl_->ready.count();
 }
 
 bool Scheduler::drained() const {

@@ -20,6 +20,7 @@
 #include "batching.hpp"
 #include "guard.hpp"
 #include "merge.hpp"
+#include "ready_set.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
@@ -74,16 +75,9 @@ struct Scheduler::Impl {
   std::vector<Task> tasks;
   std::vector<TaskRank> task_ranks;  // beside `tasks`
   std::vector<int> free_tasks;
-  // The ready set: tasks scanned one by one (`ready`), and those kept in groups that rank
-  // alike (ready_set.cpp), scanned by their least only.
-  std::vector<int> ready;
-  std::vector<ReadyGroup> groups;
-  std::vector<int> free_groups;
-  std::vector<int> live_groups;
-  std::map<GroupKey, int> group_of;
-  int grouped_tasks = 0;
-  std::vector<int> to_group;  // scratch of pick(): tasks that can join a group after the scan
-  int ready_encoders = 0;     // encoder tasks in `ready`
+  // The ready set (ready_set.hpp): tasks scanned one by one, and those kept in groups that
+  // rank alike, scanned by their least only; its state.
+  ReadySet ready;
   std::vector<Lane> lanes;
   std::vector<Dispatch*> out;
   std::vector<std::pair<TimePoint, std::pair<int, JobId>>> deadlines;  // min-heap
@@ -322,43 +316,21 @@ struct Scheduler::Impl {
 
   int alloc_task();
 
-  void push_ready(int t);
-
-  void pop_ready(int t);
-  // Takes task t out of `ready` (where it is), keeping the others in place but the last.
-  void unlist_ready(Task& k) {
-    const int last = ready.back();
-    ready[static_cast<std::size_t>(k.ready_pos)] = last;
-    task(last).ready_pos = k.ready_pos;
-    ready.pop_back();
-    k.ready_pos = -1;
-  }
-
   void free_task(int t);
 
   void remove_member(int t, int slot, int unit);
 
   // ---- the ready set's groups (ready_set.cpp) -------------------------------------------
 
-  // Ready tasks in all (grouped or not).
-  [[nodiscard]] int ready_count() const noexcept {
-    return static_cast<int>(ready.size()) + grouped_tasks;
-  }
   // The key task t ranks by at every `now`, when it can be kept in a group (pick() has just
   // ranked it); false when it cannot.
   bool group_key(int t, TimePoint now, GroupKey& gk);
-  // Moves ready task t from `ready` into the group of key gk.
-  void join_group(int t, const GroupKey& gk);
-  // Takes task t out of its group (back into `ready` when `keep_ready`).
-  void leave_group(int t, bool keep_ready);
-  // A job whose caches are about to change (dirty): its grouped tasks go back to `ready`.
+  // A job whose caches are about to change (dirty): its grouped tasks are listed again.
   void touch(Job& j) {
     j.dirty = true;
     if (j.grouped > 0) ungroup_job(j);
   }
-  void ungroup_job(Job& j);
-  // Every group back into `ready` (an event changed what ranking reads: criticalities).
-  void ungroup_all();
+  void ungroup_job(Job& j) { ready.ungroup_job(*this, j); }
 
   void make_ready(int slot, int unit);
   // Deadline inheritance (PolicyOptions::inherit): plan `d` to end by `due` when that is

@@ -154,7 +154,7 @@ struct Task {
   TimePoint min_release{0};
   TimePoint wait_until{0};
   bool in_waits = false;  // listed in DynamicMerge's waits (it began a wait: merge.hpp)
-  int ready_pos = -1;     // in Impl::ready; -1 when not there (in a group, or not ready)
+  int ready_pos = -1;     // in ReadySet::listed(); -1: not there (in a group, or not ready)
   int group = -1;         // its ReadyGroup (ready_set.cpp), -1: none
   Duration cost{0};
   // Ready only for this lane (-1: any): its member waits on a unit that lane holds, and runs
@@ -192,7 +192,7 @@ struct GroupKey {
 struct ReadyGroup {
   GroupKey key{};
   std::set<std::pair<Key, int>> tasks;  // (tie-break key, task), the least first
-  int live_pos = -1;                    // in Impl::live_groups
+  int live_pos = -1;                    // in ReadySet's live groups
 };
 
 struct OpState {

@@ -1,6 +1,6 @@
 // Tasks: a ready unit becomes a task (or joins a queued encoder run: DynamicMerge, merge.hpp),
 // enters the ready set and leaves it. Part of the scheduler
-// (scheduler_impl.hpp); the ready set's groups are in ready_set.cpp.
+// (scheduler_impl.hpp); the ready set is ReadySet (ready_set.hpp).
 
 #include <algorithm>
 #include <cstdint>
@@ -32,25 +32,8 @@ int Scheduler::Impl::alloc_task() {
   return t;
 }
 
-void Scheduler::Impl::push_ready(int t) {
-  task(t).ready_pos = static_cast<int>(ready.size());
-  ready_encoders += task(t).kind == UnitKind::Encoder ? 1 : 0;
-  ready.push_back(t);
-}
-
-void Scheduler::Impl::pop_ready(int t) {
-  Task& k = task(t);
-  if (k.group >= 0) {
-    leave_group(t, false);
-    return;
-  }
-  if (k.ready_pos < 0) return;
-  ready_encoders -= k.kind == UnitKind::Encoder ? 1 : 0;
-  unlist_ready(k);
-}
-
 void Scheduler::Impl::free_task(int t) {
-  pop_ready(t);
+  ready.pop(*this, t);
   merge.closed(task(t), t);
   task(t).live = false;
   free_tasks.push_back(t);
@@ -58,7 +41,7 @@ void Scheduler::Impl::free_task(int t) {
 
 void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   Task& k = task(t);
-  if (k.group >= 0) leave_group(t, true);  // its members change
+  if (k.group >= 0) ready.leave(*this, t, true);  // its members change
   auto& m = k.members;
   std::size_t kept = 0;
   for (std::size_t i = 0; i < m.size(); ++i) {
@@ -109,7 +92,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   task_rank(t) = TaskRank{tie_key(slot, unit, ru.node), rank_deadline(j, unit)};
   k.cost = ru.estimate;
   u.task = t;
-  push_ready(t);
+  ready.push(*this, t);
   merge.opened(*this, t);
 }
 
