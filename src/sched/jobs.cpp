@@ -80,16 +80,6 @@ void Scheduler::Impl::inherit_plan(Job& d, TimePoint due) {
   }
 }
 
-int Scheduler::Impl::alloc_job() {
-  if (!free_jobs.empty()) {
-    const int slot = free_jobs.back();
-    free_jobs.pop_back();
-    return slot;
-  }
-  jobs.emplace_back();
-  return static_cast<int>(jobs.size() - 1);
-}
-
 bool Scheduler::Impl::inputs_ready(const RefinedGraph& g, int trigger_sensor) const {
   for (int sn : g.sensors)
     if (sn != trigger_sensor && !sensors[static_cast<std::size_t>(sn)].has_frame) return false;
@@ -115,7 +105,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
     o.last_skip = now;
     last_miss = now;
     Job tmp;
-    tmp.id = next_job_id++;
+    tmp.id = jobs.next_id();
     tmp.op = op_index;
     tmp.seq = seq;
     tmp.g = &g;
@@ -129,9 +119,9 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   }
   // Shedding by rate (shedding.hpp) decides before the job is made; it ends once released.
   const bool reject = shedding.rejects_at_release(*this, op_index, now);
-  const int slot = alloc_job();
+  const int slot = jobs.alloc();
   Job& j = job(slot);
-  j.id = next_job_id++;
+  j.id = jobs.next_id();
   j.live = true;
   j.ended = false;
   j.op = op_index;
@@ -240,12 +230,6 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
     }
   }
   if (j.running == 0) free_job(slot);
-}
-
-void Scheduler::Impl::free_job(int slot) {
-  Job& j = job(slot);
-  j.live = false;
-  free_jobs.push_back(slot);
 }
 
 }  // namespace red

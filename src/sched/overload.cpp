@@ -45,14 +45,14 @@ void Scheduler::Impl::plan_work() {
           costs.with(static_cast<EstimateKind>(k)).head(static_cast<int>(h));
   }
   // The jobs' cached work figures were counted at the costs before.
-  for (Job& j : jobs)
+  for (Job& j : jobs.all())
     if (j.live) j.dirty = true;
   shedding.on_costs();
 }
 
 bool Scheduler::Impl::earlier(int a, int b) const {
-  const Job& x = jobs[static_cast<std::size_t>(a)];
-  const Job& y = jobs[static_cast<std::size_t>(b)];
+  const Job& x = jobs[a];
+  const Job& y = jobs[b];
   return x.deadline != y.deadline ? x.deadline < y.deadline : x.id < y.id;
 }
 

@@ -313,8 +313,7 @@ void Scheduler::finish(TimePoint end) {
       for (Observer* ob : m.observers)
         ob->on_unit_end(l.oldest(), std::max(end, l.oldest().start), UnitStatus::Unfinished);
   }
-  for (std::size_t i = 0; i < m.jobs.size(); ++i) {
-    Job& j = m.jobs[i];
+  for (Job& j : m.jobs.all()) {
     if (!j.live || j.ended) continue;
     j.ended = true;
     --in_flight_;

@@ -20,6 +20,7 @@
 #include "batching.hpp"
 #include "guard.hpp"
 #include "merge.hpp"
+#include "pools.hpp"
 #include "ready_set.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
@@ -69,12 +70,9 @@ struct Scheduler::Impl {
   }
   std::vector<SensorState> sensors;
   std::size_t next_event = 0;
-  std::vector<Job> jobs;
-  std::vector<int> free_jobs;
-  JobId next_job_id = 1;
-  std::vector<Task> tasks;
-  std::vector<TaskRank> task_ranks;  // beside `tasks`
-  std::vector<int> free_tasks;
+  // The slots of jobs and tasks (pools.hpp).
+  JobPool jobs;
+  TaskPool tasks;
   // The ready set (ready_set.hpp): tasks scanned one by one, and those kept in groups that
   // rank alike, scanned by their least only; its state.
   ReadySet ready;
@@ -135,13 +133,11 @@ struct Scheduler::Impl {
   // deadlines": one refinement per graph version, shared by every job released with it).
   void install(int i, const std::shared_ptr<const OperationSpec>& spec, TimePoint at, bool initial);
 
-  Job& job(int slot) { return jobs[static_cast<std::size_t>(slot)]; }
-  Task& task(int t) { return tasks[static_cast<std::size_t>(t)]; }
-  TaskRank& task_rank(int t) { return task_ranks[static_cast<std::size_t>(t)]; }
+  Job& job(int slot) { return jobs[slot]; }
+  Task& task(int t) { return tasks[t]; }
+  TaskRank& task_rank(int t) { return tasks.rank(t); }
 
   // ---- jobs ---------------------------------------------------------------------------
-
-  int alloc_job();
 
   // True when every sensor the graph reads has produced a frame (the trigger frame counts).
   bool inputs_ready(const RefinedGraph& g, int trigger_sensor) const;
@@ -153,7 +149,8 @@ struct Scheduler::Impl {
   // Order of live jobs in by_deadline: end-to-end deadline, then job id.
   bool earlier(int a, int b) const;
 
-  void free_job(int slot);
+  // The job in `slot` is over and nothing refers to it any more.
+  void free_job(int slot) { jobs.free(slot); }
 
   // Rebuilds what changes only when one of the job's units starts or ends: the costs of
   // its units not yet started, per height, and — when none is running — the shares of the
@@ -313,8 +310,6 @@ struct Scheduler::Impl {
   }
 
   // ---- tasks --------------------------------------------------------------------------
-
-  int alloc_task();
 
   void free_task(int t);
 

@@ -165,7 +165,7 @@ struct Task {
 // Over a task's members, kept as they join and leave (their jobs' fields do not change):
 // the least tie-break key (rank 0) and the earliest end-to-end deadline (less the path after
 // the unit, with path_rank: Impl::rank_deadline), what ranking by
-// job deadline reads without a look into the jobs. Beside the tasks (Impl::task_ranks), so
+// job deadline reads without a look into the jobs. Beside the tasks (TaskPool::rank), so
 // that a task stays as small as the ranking of the other presets reads it.
 struct TaskRank {
   Key tie{};

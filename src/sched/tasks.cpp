@@ -11,32 +11,10 @@
 
 namespace red {
 
-int Scheduler::Impl::alloc_task() {
-  int t;
-  if (!free_tasks.empty()) {
-    t = free_tasks.back();
-    free_tasks.pop_back();
-  } else {
-    tasks.emplace_back();
-    task_ranks.emplace_back();
-    t = static_cast<int>(tasks.size() - 1);
-  }
-  Task& k = task(t);
-  k.live = true;
-  k.members.clear();
-  k.member_at.clear();
-  k.wait_until = TimePoint{0};
-  k.ready_pos = -1;
-  k.group = -1;
-  k.lane_only = -1;
-  return t;
-}
-
 void Scheduler::Impl::free_task(int t) {
   ready.pop(*this, t);
   merge.closed(task(t), t);
-  task(t).live = false;
-  free_tasks.push_back(t);
+  tasks.free(t);
 }
 
 void Scheduler::Impl::remove_member(int t, int slot, int unit) {
@@ -78,7 +56,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   UnitRt& u = j.u[static_cast<std::size_t>(unit)];
   u.state = UState::Queued;
   if (merge.join(*this, slot, unit)) return;  // DynamicMerge (merge.hpp)
-  const int t = alloc_task();
+  const int t = tasks.alloc();
   Task& k = task(t);
   k.kind = ru.kind;
   k.head = ru.head;
