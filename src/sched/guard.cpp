@@ -158,7 +158,7 @@ void CriticalityGuard::releases(Scheduler::Impl& m, const Run& g, std::size_t k,
       r = o.next_tick;  // the scheduler's own clock: on time
       period = period_of(o.rate_hz);
     } else if (o.trigger >= 0) {
-      const SensorState& sn = m.sensors[static_cast<std::size_t>(o.trigger)];
+      const SensorState& sn = m.releases.sensor(o.trigger);
       if (!sn.has_frame || sn.rate_hz <= 0) continue;
       period = period_of(sn.rate_hz);
       allowance = late_allowance(period);

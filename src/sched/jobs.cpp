@@ -65,7 +65,7 @@ void Scheduler::Impl::install(int i, const std::shared_ptr<const OperationSpec>&
   } else {
     o.next_tick = kNever;
   }
-  note_tick(i);
+  releases.note_tick(ops, i);
 }
 
 void Scheduler::Impl::inherit_plan(Job& d, TimePoint due) {
@@ -80,19 +80,13 @@ void Scheduler::Impl::inherit_plan(Job& d, TimePoint due) {
   }
 }
 
-bool Scheduler::Impl::inputs_ready(const RefinedGraph& g, int trigger_sensor) const {
-  for (int sn : g.sensors)
-    if (sn != trigger_sensor && !sensors[static_cast<std::size_t>(sn)].has_frame) return false;
-  return true;
-}
-
 void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
                               std::uint64_t trigger_frame) {
   OpState& o = ops[static_cast<std::size_t>(op_index)];
   if (o.g == nullptr || o.remaining == 0) return;
   // docs/DESIGN.md, "Refinement": a job computes on frames its sensors produced. Before a sensor's
   // first frame there is nothing to read, so this tick or trigger frame releases no job.
-  if (!inputs_ready(*o.g, trigger_sensor)) return;
+  if (!releases.inputs_ready(*o.g, trigger_sensor)) return;
   if (o.remaining > 0 && --o.remaining == 0) {
     shedding.on_workload();
     plan_work();
@@ -143,6 +137,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   j.dirty = true;
   j.grouped = 0;
   j.started = false;
+  const std::vector<SensorState>& sensors = releases.sensors();
   j.frame.assign(sensors.size(), 0);
   j.frame_time.assign(sensors.size(), now);
   for (int sn : g.sensors) {

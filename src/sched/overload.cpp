@@ -19,13 +19,13 @@ void Scheduler::Impl::plan_work() {
                         opt.batching ? s.config_.max_batch : 1, s.config_.lanes,
                         opt.merge ? s.config_.gamma : Duration{0});
   WorkInput in;
-  for (const SensorState& sn : sensors) in.sensor_hz.push_back(sn.rate_hz);
+  for (const SensorState& sn : releases.sensors()) in.sensor_hz.push_back(sn.rate_hz);
   for (const OpState& o : ops) {
     WorkInput::Stream st;
     if (o.g != nullptr && o.remaining != 0 && !o.all_at_once) {
       st.op = o.g->spec.get();
       st.rate_hz = o.own_rate       ? o.rate_hz
-                   : o.trigger >= 0 ? sensors[static_cast<std::size_t>(o.trigger)].rate_hz
+                   : o.trigger >= 0 ? releases.sensor(o.trigger).rate_hz
                                     : 0.0;
     }
     in.ops.push_back(st);

@@ -52,8 +52,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   given = CostModel{&p, &sc.model, s.config_.estimate};
   price(p);
   if (s.config_.measure_costs) online.emplace(p, sc.model, s.config_.online_costs);
-  sensors.resize(sc.sensors.size());
-  for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
+  releases.set_sensors(sc.sensors);
   merge.set_sensors(sc.sensors.size());
   lanes.resize(static_cast<std::size_t>(s.config_.lanes));
   ops.resize(static_cast<std::size_t>(sc.operation_count()));
@@ -117,33 +116,34 @@ void Scheduler::add_observer(Observer* o) {
 
 void Scheduler::apply_events(TimePoint now) {
   Impl& m = *impl_;
-  while (m.next_event < scenario_.events.size() && scenario_.events[m.next_event].at <= now) {
-    const EventSpec& e = scenario_.events[m.next_event];
+  while (m.releases.next_event() < scenario_.events.size() &&
+         scenario_.events[m.releases.next_event()].at <= now) {
+    const EventSpec& e = scenario_.events[m.releases.next_event()];
     // A new version may change an operation's criticality, which ranking reads: the ready
     // set's groups (ready_set.cpp) form again from the next scan.
     m.ready.ungroup_all(m);
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
-    for (const auto& [sensor, rate] : e.sensor_rates)
-      m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
+    for (const auto& [sensor, rate] : e.sensor_rates) m.releases.sensor(sensor).rate_hz = rate;
     m.shedding.on_workload();
     m.plan_work();
-    for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
-    ++m.next_event;
+    for (Observer* ob : m.observers)
+      ob->on_workload_event(static_cast<int>(m.releases.next_event()), e.at);
+    m.releases.event_applied();
   }
 }
 
 void Scheduler::on_frame(int sensor, std::uint64_t frame, TimePoint now) {
   Impl& m = *impl_;
-  SensorState& sn = m.sensors[static_cast<std::size_t>(sensor)];
+  SensorState& sn = m.releases.sensor(sensor);
   sn.has_frame = true;
   sn.frame = frame;
   sn.time = now;
   for (std::size_t i = 0; i < m.ops.size(); ++i) {
     OpState& o = m.ops[i];
-    if (o.awaits_frames && o.g != nullptr && m.inputs_ready(*o.g, -1)) {
+    if (o.awaits_frames && o.g != nullptr && m.releases.inputs_ready(*o.g, -1)) {
       o.awaits_frames = false;
       o.next_tick = now;  // advance(now) releases them
-      m.note_tick(static_cast<int>(i));
+      m.releases.note_tick(m.ops, static_cast<int>(i));
     }
   }
   for (std::size_t i = 0; i < m.ops.size(); ++i)
@@ -163,7 +163,7 @@ void Scheduler::stop_releases() {
     o.remaining = 0;
     o.next_tick = kNever;
   }
-  impl_->next_event = scenario_.events.size();
+  impl_->releases.end_events(scenario_.events.size());
 }
 
 void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
@@ -236,20 +236,20 @@ void Scheduler::advance(TimePoint now) {
   Impl& m = *impl_;
   // Own-rate and count releases due by now, in time order (ties: operation order).
   for (;;) {
-    const auto [tick, due] = m.next_tick();
+    const auto [tick, due] = m.releases.next_tick(m.ops);
     if (due < 0 || tick > now) break;
     OpState& o = m.ops[static_cast<std::size_t>(due)];
     const TimePoint t = o.next_tick;
     if (o.all_at_once) {
       o.next_tick = kNever;
-      if (!m.inputs_ready(*o.g, -1)) {
+      if (!m.releases.inputs_ready(*o.g, -1)) {
         o.awaits_frames = true;  // on_frame releases them once every sensor has a frame
         continue;
       }
       while (o.remaining != 0) m.release(due, t, -1, 0);
     } else {
       o.next_tick = t + period_of(o.rate_hz);
-      m.note_tick(due);
+      m.releases.note_tick(m.ops, due);
       m.release(due, t, -1, 0);
     }
   }
@@ -297,8 +297,9 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
 TimePoint Scheduler::next_wakeup() const {
   const Impl& m = *impl_;
   TimePoint t = kNever;
-  if (m.next_event < scenario_.events.size()) t = std::min(t, scenario_.events[m.next_event].at);
-  t = std::min(t, m.next_tick().first);
+  if (const std::size_t e = m.releases.next_event(); e < scenario_.events.size())
+    t = std::min(t, scenario_.events[e].at);
+  t = std::min(t, m.releases.next_tick(m.ops).first);
   if (!m.deadlines.empty()) t = std::min(t, m.deadlines.front().first);
   if (m.ready.count() > 0) t = std::min(t, m.merge.earliest_wait());
   return t;
@@ -327,7 +328,7 @@ int Scheduler::ready_tasks() const noexcept {
 
 bool Scheduler::drained() const {
   const Impl& m = *impl_;
-  if (in_flight_ > 0 || m.next_event < scenario_.events.size()) return false;
+  if (in_flight_ > 0 || m.releases.next_event() < scenario_.events.size()) return false;
   for (const OpState& o : m.ops) {
     if (o.g == nullptr || o.remaining == 0) continue;
     return false;  // it can still release (periodically, on frames or at its phase)
@@ -336,7 +337,7 @@ bool Scheduler::drained() const {
 }
 
 double Scheduler::sensor_rate(int sensor) const {
-  return impl_->sensors[static_cast<std::size_t>(sensor)].rate_hz;
+  return impl_->releases.sensor(sensor).rate_hz;
 }
 
 const RefinedGraph* Scheduler::graph(int operation) const {

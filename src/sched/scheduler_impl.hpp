@@ -25,6 +25,7 @@
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
+#include "releases.hpp"
 #include "shedding.hpp"
 #include "state.hpp"
 
@@ -45,31 +46,9 @@ struct Scheduler::Impl {
   RefineOptions ropt;
   std::vector<std::shared_ptr<const RefinedGraph>> graphs;  // every version ever used
   std::vector<OpState> ops;
-  // Own-clock releases (own rate, release: {count}) as a min-heap of (tick, operation): the
-  // earliest comes first, ties in operation order, without a pass over every operation at
-  // each event. An entry is current while its operation still releases (g set, remaining
-  // not 0) at that tick; others are stale and dropped when they reach the top. Every change
-  // of a next_tick pushes an entry (note_tick).
-  mutable std::vector<std::pair<TimePoint, int>> ticks;
-  void note_tick(int i) {
-    const TimePoint t = ops[static_cast<std::size_t>(i)].next_tick;
-    if (t == kNever) return;
-    ticks.emplace_back(t, i);
-    std::push_heap(ticks.begin(), ticks.end(), std::greater<>{});
-  }
-  // The earliest current entry (kNever, -1 when none), stale ones above it dropped.
-  std::pair<TimePoint, int> next_tick() const {
-    while (!ticks.empty()) {
-      const auto [t, i] = ticks.front();
-      const OpState& o = ops[static_cast<std::size_t>(i)];
-      if (o.g != nullptr && o.remaining != 0 && o.next_tick == t) return {t, i};
-      std::pop_heap(ticks.begin(), ticks.end(), std::greater<>{});
-      ticks.pop_back();
-    }
-    return {kNever, -1};
-  }
-  std::vector<SensorState> sensors;
-  std::size_t next_event = 0;
+  // What releases jobs besides the operations (releases.hpp): the sensors' newest frames, the
+  // own-clock ticks, the workload events still to come.
+  Releases releases;
   // The slots of jobs and tasks (pools.hpp).
   JobPool jobs;
   TaskPool tasks;
@@ -138,9 +117,6 @@ struct Scheduler::Impl {
   TaskRank& task_rank(int t) { return tasks.rank(t); }
 
   // ---- jobs ---------------------------------------------------------------------------
-
-  // True when every sensor the graph reads has produced a frame (the trigger frame counts).
-  bool inputs_ready(const RefinedGraph& g, int trigger_sensor) const;
 
   void release(int op_index, TimePoint now, int trigger_sensor, std::uint64_t trigger_frame);
 

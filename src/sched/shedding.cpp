@@ -125,7 +125,7 @@ Duration Shedding::expected_due(Scheduler::Impl& m, TimePoint now, TimePoint t, 
       hz = o.rate_hz;
       next = o.next_tick;
     } else if (o.trigger >= 0) {
-      const SensorState& sn = m.sensors[static_cast<std::size_t>(o.trigger)];
+      const SensorState& sn = m.releases.sensor(o.trigger);
       hz = sn.rate_hz;
       if (sn.has_frame && hz > 0) next = sn.time + from_s(1.0 / hz);
     }
