@@ -97,7 +97,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   if (o.inflight >= o.max_inflight) {
     // max_inflight (docs/DESIGN.md, "max_inflight"): the frame is skipped and counted as a drop.
     o.last_skip = now;
-    last_miss = now;
+    overload.on_skip(now);
     Job tmp;
     tmp.id = jobs.next_id();
     tmp.op = op_index;
@@ -178,9 +178,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   o.last_job = j.id;
   ++o.inflight;
   ++s.in_flight_;
-  by_deadline.insert(std::upper_bound(by_deadline.begin(), by_deadline.end(), slot,
-                                      [this](int a, int b) { return earlier(a, b); }),
-                     slot);
+  overload.on_release(jobs, slot);
   if (opt.drop != DropMode::None) {
     deadlines.push_back({j.deadline, {slot, j.id}});
     std::push_heap(deadlines.begin(), deadlines.end(), std::greater<>{});
@@ -199,10 +197,7 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   --s.in_flight_;
   --ops[static_cast<std::size_t>(j.op)].inflight;
   shedding.on_end(j.op, outcome, j.reason, now);
-  if (outcome == JobOutcome::Missed || outcome == JobOutcome::Dropped) last_miss = now;
-  const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
-                                   [this](int a, int b) { return earlier(a, b); });
-  if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);
+  overload.on_end(jobs, slot, outcome, now);
   if (outcome != JobOutcome::Met && outcome != JobOutcome::Missed) {
     // Abort (docs/DESIGN.md, "Drops" strict): queued units leave their tasks; running ones finish
     // and their output is discarded when they return.

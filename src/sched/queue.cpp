@@ -56,7 +56,7 @@ std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
   m.ready_in_lane_order(lane);
   if (m.ready.count() == 0) return m.out;
   ++stats_.decisions;
-  m.assess_overload(now);
+  m.overload.assess(m, now);
   m.ahead_lane = lane;
   (void)m.pick(now);
   m.ahead_lane = -1;

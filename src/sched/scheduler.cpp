@@ -4,9 +4,10 @@
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
 // ready_set.cpp (the ready set, ReadySet), dispatch.cpp (ranking, pick), merge.cpp (merge
 // waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
-// (the demand test and its work figures), shedding.cpp (how a job is shed: admission, shed_lone,
-// shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued lanes);
-// online_costs.cpp (what units cost in this run, and the profile plans are made on: use_costs()).
+// (the demand test and its work figures; the type Overload), shedding.cpp (how a job is shed:
+// admission, shed_lone, shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued
+// lanes); online_costs.cpp (what units cost in this run, and the profile plans are made on:
+// use_costs()).
 
 #include "red/sched/scheduler.hpp"
 
@@ -278,7 +279,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
   if (idle > 0 && m.ready.count() > 0) {
     ++stats_.decisions;
-    m.assess_overload(now);
+    m.overload.assess(m, now);
     while (idle > 0 && m.pick(now)) --idle;
   }
   // The waits still running; the earliest end of one is a wake-up (next_wakeup).
