@@ -39,7 +39,7 @@ Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
   // Equal criticalities everywhere (every version of every operation): no look at them.
   if (!mixed_criticality && !k.members.empty())
     v.criticality = std::max(v.criticality, uniform_criticality);
-  v.overloaded = overloaded;
+  v.overloaded = overload.overloaded();
   // docs/DESIGN.md, "Overload" "finish what was started": while overloaded (or always,
   // rank=job-deadline) the policy ranks by the job's end-to-end deadline; the task's own deadline
   // stays what batching is checked against.
@@ -92,7 +92,7 @@ void Scheduler::Impl::scan(TimePoint now, Pick& p) {
   // The demand test's verdict alone: not red-robust's wider `overloaded` (an operation at
   // its max_inflight, the hold after an overload), which put every critical unit first
   // while the lanes could carry everything (issue 37: red-robust missed 2-3x red's jobs).
-  bool overload = demand_overrun;
+  bool overrun = overload.demand_overrun();
   int top = std::numeric_limits<int>::min();
   // With equal criticalities the order is the keys' alone: the least is kept as they come.
   std::size_t least = 0;
@@ -122,7 +122,7 @@ void Scheduler::Impl::scan(TimePoint now, Pick& p) {
       TaskView v;
       const Key k = key(t, now, v);
       scanned.push_back({k, v.deadline, t, v.criticality, tk.kind, true, Scan::Out::No, tk.head});
-      overload = overload || now + v.remaining > v.job_deadline;
+      overrun = overrun || now + v.remaining > v.job_deadline;
       top = std::max(top, v.criticality);
     }
     if (scanned.back().key < scanned[least].key) least = scanned.size() - 1;
@@ -133,20 +133,13 @@ void Scheduler::Impl::scan(TimePoint now, Pick& p) {
   // (groups hold plain units only) reads them.
   // Groups form only in a ready set this large (SchedulerConfig::group_from): below it a
   // scan of every task is as cheap.
-  const bool grouping = ready_count() >= s.config_.group_from;
-  to_group.clear();
-  for (int t : ready) {
-    rank_task(t);
-    if (grouping) to_group.push_back(t);
-  }
-  for (int g : live_groups) rank_task(groups[static_cast<std::size_t>(g)].tasks.begin()->second);
+  const bool grouping = ready.count() >= s.config_.group_from;
+  for (int t : ready.listed()) rank_task(t);
+  ready.for_each_group_least(rank_task);
   // Those that rank alike from now on join their group, with nothing changed since the scan.
-  for (int t : to_group) {
-    GroupKey gk;
-    if (group_key(t, now, gk)) join_group(t, gk);
-  }
+  if (grouping) ready.regroup(*this, now);
   p.least = least;
-  p.shed_below = overload ? top : std::numeric_limits<int>::min();
+  p.shed_below = overrun ? top : std::numeric_limits<int>::min();
 }
 
 // The best entry of the scan still a candidate: with equal criticalities and none out, the

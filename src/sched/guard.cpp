@@ -101,13 +101,13 @@ void CriticalityGuard::judge(Scheduler::Impl& m, const Run& g, EstimateKind kind
   // by a few percent, and a critical job that by estimate kept 1.6 ms of its 50 missed.
   const int margin = must_afford ? kMargin : 0;
   const Duration own = run_cost(m, g.run, kind);  // the held jobs: on the estimate itself
-  const TimePoint end = g.begin + m.padded(own, margin);
+  const TimePoint end = g.begin + Overload::padded(own, margin);
   const TimePoint blocked_until = std::min(end, g.other);
 
   // More critical jobs in flight with work ready for a lane: each needs its remaining work (its
   // critical path) from when a lane frees. A job whose units all run, or wait on units that run,
   // goes on on their lane (docs/DESIGN.md, "Synchronization": the run continues).
-  for (int slot : m.by_deadline) {
+  for (int slot : m.overload.by_deadline()) {
     Job& j = m.job(slot);
     if (!j.live || j.ended || m.ops[static_cast<std::size_t>(j.op)].criticality <= g.crit) continue;
     if (std::find(slots_.begin(), slots_.end(), slot) != slots_.end()) continue;
@@ -116,7 +116,7 @@ void CriticalityGuard::judge(Scheduler::Impl& m, const Run& g, EstimateKind kind
     for (std::size_t u = 0; !waiting && u < j.u.size(); ++u)
       waiting = j.u[u].state == UState::Queued;
     if (!waiting) continue;
-    const Duration w = m.padded(m.critical_path(j, g.now, k), margin);
+    const Duration w = Overload::padded(m.critical_path(j, g.now, k), margin);
     if (g.now + g.rt + w <= j.deadline && blocked_until + g.rt + w > j.deadline) {
       v.blocks = true;
       return;  // yield this pick: the job's work is ready, it goes next or on its lane
@@ -158,7 +158,7 @@ void CriticalityGuard::releases(Scheduler::Impl& m, const Run& g, std::size_t k,
       r = o.next_tick;  // the scheduler's own clock: on time
       period = period_of(o.rate_hz);
     } else if (o.trigger >= 0) {
-      const SensorState& sn = m.sensors[static_cast<std::size_t>(o.trigger)];
+      const SensorState& sn = m.releases.sensor(o.trigger);
       if (!sn.has_frame || sn.rate_hz <= 0) continue;
       period = period_of(sn.rate_hz);
       allowance = late_allowance(period);
@@ -170,7 +170,7 @@ void CriticalityGuard::releases(Scheduler::Impl& m, const Run& g, std::size_t k,
     if (r == kNever || period <= Duration{0} || r >= end) continue;
     Duration w{0};
     for (int src : o.g->sources) w = std::max(w, o.g->units[static_cast<std::size_t>(src)].tail[k]);
-    w = m.padded(w, margin);
+    w = Overload::padded(w, margin);
     if (g.rt + w > o.g->deadline) continue;  // it cannot make it even on a free lane
     const TimePoint start = std::max(r, blocked_until);
     if (start + g.rt + w <= r + o.g->deadline ||
@@ -196,7 +196,7 @@ bool CriticalityGuard::join(Scheduler::Impl& m, std::span<const int> members, in
       if (m.ops[static_cast<std::size_t>(jm.op)].criticality <= crit) continue;
       const Duration after = m.path_after(jm, unit);
       if (begin + without + after <= jm.deadline &&
-          begin + m.padded(with, kMargin) + after > jm.deadline)
+          begin + Overload::padded(with, kMargin) + after > jm.deadline)
         return false;
     }
   return true;

@@ -65,7 +65,7 @@ void Scheduler::Impl::install(int i, const std::shared_ptr<const OperationSpec>&
   } else {
     o.next_tick = kNever;
   }
-  note_tick(i);
+  releases.note_tick(ops, i);
 }
 
 void Scheduler::Impl::inherit_plan(Job& d, TimePoint due) {
@@ -80,29 +80,13 @@ void Scheduler::Impl::inherit_plan(Job& d, TimePoint due) {
   }
 }
 
-int Scheduler::Impl::alloc_job() {
-  if (!free_jobs.empty()) {
-    const int slot = free_jobs.back();
-    free_jobs.pop_back();
-    return slot;
-  }
-  jobs.emplace_back();
-  return static_cast<int>(jobs.size() - 1);
-}
-
-bool Scheduler::Impl::inputs_ready(const RefinedGraph& g, int trigger_sensor) const {
-  for (int sn : g.sensors)
-    if (sn != trigger_sensor && !sensors[static_cast<std::size_t>(sn)].has_frame) return false;
-  return true;
-}
-
 void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
                               std::uint64_t trigger_frame) {
   OpState& o = ops[static_cast<std::size_t>(op_index)];
   if (o.g == nullptr || o.remaining == 0) return;
   // docs/DESIGN.md, "Refinement": a job computes on frames its sensors produced. Before a sensor's
   // first frame there is nothing to read, so this tick or trigger frame releases no job.
-  if (!inputs_ready(*o.g, trigger_sensor)) return;
+  if (!releases.inputs_ready(*o.g, trigger_sensor)) return;
   if (o.remaining > 0 && --o.remaining == 0) {
     shedding.on_workload();
     plan_work();
@@ -113,9 +97,9 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   if (o.inflight >= o.max_inflight) {
     // max_inflight (docs/DESIGN.md, "max_inflight"): the frame is skipped and counted as a drop.
     o.last_skip = now;
-    last_miss = now;
+    overload.on_skip(now);
     Job tmp;
-    tmp.id = next_job_id++;
+    tmp.id = jobs.next_id();
     tmp.op = op_index;
     tmp.seq = seq;
     tmp.g = &g;
@@ -129,9 +113,9 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   }
   // Shedding by rate (shedding.hpp) decides before the job is made; it ends once released.
   const bool reject = shedding.rejects_at_release(*this, op_index, now);
-  const int slot = alloc_job();
+  const int slot = jobs.alloc();
   Job& j = job(slot);
-  j.id = next_job_id++;
+  j.id = jobs.next_id();
   j.live = true;
   j.ended = false;
   j.op = op_index;
@@ -153,6 +137,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   j.dirty = true;
   j.grouped = 0;
   j.started = false;
+  const std::vector<SensorState>& sensors = releases.sensors();
   j.frame.assign(sensors.size(), 0);
   j.frame_time.assign(sensors.size(), now);
   for (int sn : g.sensors) {
@@ -193,9 +178,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
   o.last_job = j.id;
   ++o.inflight;
   ++s.in_flight_;
-  by_deadline.insert(std::upper_bound(by_deadline.begin(), by_deadline.end(), slot,
-                                      [this](int a, int b) { return earlier(a, b); }),
-                     slot);
+  overload.on_release(jobs, slot);
   if (opt.drop != DropMode::None) {
     deadlines.push_back({j.deadline, {slot, j.id}});
     std::push_heap(deadlines.begin(), deadlines.end(), std::greater<>{});
@@ -214,10 +197,7 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
   --s.in_flight_;
   --ops[static_cast<std::size_t>(j.op)].inflight;
   shedding.on_end(j.op, outcome, j.reason, now);
-  if (outcome == JobOutcome::Missed || outcome == JobOutcome::Dropped) last_miss = now;
-  const auto at = std::lower_bound(by_deadline.begin(), by_deadline.end(), slot,
-                                   [this](int a, int b) { return earlier(a, b); });
-  if (at != by_deadline.end() && *at == slot) by_deadline.erase(at);
+  overload.on_end(jobs, slot, outcome, now);
   if (outcome != JobOutcome::Met && outcome != JobOutcome::Missed) {
     // Abort (docs/DESIGN.md, "Drops" strict): queued units leave their tasks; running ones finish
     // and their output is discarded when they return.
@@ -240,12 +220,6 @@ void Scheduler::Impl::end_job(int slot, JobOutcome outcome, TimePoint now) {
     }
   }
   if (j.running == 0) free_job(slot);
-}
-
-void Scheduler::Impl::free_job(int slot) {
-  Job& j = job(slot);
-  j.live = false;
-  free_jobs.push_back(slot);
 }
 
 }  // namespace red

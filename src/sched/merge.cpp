@@ -126,7 +126,7 @@ void DynamicMerge::at_start(const Scheduler::Impl& m, Task& k) const {
   // A γ-merged run uses the newest frame available when it starts (docs/DESIGN.md,
   // "Refinement"). Without DynamicMerge a job keeps the frame it sampled at release: its
   // encoders on one sensor run as separate tasks, and their heads must all read that one frame.
-  const SensorState& sn = m.sensors[static_cast<std::size_t>(k.sensor)];
+  const SensorState& sn = m.releases.sensor(k.sensor);
   if (sn.has_frame && sn.frame > k.frame) {
     k.frame = sn.frame;
     k.frame_time = sn.time;

@@ -54,9 +54,9 @@ std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
   // a lane that always holds a unit is never idle at dispatch().
   m.shedding.admit_released(m, now);
   m.ready_in_lane_order(lane);
-  if (m.ready_count() == 0) return m.out;
+  if (m.ready.count() == 0) return m.out;
   ++stats_.decisions;
-  m.assess_overload(now);
+  m.overload.assess(m, now);
   m.ahead_lane = lane;
   (void)m.pick(now);
   m.ahead_lane = -1;

@@ -2,11 +2,12 @@
 // order of one decision (dispatch(), dispatch_ahead() in queue.cpp) and its queries. The
 // mechanisms are one file each behind the one state in scheduler_impl.hpp: jobs.cpp (jobs
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
-// ready_set.cpp (the ready set's groups), dispatch.cpp (ranking, pick), merge.cpp (merge
+// ready_set.cpp (the ready set, ReadySet), dispatch.cpp (ranking, pick), merge.cpp (merge
 // waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
-// (the demand test and its work figures), shedding.cpp (how a job is shed: admission, shed_lone,
-// shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued lanes);
-// online_costs.cpp (what units cost in this run, and the profile plans are made on: use_costs()).
+// (the demand test and its work figures; the type Overload), shedding.cpp (how a job is shed:
+// admission, shed_lone, shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued
+// lanes); online_costs.cpp (what units cost in this run, and the profile plans are made on:
+// use_costs()).
 
 #include "red/sched/scheduler.hpp"
 
@@ -52,8 +53,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   given = CostModel{&p, &sc.model, s.config_.estimate};
   price(p);
   if (s.config_.measure_costs) online.emplace(p, sc.model, s.config_.online_costs);
-  sensors.resize(sc.sensors.size());
-  for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
+  releases.set_sensors(sc.sensors);
   merge.set_sensors(sc.sensors.size());
   lanes.resize(static_cast<std::size_t>(s.config_.lanes));
   ops.resize(static_cast<std::size_t>(sc.operation_count()));
@@ -89,7 +89,7 @@ void Scheduler::Impl::price(const Profile& p) {
 void Scheduler::Impl::use_costs(const Profile& p) {
   price(p);
   // Ranking reads the tasks' costs through the ready set's groups: they form again.
-  ungroup_all();
+  ready.ungroup_all(*this);
   for (std::size_t i = 0; i < ops.size(); ++i) {
     OpState& o = ops[i];
     if (o.g == nullptr) continue;
@@ -117,33 +117,34 @@ void Scheduler::add_observer(Observer* o) {
 
 void Scheduler::apply_events(TimePoint now) {
   Impl& m = *impl_;
-  while (m.next_event < scenario_.events.size() && scenario_.events[m.next_event].at <= now) {
-    const EventSpec& e = scenario_.events[m.next_event];
+  while (m.releases.next_event() < scenario_.events.size() &&
+         scenario_.events[m.releases.next_event()].at <= now) {
+    const EventSpec& e = scenario_.events[m.releases.next_event()];
     // A new version may change an operation's criticality, which ranking reads: the ready
     // set's groups (ready_set.cpp) form again from the next scan.
-    m.ungroup_all();
+    m.ready.ungroup_all(m);
     for (const auto& [op, spec] : e.changes) m.install(op, spec, e.at, false);
-    for (const auto& [sensor, rate] : e.sensor_rates)
-      m.sensors[static_cast<std::size_t>(sensor)].rate_hz = rate;
+    for (const auto& [sensor, rate] : e.sensor_rates) m.releases.sensor(sensor).rate_hz = rate;
     m.shedding.on_workload();
     m.plan_work();
-    for (Observer* ob : m.observers) ob->on_workload_event(static_cast<int>(m.next_event), e.at);
-    ++m.next_event;
+    for (Observer* ob : m.observers)
+      ob->on_workload_event(static_cast<int>(m.releases.next_event()), e.at);
+    m.releases.event_applied();
   }
 }
 
 void Scheduler::on_frame(int sensor, std::uint64_t frame, TimePoint now) {
   Impl& m = *impl_;
-  SensorState& sn = m.sensors[static_cast<std::size_t>(sensor)];
+  SensorState& sn = m.releases.sensor(sensor);
   sn.has_frame = true;
   sn.frame = frame;
   sn.time = now;
   for (std::size_t i = 0; i < m.ops.size(); ++i) {
     OpState& o = m.ops[i];
-    if (o.awaits_frames && o.g != nullptr && m.inputs_ready(*o.g, -1)) {
+    if (o.awaits_frames && o.g != nullptr && m.releases.inputs_ready(*o.g, -1)) {
       o.awaits_frames = false;
       o.next_tick = now;  // advance(now) releases them
-      m.note_tick(static_cast<int>(i));
+      m.releases.note_tick(m.ops, static_cast<int>(i));
     }
   }
   for (std::size_t i = 0; i < m.ops.size(); ++i)
@@ -163,7 +164,7 @@ void Scheduler::stop_releases() {
     o.remaining = 0;
     o.next_tick = kNever;
   }
-  impl_->next_event = scenario_.events.size();
+  impl_->releases.end_events(scenario_.events.size());
 }
 
 void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
@@ -236,20 +237,20 @@ void Scheduler::advance(TimePoint now) {
   Impl& m = *impl_;
   // Own-rate and count releases due by now, in time order (ties: operation order).
   for (;;) {
-    const auto [tick, due] = m.next_tick();
+    const auto [tick, due] = m.releases.next_tick(m.ops);
     if (due < 0 || tick > now) break;
     OpState& o = m.ops[static_cast<std::size_t>(due)];
     const TimePoint t = o.next_tick;
     if (o.all_at_once) {
       o.next_tick = kNever;
-      if (!m.inputs_ready(*o.g, -1)) {
+      if (!m.releases.inputs_ready(*o.g, -1)) {
         o.awaits_frames = true;  // on_frame releases them once every sensor has a frame
         continue;
       }
       while (o.remaining != 0) m.release(due, t, -1, 0);
     } else {
       o.next_tick = t + period_of(o.rate_hz);
-      m.note_tick(due);
+      m.releases.note_tick(m.ops, due);
       m.release(due, t, -1, 0);
     }
   }
@@ -276,9 +277,9 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   m.shedding.admit_released(m, now);
   int idle = 0;
   for (const Lane& l : m.lanes) idle += l.busy() ? 0 : 1;
-  if (idle > 0 && m.ready_count() > 0) {
+  if (idle > 0 && m.ready.count() > 0) {
     ++stats_.decisions;
-    m.assess_overload(now);
+    m.overload.assess(m, now);
     while (idle > 0 && m.pick(now)) --idle;
   }
   // The waits still running; the earliest end of one is a wake-up (next_wakeup).
@@ -286,9 +287,9 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (!m.observers.empty()) {
     // Ready for any lane: a task ready only behind a busy lane's unit (queue_depth > 1)
     // cannot take an idle lane.
-    int ready = m.ready_count();  // grouped tasks are for any lane
+    int ready = m.ready.count();  // grouped tasks are for any lane
     if (config_.queue_depth > 1)
-      for (int t : m.ready) ready -= m.task(t).lane_only >= 0 ? 1 : 0;
+      for (int t : m.ready.listed()) ready -= m.task(t).lane_only >= 0 ? 1 : 0;
     for (Observer* ob : m.observers) ob->on_decision(now, ready, idle, waiting);
   }
   return {m.out.data(), m.out.size()};
@@ -297,10 +298,11 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
 TimePoint Scheduler::next_wakeup() const {
   const Impl& m = *impl_;
   TimePoint t = kNever;
-  if (m.next_event < scenario_.events.size()) t = std::min(t, scenario_.events[m.next_event].at);
-  t = std::min(t, m.next_tick().first);
+  if (const std::size_t e = m.releases.next_event(); e < scenario_.events.size())
+    t = std::min(t, scenario_.events[e].at);
+  t = std::min(t, m.releases.next_tick(m.ops).first);
   if (!m.deadlines.empty()) t = std::min(t, m.deadlines.front().first);
-  if (m.ready_count() > 0) t = std::min(t, m.merge.earliest_wait());
+  if (m.ready.count() > 0) t = std::min(t, m.merge.earliest_wait());
   return t;
 }
 
@@ -313,8 +315,7 @@ void Scheduler::finish(TimePoint end) {
       for (Observer* ob : m.observers)
         ob->on_unit_end(l.oldest(), std::max(end, l.oldest().start), UnitStatus::Unfinished);
   }
-  for (std::size_t i = 0; i < m.jobs.size(); ++i) {
-    Job& j = m.jobs[i];
+  for (Job& j : m.jobs.all()) {
     if (!j.live || j.ended) continue;
     j.ended = true;
     --in_flight_;
@@ -323,12 +324,12 @@ void Scheduler::finish(TimePoint end) {
 }
 
 int Scheduler::ready_tasks() const noexcept {
-  return impl_->ready_count();
+  return impl_->ready.count();
 }
 
 bool Scheduler::drained() const {
   const Impl& m = *impl_;
-  if (in_flight_ > 0 || m.next_event < scenario_.events.size()) return false;
+  if (in_flight_ > 0 || m.releases.next_event() < scenario_.events.size()) return false;
   for (const OpState& o : m.ops) {
     if (o.g == nullptr || o.remaining == 0) continue;
     return false;  // it can still release (periodically, on frames or at its phase)
@@ -337,7 +338,7 @@ bool Scheduler::drained() const {
 }
 
 double Scheduler::sensor_rate(int sensor) const {
-  return impl_->sensors[static_cast<std::size_t>(sensor)].rate_hz;
+  return impl_->releases.sensor(sensor).rate_hz;
 }
 
 const RefinedGraph* Scheduler::graph(int operation) const {

@@ -1,14 +1,15 @@
 #pragma once
 /// \file
-/// Internal to src/sched: the scheduler's state (the records of state.hpp, the ready set, lanes)
-/// behind Scheduler::Impl, shared by the files of its mechanisms (listed at the top of
-/// scheduler.cpp, which keeps the order of a decision).
+/// Internal to src/sched: the scheduler's state behind Scheduler::Impl (the records of
+/// state.hpp; the parts that are types, each owning its state: the slots of jobs and tasks,
+/// pools.hpp; what releases jobs, releases.hpp; the ready set, ready_set.hpp; overload,
+/// overload.hpp; and the mechanisms' types), shared by the files of its mechanisms (listed at
+/// the top of scheduler.cpp, which keeps the order of a decision).
 
 #include <algorithm>
 #include <array>
 #include <cstdint>
 #include <limits>
-#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -20,9 +21,13 @@
 #include "batching.hpp"
 #include "guard.hpp"
 #include "merge.hpp"
+#include "overload.hpp"
+#include "pools.hpp"
+#include "ready_set.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
+#include "releases.hpp"
 #include "shedding.hpp"
 #include "state.hpp"
 
@@ -43,79 +48,32 @@ struct Scheduler::Impl {
   RefineOptions ropt;
   std::vector<std::shared_ptr<const RefinedGraph>> graphs;  // every version ever used
   std::vector<OpState> ops;
-  // Own-clock releases (own rate, release: {count}) as a min-heap of (tick, operation): the
-  // earliest comes first, ties in operation order, without a pass over every operation at
-  // each event. An entry is current while its operation still releases (g set, remaining
-  // not 0) at that tick; others are stale and dropped when they reach the top. Every change
-  // of a next_tick pushes an entry (note_tick).
-  mutable std::vector<std::pair<TimePoint, int>> ticks;
-  void note_tick(int i) {
-    const TimePoint t = ops[static_cast<std::size_t>(i)].next_tick;
-    if (t == kNever) return;
-    ticks.emplace_back(t, i);
-    std::push_heap(ticks.begin(), ticks.end(), std::greater<>{});
-  }
-  // The earliest current entry (kNever, -1 when none), stale ones above it dropped.
-  std::pair<TimePoint, int> next_tick() const {
-    while (!ticks.empty()) {
-      const auto [t, i] = ticks.front();
-      const OpState& o = ops[static_cast<std::size_t>(i)];
-      if (o.g != nullptr && o.remaining != 0 && o.next_tick == t) return {t, i};
-      std::pop_heap(ticks.begin(), ticks.end(), std::greater<>{});
-      ticks.pop_back();
-    }
-    return {kNever, -1};
-  }
-  std::vector<SensorState> sensors;
-  std::size_t next_event = 0;
-  std::vector<Job> jobs;
-  std::vector<int> free_jobs;
-  JobId next_job_id = 1;
-  std::vector<Task> tasks;
-  std::vector<TaskRank> task_ranks;  // beside `tasks`
-  std::vector<int> free_tasks;
-  // The ready set: tasks scanned one by one (`ready`), and those kept in groups that rank
-  // alike (ready_set.cpp), scanned by their least only.
-  std::vector<int> ready;
-  std::vector<ReadyGroup> groups;
-  std::vector<int> free_groups;
-  std::vector<int> live_groups;
-  std::map<GroupKey, int> group_of;
-  int grouped_tasks = 0;
-  std::vector<int> to_group;  // scratch of pick(): tasks that can join a group after the scan
-  int ready_encoders = 0;     // encoder tasks in `ready`
+  // What releases jobs besides the operations (releases.hpp): the sensors' newest frames, the
+  // own-clock ticks, the workload events still to come.
+  Releases releases;
+  // The slots of jobs and tasks (pools.hpp).
+  JobPool jobs;
+  TaskPool tasks;
+  // The ready set (ready_set.hpp): tasks scanned one by one, and those kept in groups that
+  // rank alike, scanned by their least only; its state.
+  ReadySet ready;
   std::vector<Lane> lanes;
   std::vector<Dispatch*> out;
   std::vector<std::pair<TimePoint, std::pair<int, JobId>>> deadlines;  // min-heap
   std::vector<Observer*> observers;
   std::uint64_t stamp = 1;
   std::uint64_t dispatch_seq = 0;
-  // Overload (docs/DESIGN.md, "Overload"): live jobs by (deadline, id), for the demand test;
-  // whether the lanes are judged overloaded this round.
-  std::vector<int> by_deadline;
-  bool overloaded = false;
-  // Evidence of overload (opt.miss_gate): when a job last ended without meeting its deadline
-  // (missed, dropped, skipped at max_inflight). The mechanisms that act on signs of overload
-  // other than the demand test (lookahead, shed_lone, shedding by rate, ranking by job deadline
-  // at max_inflight) act only within kMissWindow of it.
-  static constexpr double kMissWindow = 1.0;  // seconds
-  TimePoint last_miss = kNever;
-  bool evidenced(TimePoint now) const {
-    return !opt.miss_gate || (last_miss != kNever && now - last_miss <= from_s(kMissWindow));
-  }
-  bool demand_overrun = false;  // this round's demand test found more work than the lanes do
-  // red-robust ranks by job deadline until then (docs/DESIGN.md, "Overload").
-  TimePoint overload_hold{0};
+  // Overload (docs/DESIGN.md, "Overload"; overload.hpp): the live jobs by deadline, the demand
+  // test and the necessary work it counts, the evidence of overload and the round's verdict;
+  // its state.
+  Overload overload;
   // The policy's rank is the deadline it is shown, and it reads no other field of the
   // task's view (Policy::ranks_by_deadline_only).
   bool edf_rank = false;
   bool mixed_criticality = false;
-  int uniform_criticality = 0;       // every operation's, when not mixed
-  int top_criticality = 0;           // the highest of any operation's
-  std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
-  std::vector<TimePoint> unit_end;
-  std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
-  struct Scan {                               // one cache line
+  int uniform_criticality = 0;  // every operation's, when not mixed
+  int top_criticality = 0;      // the highest of any operation's
+  struct Scan {                 // one cache line
     Key key;
     TimePoint deadline;  // valid where deadline_known; else task_deadline() gives it
     int task;
@@ -141,25 +99,18 @@ struct Scheduler::Impl {
   // deadlines": one refinement per graph version, shared by every job released with it).
   void install(int i, const std::shared_ptr<const OperationSpec>& spec, TimePoint at, bool initial);
 
-  Job& job(int slot) { return jobs[static_cast<std::size_t>(slot)]; }
-  Task& task(int t) { return tasks[static_cast<std::size_t>(t)]; }
-  TaskRank& task_rank(int t) { return task_ranks[static_cast<std::size_t>(t)]; }
+  Job& job(int slot) { return jobs[slot]; }
+  Task& task(int t) { return tasks[t]; }
+  TaskRank& task_rank(int t) { return tasks.rank(t); }
 
   // ---- jobs ---------------------------------------------------------------------------
-
-  int alloc_job();
-
-  // True when every sensor the graph reads has produced a frame (the trigger frame counts).
-  bool inputs_ready(const RefinedGraph& g, int trigger_sensor) const;
 
   void release(int op_index, TimePoint now, int trigger_sensor, std::uint64_t trigger_frame);
 
   void end_job(int slot, JobOutcome outcome, TimePoint now);
 
-  // Order of live jobs in by_deadline: end-to-end deadline, then job id.
-  bool earlier(int a, int b) const;
-
-  void free_job(int slot);
+  // The job in `slot` is over and nothing refers to it any more.
+  void free_job(int slot) { jobs.free(slot); }
 
   // Rebuilds what changes only when one of the job's units starts or ends: the costs of
   // its units not yet started, per height, and — when none is running — the shares of the
@@ -228,19 +179,15 @@ struct Scheduler::Impl {
     return now > start ? std::max(Duration{0}, c - (now - start)) : c;
   }
 
-  // docs/DESIGN.md, "Overload" demand: the lane time a job still needs under estimate kind k. A
-  // queued encoder run is shared by the members of its task and a running unit by the members of
-  // its dispatch, so shared encoder runs are counted once.
+  // docs/DESIGN.md, "Overload" demand: the lane time a job still needs under estimate kind k, units
+  // counted at the necessary work (Overload::unit_cost). A queued encoder run is shared by the
+  // members of its task and a running unit by the members of its dispatch, so shared encoder runs
+  // are counted once.
   Duration work_left(Job& j, TimePoint now, std::size_t k);
 
-  // The necessary work of the workload in effect (red/graph/necessary_work.hpp): the lane time one
-  // run of each unit takes as RED runs it (encoder runs shared, runs batched as the deadlines
-  // allow), by WorkModel slot and estimate kind. Every work figure of the overload mechanisms
-  // (work_left, the demand test, admission, the jobs to come) counts a unit at it, so that they
-  // agree with `red analyze` and the sweep's limit. Recomputed by plan_work() when the workload
-  // changes (an event, an operation's last release).
-  std::vector<std::array<Duration, kEstimates>> run_cost;
-  std::vector<double> encoder_runs_per_job;  // by operation (WorkEstimate)
+  // The necessary work of the workload in effect (Overload::plan), computed again when the
+  // workload changes (an event, an operation's last release) or the plan's costs do; the jobs'
+  // work figures then go stale.
   void plan_work();
   // Plans with `p` from now on (scheduler.cpp): unit costs, batch costs, every active
   // operation's graph priced again (its deadline kept), the demand model. Jobs in flight
@@ -248,56 +195,14 @@ struct Scheduler::Impl {
   void use_costs(const Profile& p);
   // Unit and batch costs from `p` (the constructor, use_costs()).
   void price(const Profile& p);
-  // What unit `ru` counts for in the work figures under estimate kind k.
+  // What unit `ru` counts for in the work figures under estimate kind k (Overload::unit_cost).
   [[nodiscard]] Duration unit_cost(const RefinedUnit& ru, std::size_t k) const {
-    switch (ru.kind) {
-      case UnitKind::Encoder:
-        return run_cost[WorkModel::kEncoder][k];
-      case UnitKind::Head:
-        return run_cost[WorkModel::head_slot(ru.head)][k];
-      case UnitKind::Coarse:
-        return run_cost[WorkModel::kEncoder][k] + run_cost[WorkModel::head_slot(ru.head)][k];
-      default:
-        return ru.costs[k];
-    }
+    return overload.unit_cost(ru, k);
   }
-
-  // The demand test (docs/DESIGN.md, "Overload"): taking live jobs by deadline, the first that the
-  // lanes cannot finish by its deadline under estimate kind k; -1 when all of it fits. A position
-  // in by_deadline. On one lane that is the first whose deadline comes before the work due by it
-  // (its own and every earlier job's): exact for non-preemptive EDF up to blocking. On several
-  // lanes the work due does not say enough: a DAG's critical path cannot use the lanes'
-  // parallelism. `schedule` then list-schedules the remaining units (admission, at releases);
-  // without it (the per-round overload check) the bound is the larger of the job's own critical
-  // path and the work due spread over every lane, a lower bound. `margin` (percent) pads every
-  // estimate (admission's margin, docs/DESIGN.md, "Overload"); 0 in the per-round overload test.
-  // Admission passes `from` (the first position that may be returned; earlier jobs still
-  // count) and `skip_doomed` (jobs that cannot make it alone count for nothing).
-  // `min_crit`: only the jobs (and jobs to come) of that criticality or more count, besides
-  // the units the lanes hold: the test for what pick() runs first under overload (docs/DESIGN.md,
-  // "Criticality").
-  int first_overrun(TimePoint now, std::size_t k, bool schedule, int margin, std::size_t from,
-                    bool skip_doomed, int min_crit = kAnyCriticality);
-
-  // first_overrun(now, k, false, 0, 0, false) >= 0, the per-round overload test (docs/DESIGN.md,
-  // "Overload"), decided where it can be from bounds kept per job (work_base and work_most bracket
-  // work_left), walking the jobs' units only where the bounds do not tell.
-  bool demand_overruns(TimePoint now, std::size_t k);
 
   // A job that cannot finish by its deadline even alone: its critical path under estimate
   // kind k ends after it.
   bool doomed(Job& j, TimePoint now, std::size_t k);
-
-  // d padded by `margin` percent (d itself for 0).
-  static Duration padded(Duration d, int margin) {
-    return margin == 0 ? d : d * (100 + margin) / 100;
-  }
-
-  // The demand test on several lanes: jobs by deadline, each remaining unit at its earliest
-  // start (its predecessors' end, a lane's end) on the lane that leaves the smallest gap (or in an
-  // idle gap it fits).
-  int first_overrun_lanes(TimePoint now, std::size_t k, int margin, std::size_t from,
-                          bool skip_doomed, int min_crit);
 
   // True when an operation that still releases jobs is at its max_inflight (docs/DESIGN.md,
   // "max_inflight").
@@ -320,45 +225,21 @@ struct Scheduler::Impl {
 
   // ---- tasks --------------------------------------------------------------------------
 
-  int alloc_task();
-
-  void push_ready(int t);
-
-  void pop_ready(int t);
-  // Takes task t out of `ready` (where it is), keeping the others in place but the last.
-  void unlist_ready(Task& k) {
-    const int last = ready.back();
-    ready[static_cast<std::size_t>(k.ready_pos)] = last;
-    task(last).ready_pos = k.ready_pos;
-    ready.pop_back();
-    k.ready_pos = -1;
-  }
-
   void free_task(int t);
 
   void remove_member(int t, int slot, int unit);
 
   // ---- the ready set's groups (ready_set.cpp) -------------------------------------------
 
-  // Ready tasks in all (grouped or not).
-  [[nodiscard]] int ready_count() const noexcept {
-    return static_cast<int>(ready.size()) + grouped_tasks;
-  }
   // The key task t ranks by at every `now`, when it can be kept in a group (pick() has just
   // ranked it); false when it cannot.
   bool group_key(int t, TimePoint now, GroupKey& gk);
-  // Moves ready task t from `ready` into the group of key gk.
-  void join_group(int t, const GroupKey& gk);
-  // Takes task t out of its group (back into `ready` when `keep_ready`).
-  void leave_group(int t, bool keep_ready);
-  // A job whose caches are about to change (dirty): its grouped tasks go back to `ready`.
+  // A job whose caches are about to change (dirty): its grouped tasks are listed again.
   void touch(Job& j) {
     j.dirty = true;
     if (j.grouped > 0) ungroup_job(j);
   }
-  void ungroup_job(Job& j);
-  // Every group back into `ready` (an event changed what ranking reads: criticalities).
-  void ungroup_all();
+  void ungroup_job(Job& j) { ready.ungroup_job(*this, j); }
 
   void make_ready(int slot, int unit);
   // Deadline inheritance (PolicyOptions::inherit): plan `d` to end by `due` when that is
@@ -373,8 +254,8 @@ struct Scheduler::Impl {
   // encoder on several lanes only when the demand test overran).
   bool by_job_deadline(const Task& k) const {
     return opt.rank == RankMode::JobDeadline ||
-           (opt.rank == RankMode::Overload && overloaded &&
-            (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || demand_overrun));
+           (opt.rank == RankMode::Overload && overload.overloaded() &&
+            (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || overload.demand_overrun()));
   }
 
   // True when this round ranks tasks by job deadline with the EDF rank and equal
@@ -382,7 +263,8 @@ struct Scheduler::Impl {
   // with no look into its jobs.
   bool ranks_from_tasks() const {
     return edf_rank && !mixed_criticality &&
-           (opt.rank == RankMode::JobDeadline || (opt.rank == RankMode::Overload && overloaded));
+           (opt.rank == RankMode::JobDeadline ||
+            (opt.rank == RankMode::Overload && overload.overloaded()));
   }
 
   // The task's deadline as key() computes it (the earliest of its members' deadlines).
@@ -420,9 +302,6 @@ struct Scheduler::Impl {
   // dispatch_ahead(): the successors that wait only on a unit `lane` holds become ready for
   // that lane alone (not encoders: they merge across lanes).
   void ready_in_lane_order(int lane);
-  // The round's overload state before a pick (docs/DESIGN.md, "Overload"): saturation, the demand
-  // test, the hold of "finish what was started" (dispatch() and dispatch_ahead()).
-  void assess_overload(TimePoint now);
   // How red-robust sheds a job (docs/DESIGN.md, "Overload" and "Drops" hopeless; shedding.hpp):
   // shedding by rate and the offered load at a release, admission before a decision, hopeless
   // aborts at a pick; its state and constants.

@@ -66,7 +66,7 @@ bool Shedding::rejects_at_release(Scheduler::Impl& m, int op, TimePoint now) {
   const PolicyOptions& opt = m.opt;
   return opt.admission == Admission::Shed && opt.shed_by_rate && !m.mixed_criticality &&
          by_rate_.rejects(op, now, m.ops, m.s.config().lanes, idx(opt.drop_estimate),
-                          [&] { return past_capacity(m) && m.evidenced(now); });
+                          [&] { return past_capacity(m) && m.overload.evidenced(m, now); });
 }
 
 void Shedding::released(Scheduler::Impl& m, int slot, bool rejected, TimePoint now) {
@@ -87,7 +87,7 @@ bool Shedding::past_capacity(const Scheduler::Impl& m) const {
 }
 
 bool Shedding::looking_ahead(const Scheduler::Impl& m, TimePoint now) const {
-  return m.opt.lookahead && m.evidenced(now) &&
+  return m.opt.lookahead && m.overload.evidenced(m, now) &&
          offered_ > kLookaheadAt * kOfferedWindow * static_cast<double>(m.s.config().lanes);
 }
 
@@ -97,7 +97,7 @@ Duration Shedding::expected_due(Scheduler::Impl& m, TimePoint now, TimePoint t, 
   if (expected_stale_) {
     expected_stale_ = false;
     // A job to come: its heads and plain nodes, and its share of its cameras' encoder runs as
-    // the model of necessary work counts them (plan_work).
+    // the model of necessary work counts them (Overload::plan).
     expected_work_.assign(ops.size(), {});
     for (std::size_t i = 0; i < ops.size(); ++i) {
       const OpState& o = ops[i];
@@ -108,10 +108,10 @@ Duration Shedding::expected_due(Scheduler::Impl& m, TimePoint now, TimePoint t, 
         if (ru.kind == UnitKind::Encoder) continue;
         for (std::size_t e = 0; e < kEstimates; ++e) expected_work_[i][e] += m.unit_cost(ru, e);
       }
-      if (!encoders || i >= m.encoder_runs_per_job.size()) continue;
+      if (!encoders || i >= m.overload.encoder_runs_per_job().size()) continue;
       for (std::size_t e = 0; e < kEstimates; ++e)
         expected_work_[i][e] +=
-            scaled_by(m.run_cost[WorkModel::kEncoder][e], m.encoder_runs_per_job[i]);
+            scaled_by(m.overload.encoder_run(e), m.overload.encoder_runs_per_job()[i]);
     }
   }
   Duration due{0};
@@ -125,7 +125,7 @@ Duration Shedding::expected_due(Scheduler::Impl& m, TimePoint now, TimePoint t, 
       hz = o.rate_hz;
       next = o.next_tick;
     } else if (o.trigger >= 0) {
-      const SensorState& sn = m.sensors[static_cast<std::size_t>(o.trigger)];
+      const SensorState& sn = m.releases.sensor(o.trigger);
       hz = sn.rate_hz;
       if (sn.has_frame && hz > 0) next = sn.time + from_s(1.0 / hz);
     }
@@ -158,7 +158,7 @@ void Shedding::reject(Scheduler::Impl& m, int slot, DropReason why, TimePoint no
 
 void Shedding::admit(Scheduler::Impl& m, TimePoint now) {
   const PolicyOptions& opt = m.opt;
-  const std::vector<int>& by_deadline = m.by_deadline;
+  const std::vector<int>& by_deadline = m.overload.by_deadline();
   const std::size_t k = idx(opt.drop_estimate);
   // Below capacity the list schedule's order (jobs by deadline) is not the policy's, and
   // it would reject jobs that the policy's intermediate deadlines fit in; the lower bound
@@ -172,7 +172,7 @@ void Shedding::admit(Scheduler::Impl& m, TimePoint now) {
   // cannot make it even alone (on the estimate, from now) counts for nothing: the hopeless
   // check ends it, and its work would make every later window overrun.
   const bool ahead = looking_ahead(m, now);
-  if (opt.shed_lone && schedule && m.evidenced(now)) shed_lone_jobs(m, now, k, margin);
+  if (opt.shed_lone && schedule && m.overload.evidenced(m, now)) shed_lone_jobs(m, now, k, margin);
   // Criticality (docs/DESIGN.md, "Criticality"): under overload pick() runs the most critical work
   // first, so a job is in the way of a more critical one only through the units the lanes hold. A
   // job is rejected for a window only if the jobs of its criticality or more overrun by themselves;
@@ -183,7 +183,7 @@ void Shedding::admit(Scheduler::Impl& m, TimePoint now) {
   const int least_op = m.mixed_criticality ? least_op_criticality(m) : 0;
   std::size_t from = 0;
   for (;;) {
-    const int over = m.first_overrun(now, k, schedule, margin, from, true);
+    const int over = m.overload.first_overrun(m, now, k, schedule, margin, from, true);
     if (over < 0) return;
     from = static_cast<std::size_t>(over) + 1;
     // The first job alone overrunning its deadline on the estimate: rejecting it frees the
@@ -215,7 +215,7 @@ void Shedding::admit(Scheduler::Impl& m, TimePoint now) {
     if (m.mixed_criticality && victim_crit > least_criticality(m)) {
       // Less critical jobs (started, or past this window) share the overrun: whether the
       // victim's class alone overruns decides. The victim is the least critical candidate.
-      const int own = m.first_overrun(now, k, schedule, margin, 0, true, victim_crit);
+      const int own = m.overload.first_overrun(m, now, k, schedule, margin, 0, true, victim_crit);
       if (own < 0) carried_from = victim_crit;
       if (own < 0 || own > over) continue;
     }
@@ -241,7 +241,7 @@ int Shedding::least_op_criticality(const Scheduler::Impl& m) {
 
 int Shedding::least_criticality(Scheduler::Impl& m) {
   int least = std::numeric_limits<int>::max();
-  for (const int slot : m.by_deadline)
+  for (const int slot : m.overload.by_deadline())
     least = std::min(least, m.ops[static_cast<std::size_t>(m.job(slot).op)].criticality);
   return least;
 }
@@ -258,7 +258,7 @@ void Shedding::shed_lone_jobs(Scheduler::Impl& m, TimePoint now, std::size_t est
     return std::find(o.sensors_read.begin(), o.sensors_read.end(), sensor) != o.sensors_read.end();
   };
   lone_.clear();
-  for (const int slot : m.by_deadline) {
+  for (const int slot : m.overload.by_deadline()) {
     const Job& j = m.job(slot);
     const OpState& o = ops[static_cast<std::size_t>(j.op)];
     if (j.release != now || j.started || o.own_rate || o.trigger < 0) continue;
@@ -268,7 +268,8 @@ void Shedding::shed_lone_jobs(Scheduler::Impl& m, TimePoint now, std::size_t est
     // alone is not enough (issue 37: on a robot workload at 1x with max_inflight 1 this rule
     // lost 41 % of the jobs, all of which red met). Gating on the demand test alone cost the
     // overload grid 31 of 464 points (worst -8.2 points); with the skips, 11 (worst -5.7).
-    if ((o.last_skip == kNever || now - o.last_skip > from_s(kOfferedWindow)) && !m.demand_overrun)
+    if ((o.last_skip == kNever || now - o.last_skip > from_s(kOfferedWindow)) &&
+        !m.overload.demand_overrun())
       continue;
     const int t = o.trigger;
     const auto tu = static_cast<std::size_t>(t);
@@ -277,7 +278,7 @@ void Shedding::shed_lone_jobs(Scheduler::Impl& m, TimePoint now, std::size_t est
       others = others || (&p != &o && p.g != nullptr && p.remaining != 0 && reads(p, t));
     if (!others) continue;
     bool shared = false;
-    for (const int other : m.by_deadline) {
+    for (const int other : m.overload.by_deadline()) {
       if (other == slot) continue;
       const Job& k = m.job(other);
       if (k.frame[tu] == j.frame[tu] && reads(ops[static_cast<std::size_t>(k.op)], t)) {
@@ -295,8 +296,8 @@ void Shedding::shed_lone_jobs(Scheduler::Impl& m, TimePoint now, std::size_t est
     const int least_op = least_op_criticality(m);
     std::erase_if(lone_, [&](int slot) {
       const int crit = ops[static_cast<std::size_t>(m.job(slot).op)].criticality;
-      return crit > least_op ||
-             (crit > least && m.first_overrun(now, est, true, margin, 0, true, crit) < 0);
+      return crit > least_op || (crit > least && m.overload.first_overrun(m, now, est, true, margin,
+                                                                          0, true, crit) < 0);
     });
   }
   for (const int slot : lone_) reject(m, slot, DropReason::Rejected, now);
@@ -312,7 +313,8 @@ void Shedding::shed_lone_jobs(Scheduler::Impl& m, TimePoint now, std::size_t est
 bool Shedding::abort_hopeless(Scheduler::Impl& m, int t, Duration rt, TimePoint now) {
   const PolicyOptions& opt = m.opt;
   if (opt.drop != DropMode::Hopeless ||
-      (opt.rank == RankMode::Overload && !(m.overloaded && m.by_deadline.size() > 1)))
+      (opt.rank == RankMode::Overload &&
+       !(m.overload.overloaded() && m.overload.by_deadline().size() > 1)))
     return false;
   for (const auto& [slot, unit] : m.task(t).members) {
     Job& j = m.job(slot);

@@ -12,8 +12,8 @@
 /// * at a job's end: `on_end`; when the workload changes: `on_workload`; when its costs are
 ///   planned again: `on_costs`.
 ///
-/// The demand test it asks (Scheduler::Impl::first_overrun and the work figures) is the
-/// scheduler's, in overload.cpp, shared with the per-round overload test; the offered load and
+/// The demand test it asks (Overload::first_overrun, overload.hpp, and the work figures) is
+/// the scheduler's, shared with the per-round overload test; the offered load and
 /// the jobs periodic operations will release (`expected_due`) are this type's, and the demand
 /// test reads them while admission looks ahead.
 
@@ -24,14 +24,12 @@
 #include <utility>
 #include <vector>
 
+#include "overload.hpp"
 #include "red/sched/scheduler.hpp"
 #include "state.hpp"
 
 namespace red {
 namespace sched_detail {
-
-// Criticalities counted by the demand test and the jobs to come when none is given: all.
-inline constexpr int kAnyCriticality = std::numeric_limits<int>::min();
 
 // Shedding by rate (PolicyOptions::shed_by_rate, part of red-robust): periodic operations
 // without sensors are ordered by the lane time one job needs; one whose cheaper ones alone
@@ -102,8 +100,8 @@ class Shedding {
   }
   /// Rates or graphs changed (an event, an operation's last release).
   void on_workload() noexcept { by_rate_.on_workload(); }
-  /// The work figures were planned again (Scheduler::Impl::plan_work): the jobs to come are
-  /// counted again when next asked.
+  /// The work figures were planned again (Scheduler::Impl::plan_work, Overload::plan): the jobs to
+  /// come are counted again when next asked.
   void on_costs() noexcept { expected_stale_ = true; }
 
   // ---- what the demand test reads while admission looks ahead ------------------------------

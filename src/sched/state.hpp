@@ -154,7 +154,7 @@ struct Task {
   TimePoint min_release{0};
   TimePoint wait_until{0};
   bool in_waits = false;  // listed in DynamicMerge's waits (it began a wait: merge.hpp)
-  int ready_pos = -1;     // in Impl::ready; -1 when not there (in a group, or not ready)
+  int ready_pos = -1;     // in ReadySet::listed(); -1: not there (in a group, or not ready)
   int group = -1;         // its ReadyGroup (ready_set.cpp), -1: none
   Duration cost{0};
   // Ready only for this lane (-1: any): its member waits on a unit that lane holds, and runs
@@ -165,7 +165,7 @@ struct Task {
 // Over a task's members, kept as they join and leave (their jobs' fields do not change):
 // the least tie-break key (rank 0) and the earliest end-to-end deadline (less the path after
 // the unit, with path_rank: Impl::rank_deadline), what ranking by
-// job deadline reads without a look into the jobs. Beside the tasks (Impl::task_ranks), so
+// job deadline reads without a look into the jobs. Beside the tasks (TaskPool::rank), so
 // that a task stays as small as the ranking of the other presets reads it.
 struct TaskRank {
   Key tie{};
@@ -192,7 +192,7 @@ struct GroupKey {
 struct ReadyGroup {
   GroupKey key{};
   std::set<std::pair<Key, int>> tasks;  // (tie-break key, task), the least first
-  int live_pos = -1;                    // in Impl::live_groups
+  int live_pos = -1;                    // in ReadySet's live groups
 };
 
 struct OpState {

@@ -1,6 +1,6 @@
 // Tasks: a ready unit becomes a task (or joins a queued encoder run: DynamicMerge, merge.hpp),
 // enters the ready set and leaves it. Part of the scheduler
-// (scheduler_impl.hpp); the ready set's groups are in ready_set.cpp.
+// (scheduler_impl.hpp); the ready set is ReadySet (ready_set.hpp).
 
 #include <algorithm>
 #include <cstdint>
@@ -11,54 +11,15 @@
 
 namespace red {
 
-int Scheduler::Impl::alloc_task() {
-  int t;
-  if (!free_tasks.empty()) {
-    t = free_tasks.back();
-    free_tasks.pop_back();
-  } else {
-    tasks.emplace_back();
-    task_ranks.emplace_back();
-    t = static_cast<int>(tasks.size() - 1);
-  }
-  Task& k = task(t);
-  k.live = true;
-  k.members.clear();
-  k.member_at.clear();
-  k.wait_until = TimePoint{0};
-  k.ready_pos = -1;
-  k.group = -1;
-  k.lane_only = -1;
-  return t;
-}
-
-void Scheduler::Impl::push_ready(int t) {
-  task(t).ready_pos = static_cast<int>(ready.size());
-  ready_encoders += task(t).kind == UnitKind::Encoder ? 1 : 0;
-  ready.push_back(t);
-}
-
-void Scheduler::Impl::pop_ready(int t) {
-  Task& k = task(t);
-  if (k.group >= 0) {
-    leave_group(t, false);
-    return;
-  }
-  if (k.ready_pos < 0) return;
-  ready_encoders -= k.kind == UnitKind::Encoder ? 1 : 0;
-  unlist_ready(k);
-}
-
 void Scheduler::Impl::free_task(int t) {
-  pop_ready(t);
+  ready.pop(*this, t);
   merge.closed(task(t), t);
-  task(t).live = false;
-  free_tasks.push_back(t);
+  tasks.free(t);
 }
 
 void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   Task& k = task(t);
-  if (k.group >= 0) leave_group(t, true);  // its members change
+  if (k.group >= 0) ready.leave(*this, t, true);  // its members change
   auto& m = k.members;
   std::size_t kept = 0;
   for (std::size_t i = 0; i < m.size(); ++i) {
@@ -95,7 +56,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   UnitRt& u = j.u[static_cast<std::size_t>(unit)];
   u.state = UState::Queued;
   if (merge.join(*this, slot, unit)) return;  // DynamicMerge (merge.hpp)
-  const int t = alloc_task();
+  const int t = tasks.alloc();
   Task& k = task(t);
   k.kind = ru.kind;
   k.head = ru.head;
@@ -109,7 +70,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   task_rank(t) = TaskRank{tie_key(slot, unit, ru.node), rank_deadline(j, unit)};
   k.cost = ru.estimate;
   u.task = t;
-  push_ready(t);
+  ready.push(*this, t);
   merge.opened(*this, t);
 }
 
