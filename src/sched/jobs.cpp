@@ -76,7 +76,7 @@ void Scheduler::Impl::inherit_plan(Job& d, TimePoint due) {
     const UnitRt& ur = d.u[u];
     if (ur.state != UState::Queued || ur.task < 0) continue;
     TaskRank& r = task_rank(ur.task);
-    r.job_deadline = std::min(r.job_deadline, rank_deadline(d, static_cast<int>(u)));
+    r.job_deadline = std::min(r.job_deadline, ranking.rank_deadline(d, static_cast<int>(u)));
   }
 }
 

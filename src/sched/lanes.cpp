@@ -84,7 +84,7 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
       // Where ranking did not look into the jobs, the job's evaluation at `now` is taken
       // before its unit starts, as ranking would have taken it: a later look in this round
       // reads the values from before.
-      if (ranks_from_tasks()) {
+      if (ranking.ranks_from_tasks()) {
         refresh(j);
         if (!j.running_units.empty()) eval(j, now);
       }

@@ -273,8 +273,9 @@ void Scheduler::Impl::assess_overload(TimePoint now) {
   // The demand test (a walk over every job in flight) decides nothing that a saturated
   // operation has not decided already, unless criticalities differ or a ready encoder on
   // several lanes is ranked by it (no encoder becomes ready within a round): skipped then.
-  const bool test = (robust || mixed_criticality) &&
-                    (!at_limit || mixed_criticality || (s.config_.lanes > 1 && ready_encoders > 0));
+  const bool test =
+      (robust || ranking.mixed_criticality()) &&
+      (!at_limit || ranking.mixed_criticality() || (s.config_.lanes > 1 && ready_encoders > 0));
   demand_overrun = test && demand_overruns(now, idx(s.config_.estimate));
   overloaded = demand_overrun || at_limit;
   // docs/DESIGN.md, "Overload" "finish what was started": once overloaded, the jobs in flight then

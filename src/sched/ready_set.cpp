@@ -39,7 +39,7 @@ bool Scheduler::Impl::group_key(int t, TimePoint now, GroupKey& gk) {
   gk.cost = k.cost;
   gk.remaining = j.remaining_base;
   gk.job_deadline = j.plan;
-  gk.by_job = rank_deadline(j, unit);
+  gk.by_job = ranking.rank_deadline(j, unit);
   gk.criticality = ops[static_cast<std::size_t>(j.op)].criticality;
   return true;
 }

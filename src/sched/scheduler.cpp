@@ -2,8 +2,8 @@
 // order of one decision (dispatch(), dispatch_ahead() in queue.cpp) and its queries. The
 // mechanisms are one file each behind the one state in scheduler_impl.hpp: jobs.cpp (jobs
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
-// ready_set.cpp (the ready set's groups), dispatch.cpp (ranking, pick), merge.cpp (merge
-// waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
+// ready_set.cpp (the ready set's groups), ranking.cpp (ranking), dispatch.cpp (pick), merge.cpp
+// (merge waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
 // (the demand test and its work figures), shedding.cpp (how a job is shed: admission, shed_lone,
 // shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued lanes);
 // online_costs.cpp (what units cost in this run, and the profile plans are made on: use_costs()).
@@ -60,22 +60,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   for (int i = 0; i < sc.operation_count(); ++i)
     if (sc.initial[static_cast<std::size_t>(i)])
       install(i, sc.initial[static_cast<std::size_t>(i)], TimePoint{0}, true);
-  // Criticality orders work only under overload (docs/DESIGN.md, "Criticality"); the demand test
-  // that detects it runs only when criticalities differ somewhere in the scenario, or the policy
-  // ranks by it.
-  int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
-  auto see = [&](const std::shared_ptr<const OperationSpec>& op) {
-    if (!op) return;
-    lo = std::min(lo, op->criticality);
-    hi = std::max(hi, op->criticality);
-  };
-  for (const auto& op : sc.initial) see(op);
-  for (const EventSpec& e : sc.events)
-    for (const auto& [i, op] : e.changes) see(op);
-  mixed_criticality = lo < hi;
-  top_criticality = hi;
-  uniform_criticality = lo <= hi ? lo : 0;
-  edf_rank = s.policy_->ranks_by_deadline_only();
+  ranking.set_up(*s.policy_, sc, s.config_);
   plan_work();
 }
 

@@ -20,6 +20,7 @@
 #include "batching.hpp"
 #include "guard.hpp"
 #include "merge.hpp"
+#include "ranking.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
 #include "red/sched/scheduler.hpp"
@@ -106,12 +107,9 @@ struct Scheduler::Impl {
   bool demand_overrun = false;  // this round's demand test found more work than the lanes do
   // red-robust ranks by job deadline until then (docs/DESIGN.md, "Overload").
   TimePoint overload_hold{0};
-  // The policy's rank is the deadline it is shown, and it reads no other field of the
-  // task's view (Policy::ranks_by_deadline_only).
-  bool edf_rank = false;
-  bool mixed_criticality = false;
-  int uniform_criticality = 0;       // every operation's, when not mixed
-  int top_criticality = 0;           // the highest of any operation's
+  // Ranking (docs/DESIGN.md, "Dispatch"; ranking.hpp): the rank mode, the policy's rank, the
+  // scenario's criticalities, who ranks by job deadline this round.
+  Ranking ranking;
   std::vector<TimePoint> lane_free;  // scratch of the demand test on several lanes
   std::vector<TimePoint> unit_end;
   std::vector<TimePoint> gap_begin, gap_end;  // per lane: its largest idle gap so far
@@ -303,21 +301,6 @@ struct Scheduler::Impl {
   // "max_inflight").
   bool saturated() const;
 
-  // The longest path after a unit of j (the unit itself not counted) on the scheduler's
-  // estimate (p99 by default): what j still needs once the unit has ended.
-  Duration path_after(const Job& j, int unit) const {
-    const RefinedUnit& u = j.g->units[static_cast<std::size_t>(unit)];
-    const std::size_t e = idx(s.config_.estimate);
-    return u.tail[e] - u.costs[e];
-  }
-
-  // What ranking by job deadline reads for one member: the job's deadline, less the path
-  // after the unit with path_rank (docs/DESIGN.md, "Overload"; docs/journal/overload-grid.md,
-  // round 9: on mean costs instead, one of the tests' 216 sets lost a job to edf at capacity).
-  TimePoint rank_deadline(const Job& j, int unit) const {
-    return opt.path_rank ? j.plan - path_after(j, unit) : j.plan;
-  }
-
   // ---- tasks --------------------------------------------------------------------------
 
   int alloc_task();
@@ -364,35 +347,6 @@ struct Scheduler::Impl {
   // Deadline inheritance (PolicyOptions::inherit): plan `d` to end by `due` when that is
   // earlier than its plan; its ready tasks leave their groups and their cached rank follows.
   void inherit_plan(Job& d, TimePoint due);
-
-  // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
-  Key key(int t, TimePoint now, TaskView& v);
-
-  // True when the policy ranks the task by its jobs' end-to-end deadline this round
-  // (docs/DESIGN.md, "Overload": rank=job-deadline, or rank=overload while overloaded; a ready
-  // encoder on several lanes only when the demand test overran).
-  bool by_job_deadline(const Task& k) const {
-    return opt.rank == RankMode::JobDeadline ||
-           (opt.rank == RankMode::Overload && overloaded &&
-            (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || demand_overrun));
-  }
-
-  // True when this round ranks tasks by job deadline with the EDF rank and equal
-  // criticalities (those by_job_deadline picks): pick() reads what each task keeps then,
-  // with no look into its jobs.
-  bool ranks_from_tasks() const {
-    return edf_rank && !mixed_criticality &&
-           (opt.rank == RankMode::JobDeadline || (opt.rank == RankMode::Overload && overloaded));
-  }
-
-  // The task's deadline as key() computes it (the earliest of its members' deadlines).
-  TimePoint task_deadline(const Task& k, TimePoint now);
-
-  // The member's tie-break key (rank 0): release, operation, job, node, unit.
-  Key tie_key(int slot, int unit, int node) {
-    const Job& j = job(slot);
-    return Key{0, j.release, j.op, j.seq, node, unit};
-  }
 
   // DynamicMerge (docs/DESIGN.md, "DynamicMerge"; merge.hpp): joins of encoder units into
   // queued encoder tasks, merge waits and the list of every wait a pick takes, the newest frame

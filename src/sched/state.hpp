@@ -164,7 +164,7 @@ struct Task {
 
 // Over a task's members, kept as they join and leave (their jobs' fields do not change):
 // the least tie-break key (rank 0) and the earliest end-to-end deadline (less the path after
-// the unit, with path_rank: Impl::rank_deadline), what ranking by
+// the unit, with path_rank: Ranking::rank_deadline), what ranking by
 // job deadline reads without a look into the jobs. Beside the tasks (Impl::task_ranks), so
 // that a task stays as small as the ranking of the other presets reads it.
 struct TaskRank {
@@ -184,7 +184,7 @@ struct GroupKey {
   Duration cost;
   Duration remaining;      // the job's remaining work
   TimePoint job_deadline;  // the job's end-to-end deadline
-  TimePoint by_job;        // what ranking by job deadline reads (Impl::rank_deadline)
+  TimePoint by_job;        // what ranking by job deadline reads (Ranking::rank_deadline)
   int criticality;
   auto operator<=>(const GroupKey&) const = default;
 };
