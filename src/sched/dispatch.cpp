@@ -26,7 +26,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
       case Chosen::Task:
         break;
     }
-    start_dispatch(p.lane, now, form_batch(now, p));
+    start_dispatch(p.at, now, form_batch(now, p));
     return true;
   }
 }
@@ -135,12 +135,10 @@ Scheduler::Impl::Chosen Scheduler::Impl::choose(TimePoint now, Pick& p) {
     p.best = best_candidate(p);
     if (p.best == nullptr) return Chosen::Nothing;
     Task& k = task(p.best->task);
-    p.lane = choose_lane(k, now);
-    if (p.lane < 0) return Chosen::Nothing;
-    p.rt = round_trip_cost(
-        ahead_lane < 0 && !on_demand_continuation(lanes[static_cast<std::size_t>(p.lane)], k, now));
+    p.at = sync.place(lanes, jobs, k, now, ahead_lane);
+    if (p.at.lane < 0) return Chosen::Nothing;
     if (guard_holds(now, p)) continue;
-    if (shedding.abort_hopeless(*this, p.best->task, p.rt, now)) return Chosen::Rescan;
+    if (shedding.abort_hopeless(*this, p.best->task, p.at.rt, now)) return Chosen::Rescan;
     if (merge_waits(now, p)) continue;
     return Chosen::Task;
   }
@@ -153,8 +151,8 @@ bool Scheduler::Impl::guard_holds(TimePoint now, Pick& p) {
       p.best->criticality >= ranking.top_criticality())
     return false;
   const int t = p.best->task;
-  const CriticalityGuard::Verdict g = crit_guard.check(*this, std::span<const int>(&t, 1), p.lane,
-                                                       now, dispatch_begin(p.lane, now) + p.rt);
+  const CriticalityGuard::Verdict g = crit_guard.check(
+      *this, std::span<const int>(&t, 1), p.at.lane, now, dispatch_begin(p.at.lane, now) + p.at.rt);
   if (!g.blocks) return false;
   // Held until the more critical release it would block; a job in flight: yields this pick.
   const bool wakes = g.until != kNever && g.until > now;
@@ -181,7 +179,7 @@ TimePoint Scheduler::Impl::form_batch(TimePoint now, const Pick& p) {
   const int best = p.best->task;
   const TimePoint deadline =
       p.best->deadline_known ? p.best->deadline : Ranking::task_deadline(*this, task(best), now);
-  return batching.form(*this, now, best, deadline, p.lane, p.rt);
+  return batching.form(*this, now, best, deadline, p.at.lane, p.at.rt);
 }
 
 }  // namespace red

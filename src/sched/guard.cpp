@@ -55,7 +55,7 @@ CriticalityGuard::Verdict CriticalityGuard::check(Scheduler::Impl& m, std::span<
   Verdict v;
   // The dispatch's criticality is its most critical member's: only more critical work is
   // protected from it, and not its own members.
-  Run g{run, now, begin, std::numeric_limits<int>::min(), m.round_trip_cost(true), kNever};
+  Run g{run, now, begin, std::numeric_limits<int>::min(), m.sync.round_trip(), kNever};
   slots_.clear();
   units_.clear();
   for (int t : run)

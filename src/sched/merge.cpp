@@ -83,7 +83,7 @@ TimePoint DynamicMerge::predicted_member(const Scheduler::Impl& m, const Task& k
 bool DynamicMerge::slack_covers(Scheduler::Impl& m, Task& k, TimePoint now, TimePoint until) {
   for (auto [slot, unit] : k.members) {
     Job& j = m.job(slot);
-    if (j.deadline - now - m.remaining_work(j, now) - m.round_trip_cost(true) < until - now)
+    if (j.deadline - now - m.remaining_work(j, now) - m.sync.round_trip() < until - now)
       return false;
   }
   return true;

@@ -36,7 +36,7 @@ bool Scheduler::has_room_ahead(int lane) const {
 }
 
 bool Scheduler::queues_ahead() const {
-  return config_.queue_depth > 1 && policy_->options().sync == SyncMode::OnDemand;
+  return config_.queue_depth > 1 && impl_->sync.on_demand();
 }
 
 TimePoint Scheduler::queue_ahead_at(TimePoint held_start, Duration held_p50,

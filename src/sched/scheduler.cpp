@@ -2,11 +2,12 @@
 // order of one decision (dispatch(), dispatch_ahead() in queue.cpp) and its queries. The
 // mechanisms are one file each behind the one state in scheduler_impl.hpp: jobs.cpp (jobs
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
-// ready_set.cpp (the ready set's groups), ranking.cpp (ranking), dispatch.cpp (pick), merge.cpp
-// (merge waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
-// (the demand test and its work figures), shedding.cpp (how a job is shed: admission, shed_lone,
-// shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued lanes);
-// online_costs.cpp (what units cost in this run, and the profile plans are made on: use_costs()).
+// ready_set.cpp (the ready set's groups), ranking.cpp (ranking), dispatch.cpp (pick),
+// merge.cpp (merge waits), batching.cpp, sync.cpp (runs, on-demand synchronization,
+// placement), lanes.cpp (starting a dispatch), overload.cpp (the demand test and its work
+// figures), shedding.cpp (how a job is shed: admission, shed_lone, shedding by rate, hopeless
+// aborts; the type Shedding), queue.cpp (queued lanes); online_costs.cpp (what units cost in
+// this run, and the profile plans are made on: use_costs()).
 
 #include "red/sched/scheduler.hpp"
 
@@ -56,6 +57,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   for (std::size_t i = 0; i < sc.sensors.size(); ++i) sensors[i].rate_hz = sc.sensors[i].rate_hz;
   merge.set_sensors(sc.sensors.size());
   lanes.resize(static_cast<std::size_t>(s.config_.lanes));
+  sync.set_up(opt.sync, s.config_.sync_cost, s.config_.lanes);
   ops.resize(static_cast<std::size_t>(sc.operation_count()));
   for (int i = 0; i < sc.operation_count(); ++i)
     if (sc.initial[static_cast<std::size_t>(i)])
@@ -158,10 +160,9 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
   RED_ASSERT(lane.busy());
   Dispatch& d = lane.oldest();
   lane.pop();  // the slot stays as it is until a later dispatch reuses it
-  lane.completed_at = now;
   // docs/DESIGN.md, "Synchronization": a transition other than Completed ends the run; the next
-  // dispatch pays a round trip.
-  lane.run_open = status == UnitStatus::Completed;
+  // dispatch pays a round trip (sync.hpp).
+  m.sync.completed(lane_index, now, status);
   if (started != kNever) m.set_start(d, std::min(started, now));
   // A unit queued behind this one starts now, in the lane's order.
   if (lane.busy() && lane.oldest().start < now) m.set_start(lane.oldest(), now);

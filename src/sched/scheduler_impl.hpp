@@ -26,6 +26,7 @@
 #include "red/sched/scheduler.hpp"
 #include "shedding.hpp"
 #include "state.hpp"
+#include "sync.hpp"
 
 namespace red {
 
@@ -353,20 +354,13 @@ struct Scheduler::Impl {
   // a γ-merged run reads; its state.
   DynamicMerge merge;
 
-  Duration round_trip_cost(bool round_trip) const;
+  // On-demand synchronization and placement (docs/DESIGN.md, "Synchronization"; sync.hpp): the
+  // runs the lanes' handlers hold, the lane a pick places its task on and the round trip it pays.
+  OnDemandSync sync;
 
-  // docs/DESIGN.md, "Synchronization" on-demand: the task continues the run the lane's handler
-  // holds — its last unit completed just now and the task is ready work of a job of the run (a
-  // merged encoder's member heads, a job's ready units of a height, their successors) — so the
-  // handler goes on without a round trip. Anything else, or per-edge synchronization, pays one.
-  bool on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const;
-
-  // The idle lane for a task (docs/DESIGN.md, "Synchronization" placement): one whose run it
-  // continues, else one without an open run (keeping open runs for their own work), else the first
-  // idle lane; -1 if none.
-  int choose_lane(const Task& k, TimePoint now) const;
-
-  void start_dispatch(int lane_index, TimePoint now, TimePoint deadline);
+  // Starts the batch formed (Batching::batch) where the pick placed it, checked against
+  // `deadline`.
+  void start_dispatch(const Placement& at, TimePoint now, TimePoint deadline);
   // Sets when a dispatched unit starts, on the dispatch and its members' units.
   void set_start(Dispatch& d, TimePoint start);
   // dispatch_ahead(): the lane that pick() fills (its queue), -1 for dispatch().
@@ -384,7 +378,7 @@ struct Scheduler::Impl {
   // The counters, for the mechanism types (which are not members of Scheduler).
   SchedulerStats& stats() noexcept { return s.stats_; }
 
-  // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
+  // Picks work for an idle lane (placed by OnDemandSync::place); false when nothing can start now.
   // Its stages (dispatch.cpp): scan, choose (best_candidate, the lane, guard_holds,
   // shedding.abort_hopeless, merge_waits), form_batch.
   bool pick(TimePoint now);
@@ -394,8 +388,7 @@ struct Scheduler::Impl {
     int shed_below = std::numeric_limits<int>::min();  // criticalities shed first (overload)
     int out = 0;                                       // scan entries taken out (Scan::out)
     const Scan* best = nullptr;                        // the task chosen
-    int lane = -1;                                     // its lane
-    Duration rt{0};                                    // the round trip the dispatch pays
+    Placement at;  // its lane and the round trip it pays (OnDemandSync::place)
   };
   enum class Chosen : std::uint8_t { Task, Nothing, Rescan };
   void scan(TimePoint now, Pick& p);

@@ -247,12 +247,6 @@ struct Lane {
     head = (head + 1) % kMaxDepth;
     --count;
   }
-  TimePoint completed_at = kNever;
-  // docs/DESIGN.md, "Synchronization" on-demand: the jobs of the run this lane's handler was
-  // handed. Their ready units follow back to back; the run ends on a round trip or a transition
-  // other than Completed.
-  bool run_open = false;
-  std::vector<std::pair<int, JobId>> run_jobs;
 };
 
 }  // namespace sched_detail
