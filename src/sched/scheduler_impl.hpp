@@ -19,6 +19,7 @@
 
 #include "batching.hpp"
 #include "guard.hpp"
+#include "inherit.hpp"
 #include "merge.hpp"
 #include "ranking.hpp"
 #include "red/graph/necessary_work.hpp"
@@ -345,9 +346,9 @@ struct Scheduler::Impl {
   void ungroup_all();
 
   void make_ready(int slot, int unit);
-  // Deadline inheritance (PolicyOptions::inherit): plan `d` to end by `due` when that is
-  // earlier than its plan; its ready tasks leave their groups and their cached rank follows.
-  void inherit_plan(Job& d, TimePoint due);
+  // Deadline inheritance (PolicyOptions::inherit; inherit.hpp): a job that a new one depends on
+  // is planned to end in time for it.
+  Inheritance inheritance;
 
   // DynamicMerge (docs/DESIGN.md, "DynamicMerge"; merge.hpp): joins of encoder units into
   // queued encoder tasks, merge waits and the list of every wait a pick takes, the newest frame

@@ -67,7 +67,7 @@ struct Job {
   TimePoint release{0};
   TimePoint deadline{0};
   // What its deadlines are planned to: its deadline, or earlier by deadline inheritance
-  // (PolicyOptions::inherit, Impl::inherit_plan). Its outcome is decided by `deadline`.
+  // (PolicyOptions::inherit, Inheritance in inherit.hpp). Its outcome is decided by `deadline`.
   TimePoint plan{0};
   std::uint64_t stamp = 0;     // decision stamp the values below are valid for
   Duration remaining_base{0};  // Σ lvl_base
