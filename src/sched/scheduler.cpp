@@ -59,6 +59,7 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   lanes.resize(static_cast<std::size_t>(s.config_.lanes));
   sync.set_up(opt.sync, s.config_.sync_cost, s.config_.lanes);
   inheritance.set_up(opt.inherit, s.config_.estimate);
+  reassign.set_up(opt.reassign, opt.deadlines);
   ops.resize(static_cast<std::size_t>(sc.operation_count()));
   for (int i = 0; i < sc.operation_count(); ++i)
     if (sc.initial[static_cast<std::size_t>(i)])

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "batching.hpp"
+#include "deadlines.hpp"
 #include "guard.hpp"
 #include "inherit.hpp"
 #include "merge.hpp"
@@ -170,18 +171,9 @@ struct Scheduler::Impl {
   }
   void rebuild(Job& j);
 
-  // Re-assignment (docs/DESIGN.md, "Re-assignment"): the budget left, B = deadline − now, is spread
-  // over the heights that still have work in proportion to their remaining level costs (or per-node
-  // overrides); height h ends at now + B · frac[h], frac[h] the cumulative share up to h (exactly 1
-  // for the last height: its deadline is the job's).
-  void shares(const Job& j, const std::vector<Duration>& lvl, const std::vector<std::uint8_t>& has,
-              std::vector<double>& frac) const;
-
-  static TimePoint from_share(const Job& j, double frac, TimePoint now) {
-    const Duration budget = j.plan - now;
-    if (budget <= Duration{0} || frac == 1.0) return j.plan;
-    return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
-  }
+  // Re-assignment (docs/DESIGN.md, "Re-assignment"; deadlines.hpp): the budget left spread over
+  // the heights that still have work, at each decision; the deadline split.
+  Reassignment reassign;
 
   // A job with running units: their remaining cost is c(x) − elapsed, at least 0 (docs/DESIGN.md,
   // "Intermediate deadlines"), so level costs, the remaining work and the shares depend on now.
@@ -197,14 +189,11 @@ struct Scheduler::Impl {
   // batching, the ready set's groups and Scheduler::unit_deadline all read it. Inline: ranking
   // calls it for every member of every ready task.
   TimePoint unit_deadline(Job& j, int h, TimePoint now) {
-    return height_deadline(opt.deadlines, j.release, j.plan, [&] {
+    return height_deadline(reassign.split(), j.release, j.plan, [&] {
       const auto hi = static_cast<std::size_t>(h);
-      if (!opt.reassign) return j.release + j.g->static_offset[hi];
-      // Re-assignment: the shares of the job's cache, as they are at `now`.
-      refresh(j);
-      if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
-      eval(j, now);
-      return from_share(j, j.frac_now[hi], now);
+      // Re-assignment: the shares of the job's cache, as they are at `now`; else refinement's.
+      return reassign.on() ? Reassignment::deadline(*this, j, hi, now)
+                           : j.release + j.g->static_offset[hi];
     });
   }
 
