@@ -49,8 +49,9 @@ TimePoint Batching::latest_end(const Scheduler::Impl& m, const Task& k) {
   return d;
 }
 
-TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint deadline, int lane,
-                         Duration rt) {
+TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint deadline,
+                         const Placement& at) {
+  const Duration rt = at.rt;
   const PolicyOptions& opt = m.opt;
   Task& k = m.task(best);
   batch_.clear();
@@ -86,10 +87,10 @@ TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint 
     // Nor may the larger run make more critical work miss (the criticality guard): work
     // outside the batch, or a more critical member of it.
     if (guarding) {
-      const TimePoint begin = m.dispatch_begin(lane, now) + rt;
+      const TimePoint begin = m.dispatch_begin(at, now) + rt;
       if (!CriticalityGuard::join(m, batch_, t, begin, cb, estimate(m, k, b - 1))) break;
       batch_.push_back(t);
-      const bool blocks = m.crit_guard.check(m, batch_, lane, now, begin).blocks;
+      const bool blocks = m.crit_guard.check(m, batch_, at.lane, now, begin).blocks;
       batch_.pop_back();
       if (blocks) break;
     }

@@ -13,8 +13,9 @@ namespace red {
 
 // pick(): the stages of one pick, in order. A hopeless abort may free the task chosen (or
 // change what others rank by): the ready set is then scanned again.
-bool Scheduler::Impl::pick(TimePoint now) {
+bool Scheduler::Impl::pick(TimePoint now, int ahead) {
   Pick p;
+  p.ahead = ahead;
   ranking.at_pick(overloaded, demand_overrun);  // the round's overload state (ranking.hpp)
   for (;;) {
     scan(now, p);
@@ -35,7 +36,9 @@ bool Scheduler::Impl::pick(TimePoint now) {
 // orders by); a merge wait or a guard's hold then only moves to the next best entry of it.
 void Scheduler::Impl::scan(TimePoint now, Pick& p) {
   scanned.clear();
+  const int ahead = p.ahead;  // the lane it fills stays
   p = Pick{};
+  p.ahead = ahead;
   // Criticality (docs/DESIGN.md, "Criticality"): under overload — the demand test finds more work
   // due than the lanes can do, or some ready job cannot, by estimate, finish alone by its
   // deadline — ready work of the most critical operations goes first and lower-criticality work
@@ -50,7 +53,7 @@ void Scheduler::Impl::scan(TimePoint now, Pick& p) {
   auto rank_task = [&](int t) __attribute__((always_inline)) {
     Task& tk = task(t);
     if (tk.wait_until > now) return;
-    if (tk.lane_only >= 0 && tk.lane_only != ahead_lane) return;  // behind a busy lane
+    if (tk.lane_only >= 0 && tk.lane_only != ahead) return;  // behind a busy lane
     if (ranking.ranks_from_tasks() && ranking.by_job_deadline(tk)) {
       // EDF by job deadline reads only the earliest job deadline and the least member
       // key, both kept beside the task (TaskRank): no look into the jobs. The task's own
@@ -135,7 +138,7 @@ Scheduler::Impl::Chosen Scheduler::Impl::choose(TimePoint now, Pick& p) {
     p.best = best_candidate(p);
     if (p.best == nullptr) return Chosen::Nothing;
     Task& k = task(p.best->task);
-    p.at = sync.place(lanes, jobs, k, now, ahead_lane);
+    p.at = sync.place(lanes, jobs, k, now, p.ahead);
     if (p.at.lane < 0) return Chosen::Nothing;
     if (guard_holds(now, p)) continue;
     if (shedding.abort_hopeless(*this, p.best->task, p.at.rt, now)) return Chosen::Rescan;
@@ -152,7 +155,7 @@ bool Scheduler::Impl::guard_holds(TimePoint now, Pick& p) {
     return false;
   const int t = p.best->task;
   const CriticalityGuard::Verdict g = crit_guard.check(
-      *this, std::span<const int>(&t, 1), p.at.lane, now, dispatch_begin(p.at.lane, now) + p.at.rt);
+      *this, std::span<const int>(&t, 1), p.at.lane, now, dispatch_begin(p.at, now) + p.at.rt);
   if (!g.blocks) return false;
   // Held until the more critical release it would block; a job in flight: yields this pick.
   const bool wakes = g.until != kNever && g.until > now;
@@ -179,7 +182,7 @@ TimePoint Scheduler::Impl::form_batch(TimePoint now, const Pick& p) {
   const int best = p.best->task;
   const TimePoint deadline =
       p.best->deadline_known ? p.best->deadline : Ranking::task_deadline(*this, task(best), now);
-  return batching.form(*this, now, best, deadline, p.at.lane, p.at.rt);
+  return batching.form(*this, now, best, deadline, p.at);
 }
 
 }  // namespace red

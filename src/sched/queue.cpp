@@ -57,9 +57,7 @@ std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
   if (m.ready_count() == 0) return m.out;
   ++stats_.decisions;
   m.assess_overload(now);
-  m.ahead_lane = lane;
-  (void)m.pick(now);
-  m.ahead_lane = -1;
+  (void)m.pick(now, lane);  // for this lane's queue
   return m.out;
 }
 

@@ -267,7 +267,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (idle > 0 && m.ready_count() > 0) {
     ++stats_.decisions;
     m.assess_overload(now);
-    while (idle > 0 && m.pick(now)) --idle;
+    while (idle > 0 && m.pick(now, -1)) --idle;
   }
   // The waits still running; the earliest end of one is a wake-up (next_wakeup).
   const int waiting = m.merge.sweep(m, now);

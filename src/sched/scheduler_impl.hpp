@@ -353,8 +353,6 @@ struct Scheduler::Impl {
   void start_dispatch(const Placement& at, TimePoint now, TimePoint deadline);
   // Sets when a dispatched unit starts, on the dispatch and its members' units.
   void set_start(Dispatch& d, TimePoint start);
-  // dispatch_ahead(): the lane that pick() fills (its queue), -1 for dispatch().
-  int ahead_lane = -1;
   // dispatch_ahead(): the successors that wait only on a unit `lane` holds become ready for
   // that lane alone (not encoders: they merge across lanes).
   void ready_in_lane_order(int lane);
@@ -368,13 +366,15 @@ struct Scheduler::Impl {
   // The counters, for the mechanism types (which are not members of Scheduler).
   SchedulerStats& stats() noexcept { return s.stats_; }
 
-  // Picks work for an idle lane (placed by OnDemandSync::place); false when nothing can start now.
-  // Its stages (dispatch.cpp): scan, choose (best_candidate, the lane, guard_holds,
+  // Picks work for an idle lane (placed by OnDemandSync::place), or with `ahead` >= 0 for the
+  // queue of that busy lane (dispatch_ahead()); false when nothing can start now. Its stages
+  // (dispatch.cpp): scan, choose (best_candidate, the lane, guard_holds,
   // shedding.abort_hopeless, merge_waits), form_batch.
-  bool pick(TimePoint now);
+  bool pick(TimePoint now, int ahead);
   // One pick's state between its stages.
   struct Pick {
-    std::size_t least = 0;                             // the scan's least key
+    int ahead = -1;         // the lane whose queue it fills (dispatch_ahead()), -1 for an idle lane
+    std::size_t least = 0;  // the scan's least key
     int shed_below = std::numeric_limits<int>::min();  // criticalities shed first (overload)
     int out = 0;                                       // scan entries taken out (Scan::out)
     const Scan* best = nullptr;                        // the task chosen
@@ -394,10 +394,10 @@ struct Scheduler::Impl {
   CriticalityGuard crit_guard;
   // When a lane is free to start more work, by the plan's estimates of what it holds.
   TimePoint lane_free_at(const Lane& l, TimePoint now) const;
-  // When a dispatch picked now for lane `lane` begins: now, or after what the lane holds when
-  // pick() fills its queue (dispatch_ahead).
-  TimePoint dispatch_begin(int lane, TimePoint now) const {
-    return ahead_lane >= 0 ? lane_free_at(lanes[static_cast<std::size_t>(lane)], now) : now;
+  // When a dispatch picked now and placed `at` begins (before its round trip): now, or after
+  // what the lane holds when the pick fills its queue (dispatch_ahead).
+  TimePoint dispatch_begin(const Placement& at, TimePoint now) const {
+    return at.ahead ? lane_free_at(lanes[static_cast<std::size_t>(at.lane)], now) : now;
   }
 };
 
