@@ -268,7 +268,7 @@ void Scheduler::Impl::assess_overload(TimePoint now) {
   // max_inflight (docs/DESIGN.md, "max_inflight"): an operation at its limit skips its next
   // release, so finishing its oldest job first is what keeps its frames (red-robust ranks by job
   // deadline then).
-  const bool robust = opt.rank == RankMode::Overload;
+  const bool robust = ranking.overload_aware();
   const bool at_limit = robust && saturated() && evidenced(now);
   // The demand test (a walk over every job in flight) decides nothing that a saturated
   // operation has not decided already, unless criticalities differ or a ready encoder on

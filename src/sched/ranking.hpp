@@ -15,7 +15,8 @@
 ///   `by_job_deadline` (batch_by_job).
 ///
 /// The criticality guard, shedding, batching and the overload test read the criticalities
-/// (`mixed_criticality`, `top_criticality`), and the guard and batching `path_after`.
+/// (`mixed_criticality`, `top_criticality`), the overload test and hopeless aborts the rank
+/// mode (`overload_aware`), and the guard and batching `path_after`.
 
 #include <algorithm>
 #include <cstddef>
@@ -38,6 +39,11 @@ class Ranking {
   [[nodiscard]] bool mixed_criticality() const noexcept { return mixed_; }
   /// The highest criticality of any operation.
   [[nodiscard]] int top_criticality() const noexcept { return top_; }
+
+  /// rank=overload (red-robust): tasks rank by job deadline while the lanes are judged
+  /// overloaded, and until the jobs in flight then are due (docs/DESIGN.md, "Overload"); the
+  /// round's overload state and hopeless aborts follow that judgement.
+  [[nodiscard]] bool overload_aware() const noexcept { return mode_ == RankMode::Overload; }
 
   // ---- what a task keeps (TaskRank) ---------------------------------------------------------
 

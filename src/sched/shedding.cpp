@@ -312,7 +312,7 @@ void Shedding::shed_lone_jobs(Scheduler::Impl& m, TimePoint now, std::size_t est
 bool Shedding::abort_hopeless(Scheduler::Impl& m, int t, Duration rt, TimePoint now) {
   const PolicyOptions& opt = m.opt;
   if (opt.drop != DropMode::Hopeless ||
-      (opt.rank == RankMode::Overload && !(m.overloaded && m.by_deadline.size() > 1)))
+      (m.ranking.overload_aware() && !(m.overloaded && m.by_deadline.size() > 1)))
     return false;
   for (const auto& [slot, unit] : m.task(t).members) {
     Job& j = m.job(slot);
