@@ -30,9 +30,9 @@ class Reassignment {
  public:
   /// At the start: whether deadlines are re-assigned at each decision, and the deadline split
   /// (PolicyOptions::reassign, deadlines).
-  void set_up(bool on, DeadlineMode split) noexcept {
-    on_ = on;
-    split_ = split;
+  void set_up(bool reassign, DeadlineMode mode) noexcept {
+    on_ = reassign;
+    split_ = mode;
   }
   /// Whether deadlines are re-assigned at each decision (else static: refinement's offsets).
   [[nodiscard]] bool on() const noexcept { return on_; }

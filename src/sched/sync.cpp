@@ -8,9 +8,9 @@
 
 namespace red::sched_detail {
 
-void OnDemandSync::set_up(SyncMode mode, Duration round_trip, int lanes) {
+void OnDemandSync::set_up(SyncMode mode, Duration cost, int lanes) {
   on_demand_ = mode == SyncMode::OnDemand;
-  cost_ = round_trip;
+  cost_ = cost;
   runs_.assign(static_cast<std::size_t>(lanes), Run{});
 }
 
@@ -54,9 +54,9 @@ Placement OnDemandSync::place(const std::vector<Lane>& lanes, const std::vector<
   return at;
 }
 
-void OnDemandSync::started(int lane, bool round_trip) {
+void OnDemandSync::started(int lane, bool pays_round_trip) {
   Run& r = runs_[static_cast<std::size_t>(lane)];
-  if (round_trip) r.jobs.clear();
+  if (pays_round_trip) r.jobs.clear();
   r.open = false;
 }
 

@@ -34,7 +34,7 @@ struct Placement {
 class OnDemandSync {
  public:
   /// At the start: the mode (PolicyOptions::sync), what a round trip costs, the lanes.
-  void set_up(SyncMode mode, Duration round_trip, int lanes);
+  void set_up(SyncMode mode, Duration cost, int lanes);
 
   /// Whether a dispatch may continue the run a lane's handler holds (SyncMode::OnDemand).
   [[nodiscard]] bool on_demand() const noexcept { return on_demand_; }
@@ -50,7 +50,7 @@ class OnDemandSync {
 
   /// A dispatch starts on lane `lane`: a round trip starts a new run (the handler is handed
   /// its jobs' work); either way the run is not open to a continuation until a unit completes.
-  void started(int lane, bool round_trip);
+  void started(int lane, bool pays_round_trip);
   /// The job in `slot` (id `id`), a member of the dispatch started on lane `lane`, joins its run.
   void joins(int lane, int slot, JobId id);
   /// A unit on lane `lane` ended at `now` with `status`: Completed keeps the run open for a
