@@ -44,13 +44,14 @@ TimePoint Batching::latest_end(const Scheduler::Impl& m, const Task& k) {
   TimePoint d = kNever;
   for (const auto& [slot, unit] : k.members) {
     const Job& j = m.jobs[static_cast<std::size_t>(slot)];
-    d = std::min(d, j.deadline - m.path_after(j, unit));
+    d = std::min(d, j.deadline - m.ranking.path_after(j, unit));
   }
   return d;
 }
 
-TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint deadline, int lane,
-                         Duration rt) {
+TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint deadline,
+                         const Placement& at) {
+  const Duration rt = at.rt;
   const PolicyOptions& opt = m.opt;
   Task& k = m.task(best);
   batch_.clear();
@@ -59,7 +60,7 @@ TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint 
   // docs/DESIGN.md, "Overload" batch_by_job: while ranked by job deadline, a head batch is
   // checked against what each member's job still needs after the head, not the task's
   // intermediate deadline (past due under overload, it let no batch form).
-  const bool by_job = opt.batch_by_job && k.kind == UnitKind::Head && m.by_job_deadline(k);
+  const bool by_job = opt.batch_by_job && k.kind == UnitKind::Head && m.ranking.by_job_deadline(k);
   if (by_job) deadline = std::max(deadline, latest_end(m, k));
   const int lim = limit(m, k);
   const Duration single =
@@ -73,7 +74,7 @@ TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint 
   }();
   if (!joinable) return deadline;
   candidates(m, now, best, by_job, lim);
-  const bool guarding = opt.guard && m.mixed_criticality;
+  const bool guarding = opt.guard && m.ranking.mixed_criticality();
   for (const auto& [kk, t] : cand_) {
     const int b = static_cast<int>(batch_.size()) + 1;
     if (b > lim) break;
@@ -86,10 +87,10 @@ TimePoint Batching::form(Scheduler::Impl& m, TimePoint now, int best, TimePoint 
     // Nor may the larger run make more critical work miss (the criticality guard): work
     // outside the batch, or a more critical member of it.
     if (guarding) {
-      const TimePoint begin = m.dispatch_begin(lane, now) + rt;
+      const TimePoint begin = m.dispatch_begin(at, now) + rt;
       if (!CriticalityGuard::join(m, batch_, t, begin, cb, estimate(m, k, b - 1))) break;
       batch_.push_back(t);
-      const bool blocks = m.crit_guard.check(m, batch_, lane, now, begin).blocks;
+      const bool blocks = m.crit_guard.check(m, batch_, at.lane, now, begin).blocks;
       batch_.pop_back();
       if (blocks) break;
     }
@@ -108,7 +109,8 @@ void Batching::candidates(Scheduler::Impl& m, TimePoint now, int best, bool by_j
       continue;
     Key byd = e.key;
     // A batch takes its members by deadline.
-    byd.rank = (e.deadline_known ? e.deadline : m.task_deadline(m.task(e.task), now)).count();
+    byd.rank =
+        (e.deadline_known ? e.deadline : Ranking::task_deadline(m, m.task(e.task), now)).count();
     if (by_job) byd.rank = std::max(byd.rank, latest_end(m, m.task(e.task)).count());
     cand_.emplace_back(byd, e.task);
   }

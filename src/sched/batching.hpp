@@ -14,6 +14,7 @@
 
 #include "red/sched/scheduler.hpp"
 #include "state.hpp"
+#include "sync.hpp"
 
 namespace red {
 namespace sched_detail {
@@ -30,11 +31,11 @@ class Batching {
   /// What a batch of `b` tasks like `k` costs by the profile, on the scheduler's estimate.
   Duration estimate(const Scheduler::Impl& m, const Task& k, int b) const;
 
-  /// A pick's last stage: the batch of `best` (the task chosen, checked against `deadline`, on
-  /// lane `lane` after round trip `rt`), the best first, in batch(); returns the deadline the
-  /// dispatch is checked against.
-  TimePoint form(Scheduler::Impl& m, TimePoint now, int best, TimePoint deadline, int lane,
-                 Duration rt);
+  /// A pick's last stage: the batch of `best` (the task chosen, checked against `deadline`,
+  /// placed `at`: its lane, after the round trip it pays), the best first, in batch(); returns
+  /// the deadline the dispatch is checked against.
+  TimePoint form(Scheduler::Impl& m, TimePoint now, int best, TimePoint deadline,
+                 const Placement& at);
   /// The batch formed last (the best first).
   [[nodiscard]] std::span<const int> batch() const noexcept { return batch_; }
 

@@ -1,6 +1,8 @@
 // Deadline assignment (docs/DESIGN.md, "Intermediate deadlines" and "Re-assignment"): a
-// job's cached level costs and budget shares, rebuilt when one of its units starts or ends,
-// and the deadline of each height at a decision. Part of the scheduler (scheduler_impl.hpp).
+// job's cached level costs, rebuilt when one of its units starts or ends and evaluated at a
+// decision while one runs, and re-assignment's budget shares over them (Reassignment,
+// deadlines.hpp). The deadline of each height at a decision is Scheduler::Impl::unit_deadline
+// (inline). Part of the scheduler (scheduler_impl.hpp).
 
 #include <algorithm>
 #include <cstdint>
@@ -59,24 +61,7 @@ void Scheduler::Impl::rebuild(Job& j) {
   j.remaining_base = Duration{0};
   for (Duration l : j.lvl_base) j.remaining_base += l;
 
-  if (opt.reassign && j.running_units.empty()) shares(j, j.lvl_base, j.has_base, j.frac);
-}
-
-void Scheduler::Impl::shares(const Job& j, const std::vector<Duration>& lvl,
-                             const std::vector<std::uint8_t>& has,
-                             std::vector<double>& frac) const {
-  const RefinedGraph& g = *j.g;
-  const std::size_t levels = lvl.size();
-  frac.resize(levels);
-  double last = 0.0;  // before the first height with work: now
-  for_each_share(
-      opt.deadlines, levels, [&](std::size_t h) { return split_weight(g, h, lvl[h]); },
-      [&](std::size_t h) { return has[h] != 0; },
-      [&](std::size_t h, bool counts, std::int64_t cum, std::int64_t denom) {
-        if (counts)
-          last = cum == denom ? 1.0 : static_cast<double>(cum) / static_cast<double>(denom);
-        frac[h] = last;
-      });
+  reassign.rebuilt(j);
 }
 
 void Scheduler::Impl::eval_now(Job& j, TimePoint now) {
@@ -93,7 +78,27 @@ void Scheduler::Impl::eval_now(Job& j, TimePoint now) {
   }
   j.remaining = Duration{0};
   for (Duration l : j.lvl) j.remaining += l;
-  if (opt.reassign) shares(j, j.lvl, j.has_base, j.frac_now);
+  reassign.evaluated(j);
 }
 
 }  // namespace red
+
+namespace red::sched_detail {
+
+void Reassignment::shares(const Job& j, const std::vector<Duration>& lvl,
+                          const std::vector<std::uint8_t>& has, std::vector<double>& frac) const {
+  const RefinedGraph& g = *j.g;
+  const std::size_t levels = lvl.size();
+  frac.resize(levels);
+  double last = 0.0;  // before the first height with work: now
+  for_each_share(
+      split_, levels, [&](std::size_t h) { return split_weight(g, h, lvl[h]); },
+      [&](std::size_t h) { return has[h] != 0; },
+      [&](std::size_t h, bool counts, std::int64_t cum, std::int64_t denom) {
+        if (counts)
+          last = cum == denom ? 1.0 : static_cast<double>(cum) / static_cast<double>(denom);
+        frac[h] = last;
+      });
+}
+
+}  // namespace red::sched_detail

@@ -1,6 +1,6 @@
-// Ranking and the pick of one decision (docs/DESIGN.md, "Dispatch"): a ready task's rank and
-// tie-break key, and pick(): the scan of the ready set, the lane, hopeless aborts, merge
-// waits and batching, in that order. Part of the scheduler (scheduler_impl.hpp).
+// The pick of one decision (docs/DESIGN.md, "Dispatch"): the scan of the ready set (each
+// task ranked by Ranking, ranking.hpp), the lane, hopeless aborts, merge waits and batching,
+// in that order. Part of the scheduler (scheduler_impl.hpp).
 
 #include <algorithm>
 #include <cstdint>
@@ -11,60 +11,13 @@
 
 namespace red {
 
-Key Scheduler::Impl::key(int t, TimePoint now, TaskView& v) {
-  Task& k = task(t);
-  v = TaskView{};
-  v.deadline = kNever;
-  v.release = kNever;
-  v.job_deadline = kNever;
-  // What ranking by job deadline reads (rank_deadline), when this round ranks k so.
-  const bool rank_by_job = by_job_deadline(k);
-  TimePoint by_job = kNever;
-  v.cost = k.cost;
-  Key best{0, kNever, std::numeric_limits<int>::max(), 0, 0, 0};
-  for (std::size_t i = 0; i < k.members.size(); ++i) {
-    const auto [slot, unit] = k.members[i];
-    const auto [height, node] = k.member_at[i];
-    Job& j = job(slot);
-    v.deadline = std::min(v.deadline, unit_deadline(j, height, now));
-    v.remaining = std::max(v.remaining, remaining_work(j, now));
-    v.release = std::min(v.release, j.release);
-    v.job_deadline = std::min(v.job_deadline, j.plan);
-    if (rank_by_job) by_job = std::min(by_job, rank_deadline(j, unit));
-    if (mixed_criticality)
-      v.criticality = std::max(v.criticality, ops[static_cast<std::size_t>(j.op)].criticality);
-    const Key mk{0, j.release, j.op, j.seq, node, unit};
-    if (mk < best) best = mk;
-  }
-  // Equal criticalities everywhere (every version of every operation): no look at them.
-  if (!mixed_criticality && !k.members.empty())
-    v.criticality = std::max(v.criticality, uniform_criticality);
-  v.overloaded = overload.overloaded();
-  // docs/DESIGN.md, "Overload" "finish what was started": while overloaded (or always,
-  // rank=job-deadline) the policy ranks by the job's end-to-end deadline; the task's own deadline
-  // stays what batching is checked against.
-  if (rank_by_job) {
-    TaskView view = v;
-    view.deadline = by_job;
-    best.rank = s.policy_->rank(view, now);
-  } else {
-    best.rank = s.policy_->rank(v, now);
-  }
-  return best;
-}
-
-TimePoint Scheduler::Impl::task_deadline(const Task& k, TimePoint now) {
-  // key()'s deadline, with no other look: the members' caches are as key() left them.
-  TimePoint d = kNever;
-  for (std::size_t i = 0; i < k.members.size(); ++i)
-    d = std::min(d, unit_deadline(job(k.members[i].first), k.member_at[i].first, now));
-  return d;
-}
-
 // pick(): the stages of one pick, in order. A hopeless abort may free the task chosen (or
 // change what others rank by): the ready set is then scanned again.
-bool Scheduler::Impl::pick(TimePoint now) {
+bool Scheduler::Impl::pick(TimePoint now, int ahead) {
   Pick p;
+  p.ahead = ahead;
+  // The round's overload state (overload.hpp), as ranking reads it (ranking.hpp).
+  ranking.at_pick(overload.overloaded(), overload.demand_overrun());
   for (;;) {
     scan(now, p);
     switch (choose(now, p)) {
@@ -75,7 +28,7 @@ bool Scheduler::Impl::pick(TimePoint now) {
       case Chosen::Task:
         break;
     }
-    start_dispatch(p.lane, now, form_batch(now, p));
+    start_dispatch(p.at, now, form_batch(now, p));
     return true;
   }
 }
@@ -84,7 +37,9 @@ bool Scheduler::Impl::pick(TimePoint now) {
 // orders by); a merge wait or a guard's hold then only moves to the next best entry of it.
 void Scheduler::Impl::scan(TimePoint now, Pick& p) {
   scanned.clear();
+  const int ahead = p.ahead;  // the lane it fills stays
   p = Pick{};
+  p.ahead = ahead;
   // Criticality (docs/DESIGN.md, "Criticality"): under overload — the demand test finds more work
   // due than the lanes can do, or some ready job cannot, by estimate, finish alone by its
   // deadline — ready work of the most critical operations goes first and lower-criticality work
@@ -99,8 +54,8 @@ void Scheduler::Impl::scan(TimePoint now, Pick& p) {
   auto rank_task = [&](int t) __attribute__((always_inline)) {
     Task& tk = task(t);
     if (tk.wait_until > now) return;
-    if (tk.lane_only >= 0 && tk.lane_only != ahead_lane) return;  // behind a busy lane
-    if (ranks_from_tasks() && by_job_deadline(tk)) {
+    if (tk.lane_only >= 0 && tk.lane_only != ahead) return;  // behind a busy lane
+    if (ranking.ranks_from_tasks() && ranking.by_job_deadline(tk)) {
       // EDF by job deadline reads only the earliest job deadline and the least member
       // key, both kept beside the task (TaskRank): no look into the jobs. The task's own
       // deadline is computed where it is read (task_deadline). With equal criticalities
@@ -111,16 +66,13 @@ void Scheduler::Impl::scan(TimePoint now, Pick& p) {
       // another member joining a queued encoder run only loosens work_most, a bound the
       // demand test backs with its exact walk), and start_dispatch takes a job's
       // evaluation at `now` before it changes the job.
-      const TaskRank& r = task_rank(t);
-      Key k = r.tie;
-      k.rank = r.job_deadline.count();  // rank() of the view by job deadline (the trait)
-      // key()'s criticality with equal ones: the view's 0 or more.
-      const int crit = std::max(0, uniform_criticality);
-      scanned.push_back({k, TimePoint{0}, t, crit, tk.kind, false, Scan::Out::No, tk.head});
+      const int crit = ranking.kept_criticality();
+      scanned.push_back({Ranking::kept_key(task_rank(t)), TimePoint{0}, t, crit, tk.kind, false,
+                         Scan::Out::No, tk.head});
       top = std::max(top, crit);
     } else {
       TaskView v;
-      const Key k = key(t, now, v);
+      const Key k = ranking.key(*this, t, now, v);
       scanned.push_back({k, v.deadline, t, v.criticality, tk.kind, true, Scan::Out::No, tk.head});
       overrun = overrun || now + v.remaining > v.job_deadline;
       top = std::max(top, v.criticality);
@@ -146,7 +98,8 @@ void Scheduler::Impl::scan(TimePoint now, Pick& p) {
 // least key kept by the scan; else, under overload, the most critical first (the others are
 // shed first), then by key.
 const Scheduler::Impl::Scan* Scheduler::Impl::best_candidate(const Pick& p) const {
-  if (p.out == 0 && !mixed_criticality) return scanned.empty() ? nullptr : &scanned[p.least];
+  if (p.out == 0 && !ranking.mixed_criticality())
+    return scanned.empty() ? nullptr : &scanned[p.least];
   const Scan* best = nullptr;
   for (const Scan& e : scanned) {
     if (e.out != Scan::Out::No) continue;  // waits, or yielded to more critical work
@@ -179,12 +132,10 @@ Scheduler::Impl::Chosen Scheduler::Impl::choose(TimePoint now, Pick& p) {
     p.best = best_candidate(p);
     if (p.best == nullptr) return Chosen::Nothing;
     Task& k = task(p.best->task);
-    p.lane = choose_lane(k, now);
-    if (p.lane < 0) return Chosen::Nothing;
-    p.rt = round_trip_cost(
-        ahead_lane < 0 && !on_demand_continuation(lanes[static_cast<std::size_t>(p.lane)], k, now));
+    p.at = sync.place(lanes, jobs, k, now, p.ahead);
+    if (p.at.lane < 0) return Chosen::Nothing;
     if (guard_holds(now, p)) continue;
-    if (shedding.abort_hopeless(*this, p.best->task, p.rt, now)) return Chosen::Rescan;
+    if (shedding.abort_hopeless(*this, p.best->task, p.at.rt, now)) return Chosen::Rescan;
     if (merge_waits(now, p)) continue;
     return Chosen::Task;
   }
@@ -193,10 +144,12 @@ Scheduler::Impl::Chosen Scheduler::Impl::choose(TimePoint now, Pick& p) {
 // The criticality guard (guard.cpp), acting only between different criticalities: whether the
 // best may not run now, for the more critical work it would make miss.
 bool Scheduler::Impl::guard_holds(TimePoint now, Pick& p) {
-  if (!opt.guard || !mixed_criticality || p.best->criticality >= top_criticality) return false;
+  if (!opt.guard || !ranking.mixed_criticality() ||
+      p.best->criticality >= ranking.top_criticality())
+    return false;
   const int t = p.best->task;
-  const CriticalityGuard::Verdict g = crit_guard.check(*this, std::span<const int>(&t, 1), p.lane,
-                                                       now, dispatch_begin(p.lane, now) + p.rt);
+  const CriticalityGuard::Verdict g = crit_guard.check(
+      *this, std::span<const int>(&t, 1), p.at.lane, now, dispatch_begin(p.at, now) + p.at.rt);
   if (!g.blocks) return false;
   // Held until the more critical release it would block; a job in flight: yields this pick.
   const bool wakes = g.until != kNever && g.until > now;
@@ -222,8 +175,8 @@ bool Scheduler::Impl::merge_waits(TimePoint now, Pick& p) {
 TimePoint Scheduler::Impl::form_batch(TimePoint now, const Pick& p) {
   const int best = p.best->task;
   const TimePoint deadline =
-      p.best->deadline_known ? p.best->deadline : task_deadline(task(best), now);
-  return batching.form(*this, now, best, deadline, p.lane, p.rt);
+      p.best->deadline_known ? p.best->deadline : Ranking::task_deadline(*this, task(best), now);
+  return batching.form(*this, now, best, deadline, p.at);
 }
 
 }  // namespace red

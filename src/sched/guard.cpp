@@ -55,7 +55,7 @@ CriticalityGuard::Verdict CriticalityGuard::check(Scheduler::Impl& m, std::span<
   Verdict v;
   // The dispatch's criticality is its most critical member's: only more critical work is
   // protected from it, and not its own members.
-  Run g{run, now, begin, std::numeric_limits<int>::min(), m.round_trip_cost(true), kNever};
+  Run g{run, now, begin, std::numeric_limits<int>::min(), m.sync.round_trip(), kNever};
   slots_.clear();
   units_.clear();
   for (int t : run)
@@ -64,7 +64,7 @@ CriticalityGuard::Verdict CriticalityGuard::check(Scheduler::Impl& m, std::span<
       slots_.push_back(slot);
       units_.push_back(unit);
     }
-  if (g.crit >= m.top_criticality) return v;
+  if (g.crit >= m.ranking.top_criticality()) return v;
   // Where another lane frees first, more critical work can go there instead.
   for (std::size_t i = 0; i < m.lanes.size(); ++i)
     if (static_cast<int>(i) != lane) g.other = std::min(g.other, m.lane_free_at(m.lanes[i], now));
@@ -133,7 +133,7 @@ bool CriticalityGuard::affords(Scheduler::Impl& m, const Run& g, Duration own, T
                                Duration w) {
   for (std::size_t i = 0; i < slots_.size(); ++i) {
     Job& jm = m.job(slots_[i]);
-    const Duration after = m.path_after(jm, units_[i]);
+    const Duration after = m.ranking.path_after(jm, units_[i]);
     if (g.begin + own + w + after <= jm.deadline && done + g.rt + own + after > jm.deadline)
       return false;
   }
@@ -186,7 +186,7 @@ bool CriticalityGuard::join(Scheduler::Impl& m, std::span<const int> members, in
   int crit = std::numeric_limits<int>::min();
   for (const auto& [slot, unit] : m.task(joining).members)
     crit = std::max(crit, m.ops[static_cast<std::size_t>(m.job(slot).op)].criticality);
-  if (crit >= m.top_criticality) return true;
+  if (crit >= m.ranking.top_criticality()) return true;
   // A batch of frames costs more than one frame, and on a busy machine a larger run overran its
   // estimate more: a less critical frame joins a more critical job's run only where that job
   // still makes its deadline with the margin (else the frame runs after, in a run of its own).
@@ -194,7 +194,7 @@ bool CriticalityGuard::join(Scheduler::Impl& m, std::span<const int> members, in
     for (const auto& [slot, unit] : m.task(t).members) {
       const Job& jm = m.job(slot);
       if (m.ops[static_cast<std::size_t>(jm.op)].criticality <= crit) continue;
-      const Duration after = m.path_after(jm, unit);
+      const Duration after = m.ranking.path_after(jm, unit);
       if (begin + without + after <= jm.deadline &&
           begin + Overload::padded(with, kMargin) + after > jm.deadline)
         return false;

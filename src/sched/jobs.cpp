@@ -68,18 +68,6 @@ void Scheduler::Impl::install(int i, const std::shared_ptr<const OperationSpec>&
   releases.note_tick(ops, i);
 }
 
-void Scheduler::Impl::inherit_plan(Job& d, TimePoint due) {
-  if (due >= d.plan) return;
-  d.plan = due;
-  if (d.grouped > 0) ungroup_job(d);
-  for (std::size_t u = 0; u < d.u.size(); ++u) {
-    const UnitRt& ur = d.u[u];
-    if (ur.state != UState::Queued || ur.task < 0) continue;
-    TaskRank& r = task_rank(ur.task);
-    r.job_deadline = std::min(r.job_deadline, rank_deadline(d, static_cast<int>(u)));
-  }
-}
-
 void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
                               std::uint64_t trigger_frame) {
   OpState& o = ops[static_cast<std::size_t>(op_index)];
@@ -161,15 +149,7 @@ void Scheduler::Impl::release(int op_index, TimePoint now, int trigger_sensor,
       if (d.live && !d.ended && d.id == dep.last_job) {
         d.dependents.push_back(slot);
         d.dependent_ids.push_back(j.id);
-        if (opt.inherit) {
-          // Its units that wait for `d` (the head sources) must start by j's deadline less
-          // the longest path from them.
-          Duration path{0};
-          for (int u : g.head_sources)
-            path =
-                std::max(path, g.units[static_cast<std::size_t>(u)].tail[idx(s.config_.estimate)]);
-          inherit_plan(d, j.deadline - path);
-        }
+        inheritance.released(*this, j, d);  // deadline inheritance (inherit.hpp)
         for (int u : g.head_sources) ++j.u[static_cast<std::size_t>(u)].pending;
       }
     }

@@ -1,6 +1,6 @@
-// Lanes and runs (docs/DESIGN.md, "Synchronization"): the round trip a dispatch pays, whether
-// it continues the run a lane's handler holds (on demand), the lane it goes to, and starting
-// the dispatch there. Part of the scheduler (scheduler_impl.hpp).
+// Starting a dispatch on its lane (docs/DESIGN.md, "Dispatch"): the dispatch's record, its
+// members' units running, the run it joins (OnDemandSync, sync.hpp), when it starts. Part of the
+// scheduler (scheduler_impl.hpp).
 
 #include <algorithm>
 #include <cstdint>
@@ -11,10 +11,6 @@
 
 namespace red {
 
-Duration Scheduler::Impl::round_trip_cost(bool round_trip) const {
-  return round_trip ? s.config_.sync_cost : Duration{0};
-}
-
 void Scheduler::Impl::set_start(Dispatch& d, TimePoint start) {
   d.start = start;
   for (const Member& mb : d.members) {
@@ -23,34 +19,8 @@ void Scheduler::Impl::set_start(Dispatch& d, TimePoint start) {
   }
 }
 
-bool Scheduler::Impl::on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const {
-  if (opt.sync != SyncMode::OnDemand || lane.completed_at != now || !lane.run_open) return false;
-  for (auto [slot, unit] : k.members) {
-    const JobId id = jobs[static_cast<std::size_t>(slot)].id;
-    for (const auto& [rs, rid] : lane.run_jobs)
-      if (rs == slot && rid == id) return true;
-  }
-  return false;
-}
-
-int Scheduler::Impl::choose_lane(const Task& k, TimePoint now) const {
-  if (ahead_lane >= 0) return ahead_lane;  // dispatch_ahead: the lane is given
-  int fallback = -1;
-  bool fallback_open = true;
-  for (std::size_t i = 0; i < lanes.size(); ++i) {
-    const Lane& l = lanes[i];
-    if (l.busy()) continue;
-    if (on_demand_continuation(l, k, now)) return static_cast<int>(i);
-    const bool open = l.run_open && l.completed_at == now;
-    if (fallback < 0 || (fallback_open && !open)) {
-      fallback = static_cast<int>(i);
-      fallback_open = open;
-    }
-  }
-  return fallback;
-}
-
-void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint deadline) {
+void Scheduler::Impl::start_dispatch(const Placement& at, TimePoint now, TimePoint deadline) {
+  const int lane_index = at.lane;
   Lane& lane = lanes[static_cast<std::size_t>(lane_index)];
   Dispatch& d = lane.next_slot();
   const std::span<const int> batch = batching.batch();
@@ -69,12 +39,11 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
   d.expected = first.kind == UnitKind::Encoder || first.kind == UnitKind::Head
                    ? batching.estimate(*this, first, d.batch)
                    : first.cost;
-  // Queued behind the lane's running unit by its own handler: no round trip.
-  d.round_trip = ahead_lane < 0 && !on_demand_continuation(lane, first, now);
-  // A round trip starts a new run: the handler is handed these jobs' work (docs/DESIGN.md,
-  // "Synchronization").
-  if (d.round_trip) lane.run_jobs.clear();
-  lane.run_open = false;
+  // As the pick placed it: a continuation of the lane's run, or a task queued behind the
+  // lane's running unit by its own handler, pays no round trip; a round trip starts a new run
+  // (sync.hpp).
+  d.round_trip = at.round_trip;
+  sync.started(lane_index, d.round_trip);
   for (int t : batch) {
     Task& k = task(t);
     d.task_begin.push_back(static_cast<int>(d.members.size()));
@@ -84,7 +53,7 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
       // Where ranking did not look into the jobs, the job's evaluation at `now` is taken
       // before its unit starts, as ranking would have taken it: a later look in this round
       // reads the values from before.
-      if (ranks_from_tasks()) {
+      if (ranking.ranks_from_tasks()) {
         refresh(j);
         if (!j.running_units.empty()) eval(j, now);
       }
@@ -94,9 +63,7 @@ void Scheduler::Impl::start_dispatch(int lane_index, TimePoint now, TimePoint de
       u.task = -1;
       u.start = now;
       u.share = static_cast<int>(k.members.size());
-      if (std::find(lane.run_jobs.begin(), lane.run_jobs.end(),
-                    std::pair<int, JobId>{slot, j.id}) == lane.run_jobs.end())
-        lane.run_jobs.emplace_back(slot, j.id);
+      sync.joins(lane_index, slot, j.id);
       ++j.running;
       const RefinedUnit& ru = j.g->units[static_cast<std::size_t>(unit)];
       Member m;

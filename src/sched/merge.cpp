@@ -31,8 +31,8 @@ bool DynamicMerge::join(Scheduler::Impl& m, int slot, int unit) {
     k.members.emplace_back(slot, unit);
     k.member_at.emplace_back(ru.height, ru.node);
     TaskRank& r = m.task_rank(t);
-    r.job_deadline = std::min(r.job_deadline, m.rank_deadline(j, unit));
-    if (const Key mk = m.tie_key(slot, unit, ru.node); mk < r.tie) r.tie = mk;
+    r.job_deadline = std::min(r.job_deadline, m.ranking.rank_deadline(j, unit));
+    if (const Key mk = Ranking::tie_key(j, unit, ru.node); mk < r.tie) r.tie = mk;
     if (gamma && frame > k.frame) {
       k.frame = frame;
       k.frame_time = j.frame_time[si];
@@ -83,7 +83,7 @@ TimePoint DynamicMerge::predicted_member(const Scheduler::Impl& m, const Task& k
 bool DynamicMerge::slack_covers(Scheduler::Impl& m, Task& k, TimePoint now, TimePoint until) {
   for (auto [slot, unit] : k.members) {
     Job& j = m.job(slot);
-    if (j.deadline - now - m.remaining_work(j, now) - m.round_trip_cost(true) < until - now)
+    if (j.deadline - now - m.remaining_work(j, now) - m.sync.round_trip() < until - now)
       return false;
   }
   return true;

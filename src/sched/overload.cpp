@@ -294,14 +294,14 @@ void Overload::assess(Scheduler::Impl& m, TimePoint now) {
   // max_inflight (docs/DESIGN.md, "max_inflight"): an operation at its limit skips its next
   // release, so finishing its oldest job first is what keeps its frames (red-robust ranks by job
   // deadline then).
-  const bool robust = m.opt.rank == RankMode::Overload;
+  const bool robust = m.ranking.overload_aware();
   const bool at_limit = robust && m.saturated() && evidenced(m, now);
   // The demand test (a walk over every job in flight) decides nothing that a saturated
   // operation has not decided already, unless criticalities differ or a ready encoder on
   // several lanes is ranked by it (no encoder becomes ready within a round): skipped then.
-  const bool test =
-      (robust || m.mixed_criticality) &&
-      (!at_limit || m.mixed_criticality || (m.s.config().lanes > 1 && m.ready.encoders() > 0));
+  const bool test = (robust || m.ranking.mixed_criticality()) &&
+                    (!at_limit || m.ranking.mixed_criticality() ||
+                     (m.s.config().lanes > 1 && m.ready.encoders() > 0));
   demand_overrun_ = test && demand_overruns(m, now, idx(m.s.config().estimate));
   overloaded_ = demand_overrun_ || at_limit;
   // docs/DESIGN.md, "Overload" "finish what was started": once overloaded, the jobs in flight then

@@ -7,7 +7,8 @@
 ///
 /// * a job is released: `on_release`; a release is skipped: `on_skip`; a job ends: `on_end`;
 /// * the workload or the plan's costs change: `plan` (the necessary work);
-/// * before a pick: `assess` (the round's verdict: `overloaded`, `demand_overrun`);
+/// * before a pick: `assess` (the round's verdict: `overloaded`, `demand_overrun`, which the
+///   pick hands to Ranking::at_pick);
 /// * shedding and the criticality guard ask `first_overrun`, `evidenced`, `by_deadline`.
 
 #include <array>

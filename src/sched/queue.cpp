@@ -36,7 +36,7 @@ bool Scheduler::has_room_ahead(int lane) const {
 }
 
 bool Scheduler::queues_ahead() const {
-  return config_.queue_depth > 1 && policy_->options().sync == SyncMode::OnDemand;
+  return config_.queue_depth > 1 && impl_->sync.on_demand();
 }
 
 TimePoint Scheduler::queue_ahead_at(TimePoint held_start, Duration held_p50,
@@ -57,9 +57,7 @@ std::span<Dispatch* const> Scheduler::dispatch_ahead(TimePoint now, int lane) {
   if (m.ready.count() == 0) return m.out;
   ++stats_.decisions;
   m.overload.assess(m, now);
-  m.ahead_lane = lane;
-  (void)m.pick(now);
-  m.ahead_lane = -1;
+  (void)m.pick(now, lane);  // for this lane's queue
   return m.out;
 }
 

@@ -29,9 +29,8 @@ bool Scheduler::Impl::group_key(int t, TimePoint now, GroupKey& gk) {
   // job deadline reads none) or depend on `now` (a unit running) stays out.
   if (j.dirty || !j.running_units.empty()) return false;
   const int height = k.member_at.front().first;
-  const bool shared = opt.reassign && splits_budget(opt.deadlines);
-  if (shared) {
-    gk.deadline = j.plan;  // what from_share reads
+  if (reassign.shares_deadline()) {
+    gk.deadline = j.plan;  // what Reassignment::deadline reads
     gk.share = j.frac[static_cast<std::size_t>(height)];
   } else {
     gk.deadline = unit_deadline(j, height, now);  // fixed in these modes
@@ -41,7 +40,7 @@ bool Scheduler::Impl::group_key(int t, TimePoint now, GroupKey& gk) {
   gk.cost = k.cost;
   gk.remaining = j.remaining_base;
   gk.job_deadline = j.plan;
-  gk.by_job = rank_deadline(j, unit);
+  gk.by_job = ranking.rank_deadline(j, unit);
   gk.criticality = ops[static_cast<std::size_t>(j.op)].criticality;
   return true;
 }

@@ -2,11 +2,12 @@
 // order of one decision (dispatch(), dispatch_ahead() in queue.cpp) and its queries. The
 // mechanisms are one file each behind the one state in scheduler_impl.hpp: jobs.cpp (jobs
 // and releases), deadlines.cpp (deadline assignment), tasks.cpp (tasks, DynamicMerge joins),
-// ready_set.cpp (the ready set, ReadySet), dispatch.cpp (ranking, pick), merge.cpp (merge
-// waits), batching.cpp, lanes.cpp (lanes, runs, on-demand synchronization), overload.cpp
-// (the demand test and its work figures; the type Overload), shedding.cpp (how a job is shed:
-// admission, shed_lone, shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued
-// lanes); online_costs.cpp (what units cost in this run, and the profile plans are made on:
+// ready_set.cpp (the ready set, ReadySet), ranking.cpp (ranking, Ranking), dispatch.cpp
+// (pick), merge.cpp (merge waits), batching.cpp, sync.cpp (runs, on-demand synchronization,
+// placement; the type OnDemandSync), lanes.cpp (starting a dispatch), overload.cpp (the demand
+// test and its work figures; the type Overload), shedding.cpp (how a job is shed: admission,
+// shed_lone, shedding by rate, hopeless aborts; the type Shedding), queue.cpp (queued lanes);
+// online_costs.cpp (what units cost in this run, and the profile plans are made on:
 // use_costs()).
 
 #include "red/sched/scheduler.hpp"
@@ -56,26 +57,14 @@ Scheduler::Impl::Impl(Scheduler& owner, const Profile& p)
   releases.set_sensors(sc.sensors);
   merge.set_sensors(sc.sensors.size());
   lanes.resize(static_cast<std::size_t>(s.config_.lanes));
+  sync.set_up(opt.sync, s.config_.sync_cost, s.config_.lanes);
+  inheritance.set_up(opt.inherit, s.config_.estimate);
+  reassign.set_up(opt.reassign, opt.deadlines);
   ops.resize(static_cast<std::size_t>(sc.operation_count()));
   for (int i = 0; i < sc.operation_count(); ++i)
     if (sc.initial[static_cast<std::size_t>(i)])
       install(i, sc.initial[static_cast<std::size_t>(i)], TimePoint{0}, true);
-  // Criticality orders work only under overload (docs/DESIGN.md, "Criticality"); the demand test
-  // that detects it runs only when criticalities differ somewhere in the scenario, or the policy
-  // ranks by it.
-  int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
-  auto see = [&](const std::shared_ptr<const OperationSpec>& op) {
-    if (!op) return;
-    lo = std::min(lo, op->criticality);
-    hi = std::max(hi, op->criticality);
-  };
-  for (const auto& op : sc.initial) see(op);
-  for (const EventSpec& e : sc.events)
-    for (const auto& [i, op] : e.changes) see(op);
-  mixed_criticality = lo < hi;
-  top_criticality = hi;
-  uniform_criticality = lo <= hi ? lo : 0;
-  edf_rank = s.policy_->ranks_by_deadline_only();
+  ranking.set_up(*s.policy_, sc, s.config_);
   plan_work();
 }
 
@@ -174,10 +163,9 @@ void Scheduler::on_complete(int lane_index, TimePoint now, UnitStatus status,
   RED_ASSERT(lane.busy());
   Dispatch& d = lane.oldest();
   lane.pop();  // the slot stays as it is until a later dispatch reuses it
-  lane.completed_at = now;
   // docs/DESIGN.md, "Synchronization": a transition other than Completed ends the run; the next
-  // dispatch pays a round trip.
-  lane.run_open = status == UnitStatus::Completed;
+  // dispatch pays a round trip (sync.hpp).
+  m.sync.completed(lane_index, now, status);
   if (started != kNever) m.set_start(d, std::min(started, now));
   // A unit queued behind this one starts now, in the lane's order.
   if (lane.busy() && lane.oldest().start < now) m.set_start(lane.oldest(), now);
@@ -280,7 +268,7 @@ std::span<Dispatch* const> Scheduler::dispatch(TimePoint now) {
   if (idle > 0 && m.ready.count() > 0) {
     ++stats_.decisions;
     m.overload.assess(m, now);
-    while (idle > 0 && m.pick(now)) --idle;
+    while (idle > 0 && m.pick(now, -1)) --idle;
   }
   // The waits still running; the earliest end of one is a wake-up (next_wakeup).
   const int waiting = m.merge.sweep(m, now);

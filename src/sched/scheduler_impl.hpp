@@ -19,10 +19,13 @@
 #include <vector>
 
 #include "batching.hpp"
+#include "deadlines.hpp"
 #include "guard.hpp"
+#include "inherit.hpp"
 #include "merge.hpp"
 #include "overload.hpp"
 #include "pools.hpp"
+#include "ranking.hpp"
 #include "ready_set.hpp"
 #include "red/graph/necessary_work.hpp"
 #include "red/sched/online_costs.hpp"
@@ -30,6 +33,7 @@
 #include "releases.hpp"
 #include "shedding.hpp"
 #include "state.hpp"
+#include "sync.hpp"
 
 namespace red {
 
@@ -67,13 +71,10 @@ struct Scheduler::Impl {
   // test and the necessary work it counts, the evidence of overload and the round's verdict;
   // its state.
   Overload overload;
-  // The policy's rank is the deadline it is shown, and it reads no other field of the
-  // task's view (Policy::ranks_by_deadline_only).
-  bool edf_rank = false;
-  bool mixed_criticality = false;
-  int uniform_criticality = 0;  // every operation's, when not mixed
-  int top_criticality = 0;      // the highest of any operation's
-  struct Scan {                 // one cache line
+  // Ranking (docs/DESIGN.md, "Dispatch"; ranking.hpp): the rank mode, the policy's rank, the
+  // scenario's criticalities, who ranks by job deadline this round.
+  Ranking ranking;
+  struct Scan {  // one cache line
     Key key;
     TimePoint deadline;  // valid where deadline_known; else task_deadline() gives it
     int task;
@@ -121,18 +122,9 @@ struct Scheduler::Impl {
   }
   void rebuild(Job& j);
 
-  // Re-assignment (docs/DESIGN.md, "Re-assignment"): the budget left, B = deadline − now, is spread
-  // over the heights that still have work in proportion to their remaining level costs (or per-node
-  // overrides); height h ends at now + B · frac[h], frac[h] the cumulative share up to h (exactly 1
-  // for the last height: its deadline is the job's).
-  void shares(const Job& j, const std::vector<Duration>& lvl, const std::vector<std::uint8_t>& has,
-              std::vector<double>& frac) const;
-
-  static TimePoint from_share(const Job& j, double frac, TimePoint now) {
-    const Duration budget = j.plan - now;
-    if (budget <= Duration{0} || frac == 1.0) return j.plan;
-    return now + Duration{static_cast<std::int64_t>(static_cast<double>(budget.count()) * frac)};
-  }
+  // Re-assignment (docs/DESIGN.md, "Re-assignment"; deadlines.hpp): the budget left spread over
+  // the heights that still have work, at each decision; the deadline split.
+  Reassignment reassign;
 
   // A job with running units: their remaining cost is c(x) − elapsed, at least 0 (docs/DESIGN.md,
   // "Intermediate deadlines"), so level costs, the remaining work and the shares depend on now.
@@ -148,14 +140,11 @@ struct Scheduler::Impl {
   // batching, the ready set's groups and Scheduler::unit_deadline all read it. Inline: ranking
   // calls it for every member of every ready task.
   TimePoint unit_deadline(Job& j, int h, TimePoint now) {
-    return height_deadline(opt.deadlines, j.release, j.plan, [&] {
+    return height_deadline(reassign.split(), j.release, j.plan, [&] {
       const auto hi = static_cast<std::size_t>(h);
-      if (!opt.reassign) return j.release + j.g->static_offset[hi];
-      // Re-assignment: the shares of the job's cache, as they are at `now`.
-      refresh(j);
-      if (j.running_units.empty()) return from_share(j, j.frac[hi], now);
-      eval(j, now);
-      return from_share(j, j.frac_now[hi], now);
+      // Re-assignment: the shares of the job's cache, as they are at `now`; else refinement's.
+      return reassign.on() ? Reassignment::deadline(*this, j, hi, now)
+                           : j.release + j.g->static_offset[hi];
     });
   }
 
@@ -208,21 +197,6 @@ struct Scheduler::Impl {
   // "max_inflight").
   bool saturated() const;
 
-  // The longest path after a unit of j (the unit itself not counted) on the scheduler's
-  // estimate (p99 by default): what j still needs once the unit has ended.
-  Duration path_after(const Job& j, int unit) const {
-    const RefinedUnit& u = j.g->units[static_cast<std::size_t>(unit)];
-    const std::size_t e = idx(s.config_.estimate);
-    return u.tail[e] - u.costs[e];
-  }
-
-  // What ranking by job deadline reads for one member: the job's deadline, less the path
-  // after the unit with path_rank (docs/DESIGN.md, "Overload"; docs/journal/overload-grid.md,
-  // round 9: on mean costs instead, one of the tests' 216 sets lost a job to edf at capacity).
-  TimePoint rank_deadline(const Job& j, int unit) const {
-    return opt.path_rank ? j.plan - path_after(j, unit) : j.plan;
-  }
-
   // ---- tasks --------------------------------------------------------------------------
 
   void free_task(int t);
@@ -242,63 +216,24 @@ struct Scheduler::Impl {
   void ungroup_job(Job& j) { ready.ungroup_job(*this, j); }
 
   void make_ready(int slot, int unit);
-  // Deadline inheritance (PolicyOptions::inherit): plan `d` to end by `due` when that is
-  // earlier than its plan; its ready tasks leave their groups and their cached rank follows.
-  void inherit_plan(Job& d, TimePoint due);
-
-  // Rank and tie-break key of a ready task at `now` (computes member jobs' deadlines).
-  Key key(int t, TimePoint now, TaskView& v);
-
-  // True when the policy ranks the task by its jobs' end-to-end deadline this round
-  // (docs/DESIGN.md, "Overload": rank=job-deadline, or rank=overload while overloaded; a ready
-  // encoder on several lanes only when the demand test overran).
-  bool by_job_deadline(const Task& k) const {
-    return opt.rank == RankMode::JobDeadline ||
-           (opt.rank == RankMode::Overload && overload.overloaded() &&
-            (k.kind != UnitKind::Encoder || s.config_.lanes == 1 || overload.demand_overrun()));
-  }
-
-  // True when this round ranks tasks by job deadline with the EDF rank and equal
-  // criticalities (those by_job_deadline picks): pick() reads what each task keeps then,
-  // with no look into its jobs.
-  bool ranks_from_tasks() const {
-    return edf_rank && !mixed_criticality &&
-           (opt.rank == RankMode::JobDeadline ||
-            (opt.rank == RankMode::Overload && overload.overloaded()));
-  }
-
-  // The task's deadline as key() computes it (the earliest of its members' deadlines).
-  TimePoint task_deadline(const Task& k, TimePoint now);
-
-  // The member's tie-break key (rank 0): release, operation, job, node, unit.
-  Key tie_key(int slot, int unit, int node) {
-    const Job& j = job(slot);
-    return Key{0, j.release, j.op, j.seq, node, unit};
-  }
+  // Deadline inheritance (PolicyOptions::inherit; inherit.hpp): a job that a new one depends on
+  // is planned to end in time for it.
+  Inheritance inheritance;
 
   // DynamicMerge (docs/DESIGN.md, "DynamicMerge"; merge.hpp): joins of encoder units into
   // queued encoder tasks, merge waits and the list of every wait a pick takes, the newest frame
   // a γ-merged run reads; its state.
   DynamicMerge merge;
 
-  Duration round_trip_cost(bool round_trip) const;
+  // On-demand synchronization and placement (docs/DESIGN.md, "Synchronization"; sync.hpp): the
+  // runs the lanes' handlers hold, the lane a pick places its task on and the round trip it pays.
+  OnDemandSync sync;
 
-  // docs/DESIGN.md, "Synchronization" on-demand: the task continues the run the lane's handler
-  // holds — its last unit completed just now and the task is ready work of a job of the run (a
-  // merged encoder's member heads, a job's ready units of a height, their successors) — so the
-  // handler goes on without a round trip. Anything else, or per-edge synchronization, pays one.
-  bool on_demand_continuation(const Lane& lane, const Task& k, TimePoint now) const;
-
-  // The idle lane for a task (docs/DESIGN.md, "Synchronization" placement): one whose run it
-  // continues, else one without an open run (keeping open runs for their own work), else the first
-  // idle lane; -1 if none.
-  int choose_lane(const Task& k, TimePoint now) const;
-
-  void start_dispatch(int lane_index, TimePoint now, TimePoint deadline);
+  // Starts the batch formed (Batching::batch) where the pick placed it, checked against
+  // `deadline`.
+  void start_dispatch(const Placement& at, TimePoint now, TimePoint deadline);
   // Sets when a dispatched unit starts, on the dispatch and its members' units.
   void set_start(Dispatch& d, TimePoint start);
-  // dispatch_ahead(): the lane that pick() fills (its queue), -1 for dispatch().
-  int ahead_lane = -1;
   // dispatch_ahead(): the successors that wait only on a unit `lane` holds become ready for
   // that lane alone (not encoders: they merge across lanes).
   void ready_in_lane_order(int lane);
@@ -309,18 +244,19 @@ struct Scheduler::Impl {
   // The counters, for the mechanism types (which are not members of Scheduler).
   SchedulerStats& stats() noexcept { return s.stats_; }
 
-  // Picks work for an idle lane (placed by choose_lane); false when nothing can start now.
-  // Its stages (dispatch.cpp): scan, choose (best_candidate, the lane, guard_holds,
+  // Picks work for an idle lane (placed by OnDemandSync::place), or with `ahead` >= 0 for the
+  // queue of that busy lane (dispatch_ahead()); false when nothing can start now. Its stages
+  // (dispatch.cpp): scan, choose (best_candidate, the lane, guard_holds,
   // shedding.abort_hopeless, merge_waits), form_batch.
-  bool pick(TimePoint now);
+  bool pick(TimePoint now, int ahead);
   // One pick's state between its stages.
   struct Pick {
-    std::size_t least = 0;                             // the scan's least key
+    int ahead = -1;         // the lane whose queue it fills (dispatch_ahead()), -1 for an idle lane
+    std::size_t least = 0;  // the scan's least key
     int shed_below = std::numeric_limits<int>::min();  // criticalities shed first (overload)
     int out = 0;                                       // scan entries taken out (Scan::out)
     const Scan* best = nullptr;                        // the task chosen
-    int lane = -1;                                     // its lane
-    Duration rt{0};                                    // the round trip the dispatch pays
+    Placement at;  // its lane and the round trip it pays (OnDemandSync::place)
   };
   enum class Chosen : std::uint8_t { Task, Nothing, Rescan };
   void scan(TimePoint now, Pick& p);
@@ -336,10 +272,10 @@ struct Scheduler::Impl {
   CriticalityGuard crit_guard;
   // When a lane is free to start more work, by the plan's estimates of what it holds.
   TimePoint lane_free_at(const Lane& l, TimePoint now) const;
-  // When a dispatch picked now for lane `lane` begins: now, or after what the lane holds when
-  // pick() fills its queue (dispatch_ahead).
-  TimePoint dispatch_begin(int lane, TimePoint now) const {
-    return ahead_lane >= 0 ? lane_free_at(lanes[static_cast<std::size_t>(lane)], now) : now;
+  // When a dispatch picked now and placed `at` begins (before its round trip): now, or after
+  // what the lane holds when the pick fills its queue (dispatch_ahead).
+  TimePoint dispatch_begin(const Placement& at, TimePoint now) const {
+    return at.ahead ? lane_free_at(lanes[static_cast<std::size_t>(at.lane)], now) : now;
   }
 };
 

@@ -64,7 +64,7 @@ bool Shedding::rejects_at_release(Scheduler::Impl& m, int op, TimePoint now) {
   // docs/DESIGN.md, "Overload": past capacity, the jobs of an operation that cheaper ones
   // outrank are rejected before they cost anything (shedding by rate).
   const PolicyOptions& opt = m.opt;
-  return opt.admission == Admission::Shed && opt.shed_by_rate && !m.mixed_criticality &&
+  return opt.admission == Admission::Shed && opt.shed_by_rate && !m.ranking.mixed_criticality() &&
          by_rate_.rejects(op, now, m.ops, m.s.config().lanes, idx(opt.drop_estimate),
                           [&] { return past_capacity(m) && m.overload.evidenced(m, now); });
 }
@@ -180,7 +180,7 @@ void Shedding::admit(Scheduler::Impl& m, TimePoint now) {
   int carried_from = std::numeric_limits<int>::max();
   // The workload's least critical operations: only their jobs are victims. Nothing in here
   // changes which operations are live.
-  const int least_op = m.mixed_criticality ? least_op_criticality(m) : 0;
+  const int least_op = m.ranking.mixed_criticality() ? least_op_criticality(m) : 0;
   std::size_t from = 0;
   for (;;) {
     const int over = m.overload.first_overrun(m, now, k, schedule, margin, from, true);
@@ -200,7 +200,7 @@ void Shedding::admit(Scheduler::Impl& m, TimePoint now) {
       m.refresh(j);
       if (j.started || m.doomed(j, now, k)) continue;
       const int crit = m.ops[static_cast<std::size_t>(j.op)].criticality;
-      if (crit >= carried_from || (m.mixed_criticality && crit > least_op)) continue;
+      if (crit >= carried_from || (m.ranking.mixed_criticality() && crit > least_op)) continue;
       const Duration w = m.work_left(j, now, k);
       const bool better = victim < 0 || crit < victim_crit ||
                           (crit == victim_crit && w > victim_work) ||
@@ -212,7 +212,7 @@ void Shedding::admit(Scheduler::Impl& m, TimePoint now) {
       }
     }
     if (victim < 0) continue;  // only started jobs are due by then: hopeless checks decide
-    if (m.mixed_criticality && victim_crit > least_criticality(m)) {
+    if (m.ranking.mixed_criticality() && victim_crit > least_criticality(m)) {
       // Less critical jobs (started, or past this window) share the overrun: whether the
       // victim's class alone overruns decides. The victim is the least critical candidate.
       const int own = m.overload.first_overrun(m, now, k, schedule, margin, 0, true, victim_crit);
@@ -291,7 +291,7 @@ void Shedding::shed_lone_jobs(Scheduler::Impl& m, TimePoint now, std::size_t est
   // Criticality (docs/DESIGN.md, "Criticality"): a lone job more critical than some job in flight
   // goes only when the jobs of its criticality or more overrun by themselves (pick() runs them
   // ahead of the others under overload).
-  if (m.mixed_criticality && !lone_.empty()) {
+  if (m.ranking.mixed_criticality() && !lone_.empty()) {
     const int least = least_criticality(m);
     const int least_op = least_op_criticality(m);
     std::erase_if(lone_, [&](int slot) {
@@ -313,7 +313,7 @@ void Shedding::shed_lone_jobs(Scheduler::Impl& m, TimePoint now, std::size_t est
 bool Shedding::abort_hopeless(Scheduler::Impl& m, int t, Duration rt, TimePoint now) {
   const PolicyOptions& opt = m.opt;
   if (opt.drop != DropMode::Hopeless ||
-      (opt.rank == RankMode::Overload &&
+      (m.ranking.overload_aware() &&
        !(m.overload.overloaded() && m.overload.by_deadline().size() > 1)))
     return false;
   for (const auto& [slot, unit] : m.task(t).members) {
@@ -324,8 +324,8 @@ bool Shedding::abort_hopeless(Scheduler::Impl& m, int t, Duration rt, TimePoint 
     // overload (docs/DESIGN.md, "Criticality"), so keeping it costs only less critical work.
     const Duration cp = remaining_for_drop(m, j, now);
     const bool most_critical =
-        m.mixed_criticality &&
-        m.ops[static_cast<std::size_t>(j.op)].criticality >= m.top_criticality;
+        m.ranking.mixed_criticality() &&
+        m.ops[static_cast<std::size_t>(j.op)].criticality >= m.ranking.top_criticality();
     if (now + rt + (past_capacity(m) && !most_critical ? cp : cp * 9 / 10) > j.deadline) {
       j.reason = DropReason::Hopeless;
       ++m.stats().hopeless;

@@ -67,7 +67,7 @@ struct Job {
   TimePoint release{0};
   TimePoint deadline{0};
   // What its deadlines are planned to: its deadline, or earlier by deadline inheritance
-  // (PolicyOptions::inherit, Impl::inherit_plan). Its outcome is decided by `deadline`.
+  // (PolicyOptions::inherit, Inheritance in inherit.hpp). Its outcome is decided by `deadline`.
   TimePoint plan{0};
   std::uint64_t stamp = 0;     // decision stamp the values below are valid for
   Duration remaining_base{0};  // Σ lvl_base
@@ -164,7 +164,7 @@ struct Task {
 
 // Over a task's members, kept as they join and leave (their jobs' fields do not change):
 // the least tie-break key (rank 0) and the earliest end-to-end deadline (less the path after
-// the unit, with path_rank: Impl::rank_deadline), what ranking by
+// the unit, with path_rank: Ranking::rank_deadline), what ranking by
 // job deadline reads without a look into the jobs. Beside the tasks (TaskPool::rank), so
 // that a task stays as small as the ranking of the other presets reads it.
 struct TaskRank {
@@ -184,7 +184,7 @@ struct GroupKey {
   Duration cost;
   Duration remaining;      // the job's remaining work
   TimePoint job_deadline;  // the job's end-to-end deadline
-  TimePoint by_job;        // what ranking by job deadline reads (Impl::rank_deadline)
+  TimePoint by_job;        // what ranking by job deadline reads (Ranking::rank_deadline)
   int criticality;
   auto operator<=>(const GroupKey&) const = default;
 };
@@ -247,12 +247,6 @@ struct Lane {
     head = (head + 1) % kMaxDepth;
     --count;
   }
-  TimePoint completed_at = kNever;
-  // docs/DESIGN.md, "Synchronization" on-demand: the jobs of the run this lane's handler was
-  // handed. Their ready units follow back to back; the run ends on a round trip or a transition
-  // other than Completed.
-  bool run_open = false;
-  std::vector<std::pair<int, JobId>> run_jobs;
 };
 
 }  // namespace sched_detail

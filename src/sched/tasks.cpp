@@ -40,12 +40,12 @@ void Scheduler::Impl::remove_member(int t, int slot, int unit) {
   k.min_release = kNever;
   TaskRank& r = task_rank(t);
   r.job_deadline = kNever;
-  r.tie = tie_key(m.front().first, m.front().second, k.member_at.front().second);
+  r.tie = Ranking::tie_key(job(m.front().first), m.front().second, k.member_at.front().second);
   for (std::size_t i = 0; i < m.size(); ++i) {
     const Job& j = job(m[i].first);
     k.min_release = std::min(k.min_release, j.release);
-    r.job_deadline = std::min(r.job_deadline, rank_deadline(j, m[i].second));
-    const Key mk = tie_key(m[i].first, m[i].second, k.member_at[i].second);
+    r.job_deadline = std::min(r.job_deadline, ranking.rank_deadline(j, m[i].second));
+    const Key mk = Ranking::tie_key(j, m[i].second, k.member_at[i].second);
     if (mk < r.tie) r.tie = mk;
   }
 }
@@ -67,7 +67,7 @@ void Scheduler::Impl::make_ready(int slot, int unit) {
   k.members.emplace_back(slot, unit);
   k.member_at.emplace_back(ru.height, ru.node);
   k.min_release = j.release;
-  task_rank(t) = TaskRank{tie_key(slot, unit, ru.node), rank_deadline(j, unit)};
+  task_rank(t) = TaskRank{Ranking::tie_key(j, unit, ru.node), ranking.rank_deadline(j, unit)};
   k.cost = ru.estimate;
   u.task = t;
   ready.push(*this, t);
