@@ -1,5 +1,6 @@
 #include "red/sched/policy.hpp"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cstdint>
@@ -8,6 +9,7 @@
 #include <utility>
 
 #include "red/scenario/estimate.hpp"
+#include "red/scenario/loader.hpp"
 
 namespace red {
 
@@ -334,6 +336,29 @@ std::string apply_options(PolicyOptions& o, std::string_view list) {
   }
   o = out;
   return {};
+}
+
+std::optional<Error> check_policy_options(const Scenario& s) {
+  const std::vector<OptionText>& options = s.scheduler.policy_options;
+  const std::vector<std::string>& keys = option_keys();
+  for (const OptionText& o : options)
+    if (std::find(keys.begin(), keys.end(), o.key) == keys.end()) {
+      std::vector<std::string> allowed = scheduler_keys();
+      allowed.insert(allowed.end(), keys.begin(), keys.end());
+      std::string list;
+      for (const std::string& k : allowed) list += (list.empty() ? "" : ", ") + k;
+      return Error{s.file, o.key_line,
+                   "scheduler: unknown key '" + o.key + "' (allowed: " + list + ")"};
+    }
+  PolicyOptions check;
+  for (const std::string& key : keys)
+    for (const OptionText& o : options) {
+      if (o.key != key) continue;
+      if (!o.problem.empty()) return Error{s.file, o.line, o.problem};
+      if (std::string err = set_option(check, key, o.value); !err.empty())
+        return Error{s.file, o.line, o.what + ": " + err};
+    }
+  return std::nullopt;
 }
 
 const std::vector<std::string>& option_keys() {
