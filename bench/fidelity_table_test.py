@@ -59,6 +59,7 @@ class FidelityTable(unittest.TestCase):
             text = subprocess.run([sys.executable, os.path.join(HERE, "fidelity_table.py"), out,
                                    "s.yaml"], check=True, capture_output=True, text=True).stdout
             rows = json.load(open(os.path.join(out, "fidelity-gaps.json")))
+            own_rows = json.load(open(os.path.join(out, "fidelity-own.json")))
         self.assertEqual(len(rows), 4)
         by = {(r["run"], r["policy"]): r for r in rows}
         # edf: 60 predicted ahead against 40 and 20 real: +20 and +40 points, outside.
@@ -75,6 +76,16 @@ class FidelityTable(unittest.TestCase):
         # A policy's own units' ratio where the check wrote it, else the run's over all.
         self.assertIn("| s | run1 | red | +0.0 | +13.3 * | +0.0 | +1.0 | 0.90x |", text)
         self.assertIn("fidelity: ahead 0 of 4 within the target, from the run's own costs 4 of 4",
+                      text)
+        # The older table from each run's own costs says what the side-by-side one says of them:
+        # one arithmetic (gap()), rounded as the table shows it.
+        self.assertEqual(len(own_rows), len(rows))
+        for r in own_rows:
+            g = by[(r["run"], r["policy"])]["own"]
+            self.assertAlmostEqual(r["d_miss_points"], round(g["miss_pts"], 2))
+            self.assertAlmostEqual(r["d_mean_pct"], round(g["mean_pct"], 1))
+            self.assertEqual(r["within_target"], g["within_target"])
+        self.assertIn("4 of 4 (scenario, policy, run) within the target from the run's own costs.",
                       text)
 
 

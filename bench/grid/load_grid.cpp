@@ -56,6 +56,7 @@
 
 #include "load_grid.hpp"
 #include "red/core/file.hpp"
+#include "red/sim/run.hpp"
 #include "robot_workload.hpp"
 
 namespace {

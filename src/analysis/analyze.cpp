@@ -11,6 +11,7 @@
 #include "red/analysis/workload.hpp"
 #include "red/core/stop.hpp"
 #include "red/metrics/phases.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/estimate.hpp"
 #include "red/sim/run.hpp"
 

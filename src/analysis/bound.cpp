@@ -13,7 +13,7 @@
 #include "red/analysis/workload.hpp"
 #include "red/graph/refine.hpp"
 #include "red/metrics/metrics.hpp"
-#include "red/sim/run.hpp"
+#include "red/metrics/policy_run.hpp"
 
 namespace red {
 namespace {

@@ -5,8 +5,8 @@
 
 #include "red/analysis/workload.hpp"
 #include "red/metrics/metrics.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 

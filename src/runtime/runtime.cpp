@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "red/core/assert.hpp"
-#include "red/metrics/newest.hpp"
+#include "red/core/newest.hpp"
 #include "red/sched/round.hpp"
 #include "runtime_impl.hpp"
 

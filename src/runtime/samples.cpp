@@ -10,7 +10,7 @@
 #include <mutex>
 #include <vector>
 
-#include "red/metrics/newest.hpp"
+#include "red/core/newest.hpp"
 #include "red/runtime/runtime.hpp"
 #include "runtime_impl.hpp"
 

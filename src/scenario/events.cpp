@@ -7,7 +7,6 @@
 #include "limits.hpp"
 #include "loader_impl.hpp"
 #include "red/core/file.hpp"
-#include "red/sched/policy.hpp"
 #include "yaml_tree.hpp"
 
 #include <algorithm>

@@ -8,7 +8,6 @@
 
 #include "limits.hpp"
 #include "red/core/file.hpp"
-#include "red/sched/policy.hpp"
 #include "yaml_tree.hpp"
 
 #include <algorithm>

@@ -15,7 +15,6 @@
 #include "loader_impl.hpp"
 #include "red/core/file.hpp"
 #include "red/scenario/estimate.hpp"
-#include "red/sched/policy.hpp"
 #include "yaml_tree.hpp"
 
 #include <algorithm>
@@ -177,22 +176,24 @@ void Loader::parse_model(const Val& v) {
 }
 
 void Loader::parse_scheduler(const Val& v) {
-  // The tuning keys, then every policy option (option_keys(): one list with --with).
-  std::vector<std::string> allowed{"gamma_ms",  "estimate",   "level_cost",
-                                   "max_batch", "qoe_lambda", "online_costs"};
-  for (const std::string& key : option_keys()) allowed.push_back(key);
+  // The knobs read here, then every other key as the file writes it: the policy options,
+  // which the policy layer reads and checks (check_policy_options, red/sched/policy.hpp).
+  const std::vector<std::string>& own = scheduler_keys();
+  std::vector<std::string> allowed = own;
+  for (const Entry& e : entries_of(v))
+    if (std::find(own.begin(), own.end(), e.key) == own.end()) allowed.push_back(e.key);
   const Fields f(v, allowed);
   auto& sc = s_.scheduler;
-  // Policy options (docs/DESIGN.md, "Overload" ablations): checked here so that a bad value names
-  // its line.
-  PolicyOptions check;
-  for (const std::string& key : option_keys()) {
-    const Val* x = f.get(key);
-    if (x == nullptr) continue;
-    const std::string value = text(*x);
-    if (std::string err = set_option(check, key, value); !err.empty())
-      fail(x->line, at(x->what) + err);
-    sc.policy_with += (sc.policy_with.empty() ? "" : ",") + key + "=" + value;
+  for (const Entry& e : f.entries()) {
+    if (std::find(own.begin(), own.end(), e.key) != own.end()) continue;
+    OptionText o{e.key, e.value.what, {}, {}, e.key_line, e.value.line};
+    try {
+      o.value = text(e.value);
+      sc.policy_with += (sc.policy_with.empty() ? "" : ",") + o.key + "=" + o.value;
+    } catch (const Failure& bad) {  // reported by the policy layer, after an unknown key
+      o.problem = bad.message;
+    }
+    sc.policy_options.push_back(std::move(o));
   }
   if (const Val* x = f.get("gamma_ms")) sc.gamma = ms_value(*x, non_negative(*x));
   if (const Val* x = f.get("estimate")) {
@@ -529,6 +530,12 @@ using loader_detail::Failure;
 using loader_detail::got;
 using loader_detail::Loader;
 using loader_detail::mark_line;
+
+const std::vector<std::string>& scheduler_keys() {
+  static const std::vector<std::string> keys{"gamma_ms",  "estimate",   "level_cost",
+                                             "max_batch", "qoe_lambda", "online_costs"};
+  return keys;
+}
 
 Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::string& file) {
   // YAML is UTF-8 text, and every name read here reaches UTF-8 outputs (summary.json).

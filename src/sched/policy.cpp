@@ -1,5 +1,6 @@
 #include "red/sched/policy.hpp"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cstdint>
@@ -7,7 +8,9 @@
 #include <system_error>
 #include <utility>
 
+#include "red/core/assert.hpp"
 #include "red/scenario/estimate.hpp"
+#include "red/scenario/loader.hpp"
 
 namespace red {
 
@@ -78,7 +81,7 @@ struct OptionSpec {
 };
 
 // Every option, in documentation order (option_keys(), describe(), the CLI's --with help).
-const std::array<OptionSpec, 19> kOptions{{
+constexpr auto kOptions = std::to_array<OptionSpec>({
     {"graph",
      [](PolicyOptions& o, std::string_view k, std::string_view v) {
        return choose(
@@ -204,109 +207,66 @@ const std::array<OptionSpec, 19> kOptions{{
        return choose(o.guard, k, v, kBool);
      },
      [](const PolicyOptions& o) -> std::string { return yes_no(o.guard); }},
-}};
-
-// What every preset starts from (docs/DESIGN.md, "Policies").
-PolicyOptions preset_base() {
-  PolicyOptions o;
-  o.reassign = false;
-  o.merge = false;
-  o.batching = false;
-  o.sync = SyncMode::PerEdge;
-  o.drop = DropMode::Strict;
-  return o;
-}
-
-// red, lst and red-robust: the whole of RED.
-PolicyOptions red_options() {
-  PolicyOptions o = preset_base();
-  o.graph = GraphMode::Fine;
-  o.deadlines = DeadlineMode::Proportional;
-  o.reassign = o.merge = o.batching = true;
-  o.sync = SyncMode::OnDemand;
-  return o;
-}
+});
 
 // The class make_policy builds for a preset.
 enum class PolicyClass : std::uint8_t { Edf, Fifo, LeastSlack };
 
-// One preset: its name, the policy class, whether `red compare` runs it by default, and its
-// options.
+// One preset: its name, the policy class, whether `red compare` runs it by default, the preset
+// it builds on (none: PolicyOptions{}, fine-grained graph, proportional deadlines, per-edge
+// synchronization, strict drops and no other mechanism) and the mechanisms it sets on top of
+// that, as --with spells them.
 struct Preset {
   std::string_view name;
   PolicyClass policy;
   bool by_default;
-  PolicyOptions (*options)();
+  std::string_view base;
+  std::string_view with;
 };
 
-// Every preset, in table order (docs/DESIGN.md, "Policies"; red-robust: "Overload").
-const std::array<Preset, 8> kPresets{{
-    {"fifo", PolicyClass::Fifo, true,
-     [] {
-       PolicyOptions o = preset_base();
-       o.graph = GraphMode::Coarse;
-       o.deadlines = DeadlineMode::None;
-       o.drop = DropMode::None;
-       return o;
-     }},
-    {"mono", PolicyClass::Edf, true,
-     [] {
-       PolicyOptions o = preset_base();
-       o.graph = GraphMode::Mono;
-       o.deadlines = DeadlineMode::EndToEnd;
-       return o;
-     }},
-    {"edf", PolicyClass::Edf, true,
-     [] {
-       PolicyOptions o = preset_base();
-       o.graph = GraphMode::Coarse;
-       o.deadlines = DeadlineMode::EndToEnd;
-       return o;
-     }},
-    {"red-fg", PolicyClass::Edf, true,
-     [] {
-       PolicyOptions o = preset_base();
-       o.graph = GraphMode::Fine;
-       o.deadlines = DeadlineMode::Proportional;
-       o.merge = true;
-       return o;
-     }},
-    {"red-ida", PolicyClass::Edf, true,
-     [] {
-       PolicyOptions o = preset_base();
-       o.graph = GraphMode::Fine;
-       o.deadlines = DeadlineMode::Proportional;
-       o.reassign = o.merge = true;
-       return o;
-     }},
-    {"red", PolicyClass::Edf, true, red_options},
-    {"red-robust", PolicyClass::Edf, true,
-     [] {
-       // docs/DESIGN.md, "Overload": shed early on an optimistic estimate, finish what was
-       // started while overloaded.
-       PolicyOptions o = red_options();
-       o.drop = DropMode::Hopeless;
-       o.drop_estimate = EstimateKind::Mean;
-       o.admission = Admission::Shed;
-       o.admit_margin = 5;  // the least of 0, 5, 10, 20 % with the most points near the bound
-       o.rank = RankMode::Overload;
-       o.shed_by_rate = true;
-       o.lookahead = true;
-       o.shed_lone = true;
-       o.batch_by_job = true;
-       o.path_rank = true;
-       o.miss_gate = true;
-       o.inherit = true;
-       o.guard = true;
-       return o;
-     }},
-    {"lst", PolicyClass::LeastSlack, false, red_options},
-}};
+// Every preset, in table order (docs/DESIGN.md, "Policies"; red-robust: "Overload"); a base
+// comes before the presets built on it. Adding a preset is adding a row.
+constexpr auto kPresets = std::to_array<Preset>({
+    {"fifo", PolicyClass::Fifo, true, "", "graph=coarse,deadlines=none,drop=none"},
+    {"mono", PolicyClass::Edf, true, "", "graph=mono,deadlines=end-to-end"},
+    {"edf", PolicyClass::Edf, true, "", "graph=coarse,deadlines=end-to-end"},
+    {"red-fg", PolicyClass::Edf, true, "", "graph=fine,deadlines=proportional,merge=yes"},
+    {"red-ida", PolicyClass::Edf, true, "red-fg", "reassign=yes"},
+    {"red", PolicyClass::Edf, true, "red-ida", "batching=yes,sync=on-demand"},
+    // docs/DESIGN.md, "Overload": shed early on an optimistic estimate, finish what was started
+    // while overloaded. admit_margin: the least of 0, 5, 10, 20 % with the most points near the
+    // bound.
+    {"red-robust", PolicyClass::Edf, true, "red",
+     "drop=hopeless,drop_estimate=mean,admission=shed,admit_margin=5,rank=overload,"
+     "shed_rate=yes,lookahead=yes,shed_lone=yes,batch_by_job=yes,path_rank=yes,miss_gate=yes,"
+     "inherit=yes,guard=yes"},
+    {"lst", PolicyClass::LeastSlack, false, "red", ""},
+});
 
-const Preset* find_preset(std::string_view name) {
-  for (const Preset& p : kPresets)
-    if (p.name == name) return &p;
-  return nullptr;
+// The options of kPresets[i], built once.
+const PolicyOptions& options_of(std::size_t i) {
+  static const std::array<PolicyOptions, kPresets.size()> options = [] {
+    std::array<PolicyOptions, kPresets.size()> out{};
+    for (std::size_t p = 0; p < kPresets.size(); ++p) {
+      if (!kPresets[p].base.empty()) {
+        std::size_t b = 0;
+        while (b < p && kPresets[b].name != kPresets[p].base) ++b;
+        RED_ASSERT(b < p);  // a base is a preset of an earlier row
+        out[p] = out[b];
+      }
+      const std::string err = apply_options(out[p], kPresets[p].with);
+      RED_ASSERT(err.empty());  // every row spells its mechanisms as --with does
+    }
+    return out;
+  }();
+  return options[i];
+}
+
+// The index of a preset in kPresets, or kPresets.size().
+std::size_t find_preset(std::string_view name) {
+  std::size_t i = 0;
+  while (i < kPresets.size() && kPresets[i].name != name) ++i;
+  return i;
 }
 
 }  // namespace
@@ -336,6 +296,29 @@ std::string apply_options(PolicyOptions& o, std::string_view list) {
   return {};
 }
 
+std::optional<Error> check_policy_options(const Scenario& s) {
+  const std::vector<OptionText>& options = s.scheduler.policy_options;
+  const std::vector<std::string>& keys = option_keys();
+  for (const OptionText& o : options)
+    if (std::find(keys.begin(), keys.end(), o.key) == keys.end()) {
+      std::vector<std::string> allowed = scheduler_keys();
+      allowed.insert(allowed.end(), keys.begin(), keys.end());
+      std::string list;
+      for (const std::string& k : allowed) list += (list.empty() ? "" : ", ") + k;
+      return Error{s.file, o.key_line,
+                   "scheduler: unknown key '" + o.key + "' (allowed: " + list + ")"};
+    }
+  PolicyOptions check;
+  for (const std::string& key : keys)
+    for (const OptionText& o : options) {
+      if (o.key != key) continue;
+      if (!o.problem.empty()) return Error{s.file, o.line, o.problem};
+      if (std::string err = set_option(check, key, o.value); !err.empty())
+        return Error{s.file, o.line, o.what + ": " + err};
+    }
+  return std::nullopt;
+}
+
 const std::vector<std::string>& option_keys() {
   static const std::vector<std::string> v = [] {
     std::vector<std::string> keys;
@@ -353,17 +336,17 @@ std::string describe(const PolicyOptions& o) {
 }
 
 std::optional<PolicyOptions> preset_options(std::string_view name) {
-  const Preset* p = find_preset(name);
-  if (p == nullptr) return std::nullopt;
-  return p->options();
+  const std::size_t i = find_preset(name);
+  if (i == kPresets.size()) return std::nullopt;
+  return options_of(i);
 }
 
 std::unique_ptr<Policy> make_policy(std::string_view name,
                                     const std::optional<PolicyOptions>& overrides) {
-  const Preset* p = find_preset(name);
-  if (p == nullptr) return nullptr;
-  const PolicyOptions o = overrides ? *overrides : p->options();
-  switch (p->policy) {
+  const std::size_t i = find_preset(name);
+  if (i == kPresets.size()) return nullptr;
+  const PolicyOptions o = overrides ? *overrides : options_of(i);
+  switch (kPresets[i].policy) {
     case PolicyClass::Fifo:
       return std::make_unique<FifoPolicy>(o);
     case PolicyClass::LeastSlack:

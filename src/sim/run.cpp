@@ -1,8 +1,6 @@
 #include "red/sim/run.hpp"
 
-#include "red/core/stop.hpp"
-
-#include <chrono>
+#include <utility>
 
 namespace red {
 
@@ -10,40 +8,11 @@ std::optional<PolicyOptions> policy_options(const Scenario& s, const std::string
                                             std::optional<SyncMode> sync) {
   auto o = preset_options(policy);
   if (!o) return std::nullopt;
-  // Validated by the loader and the CLI; a bad entry would leave the preset unchanged.
+  // Checked by check_policy_options (the CLI's load) and the CLI's --with; a bad entry would
+  // leave the preset unchanged.
   (void)apply_options(*o, s.scheduler.policy_with);
   if (sync) o->sync = *sync;
   return o;
-}
-
-Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
-                                    std::uint64_t seed, const std::vector<Observer*>& extra,
-                                    bool keep_units, std::optional<SyncMode> sync,
-                                    const Profile* costs) {
-  auto pol = make_policy(policy, policy_options(s, policy, sync));
-  if (!pol) return Error{"", 0, unknown_policy_message(policy)};
-  PolicyRun run;
-  MetricsCollector metrics(s, s.scheduler.qoe_lambda, keep_units);
-  SimOptions options;
-  options.seed = seed;
-  options.drain_limit = std::chrono::seconds{60};
-  options.costs = costs;
-  Simulator sim(s, p, std::move(pol), options);
-  sim.add_observer(&metrics);
-  for (Observer* o : extra) sim.add_observer(o);
-  const auto t0 = std::chrono::steady_clock::now();
-  run.result = sim.run();
-  if (run.result.stopped) return Error{"", 0, kStoppedMessage};
-  run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  run.metrics = metrics.summarize(policy, run.result.end);
-  if (const OnlineCosts* oc = sim.scheduler().online_costs()) {
-    run.metrics.online_costs = oc->options().follow;
-    run.metrics.plan_changes = oc->changes();
-    run.metrics.costs = oc->figures();
-  }
-  run.jobs = metrics.jobs();
-  run.units = metrics.units();
-  return run;
 }
 
 Expected<Profile> resolve_profile(const Scenario& s, const std::optional<std::string>& cli_path,

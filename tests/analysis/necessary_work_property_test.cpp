@@ -21,8 +21,8 @@
 #include "red/analysis/bound.hpp"
 #include "red/analysis/workload.hpp"
 #include "red/metrics/phases.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

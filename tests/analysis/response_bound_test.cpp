@@ -10,6 +10,7 @@
 #include <algorithm>
 
 #include "../support/random_scenario.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/builder.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sim/run.hpp"

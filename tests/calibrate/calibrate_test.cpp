@@ -7,9 +7,8 @@
 #include <cmath>
 
 #include "red/calibrate/calibrate.hpp"
-#include "red/profile/calibrate.hpp"  // the old, forwarding path still compiles
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/builder.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

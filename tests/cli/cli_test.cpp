@@ -29,6 +29,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+using test::column_index;
 using test::quote;
 using test::read_text;
 using test::RunResult;
@@ -405,12 +406,10 @@ TEST_F(Cli, RealComparePredictsFromTheProfileAndFromTheRunsOwnCosts) {
   }
   const std::vector<std::string> rows = lines_of(read_text(out / "jobs.csv"));
   ASSERT_GT(rows.size(), 1u);
-  const auto column = [&](const std::string& name) {
-    const std::vector<std::string> header = split_csv(rows.front());
-    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
-  };
-  const std::size_t outcome = column("outcome"), cause = column("cause");
-  ASSERT_LT(cause, split_csv(rows.front()).size()) << rows.front();
+  const std::vector<std::string> jobs_header = split_csv(rows.front());
+  const std::size_t outcome = column_index(jobs_header, "outcome");
+  const std::size_t cause = column_index(jobs_header, "cause");
+  ASSERT_LT(std::max(outcome, cause), jobs_header.size()) << rows.front();
   for (std::size_t i = 1; i < rows.size(); ++i) {
     if (rows[i].empty()) continue;
     const std::vector<std::string> f = split_csv(rows[i]);
@@ -543,19 +542,23 @@ TEST_F(Cli, RealRunChecksItsPredictionAndWritesItsOwnCostsAsTheNextProfile) {
   const std::vector<std::string> rows = lines_of(read_text(out / "units.csv"));
   ASSERT_GT(rows.size(), 1u);
   const std::vector<std::string> header = split_csv(rows.front());
-  const auto col = [&](const char* name) {
-    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
-  };
+  const std::size_t kind = column_index(header, "kind");
+  const std::size_t batch = column_index(header, "batch");
+  const std::size_t status = column_index(header, "status");
+  const std::size_t start_ms = column_index(header, "start_ms");
+  const std::size_t end_ms = column_index(header, "end_ms");
+  const std::size_t last = std::max({kind, batch, status, start_ms, end_ms});
+  ASSERT_LT(last, header.size()) << rows.front();
   double sum = 0.0;
   int n = 0;
   for (std::size_t i = 1; i < rows.size(); ++i) {
     if (rows[i].empty()) continue;
     const std::vector<std::string> f = split_csv(rows[i]);
-    if (f[col("kind")] != "encoder" || f[col("batch")] != "1" || f[col("status")] != "completed")
-      continue;
-    const double start = std::stod(f[col("start_ms")]);
+    ASSERT_GT(f.size(), last) << rows[i];
+    if (f[kind] != "encoder" || f[batch] != "1" || f[status] != "completed") continue;
+    const double start = std::stod(f[start_ms]);
     if (start < 500.0) continue;
-    sum += std::stod(f[col("end_ms")]) - start;
+    sum += std::stod(f[end_ms]) - start;
     ++n;
   }
   ASSERT_GT(n, 0);

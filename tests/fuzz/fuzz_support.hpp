@@ -6,9 +6,9 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/scenario.hpp"
-#include "red/sim/run.hpp"
 
 namespace red::fuzz {
 

@@ -14,10 +14,10 @@
 #include "../support/random_scenario.hpp"
 #include "../support/recording_observer.hpp"
 #include "../support/semantics.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sched/policy.hpp"
-#include "red/sim/run.hpp"
 #include "red/sim/simulator.hpp"
 
 namespace red {

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "red/metrics/phases.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/report/report.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sim/run.hpp"

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "red/metrics/phases.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/metrics/why.hpp"
 #include "red/report/report.hpp"
 #include "red/report/stream.hpp"

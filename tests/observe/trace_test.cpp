@@ -15,8 +15,8 @@
 #include <utility>
 #include <vector>
 
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

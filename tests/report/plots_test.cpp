@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sched/policy.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "../support/cli.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/report/stream.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

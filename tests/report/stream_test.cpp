@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "../support/cli.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/report/report.hpp"
 #include "red/report/stream.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

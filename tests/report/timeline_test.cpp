@@ -15,6 +15,7 @@
 #include <tuple>
 #include <vector>
 
+#include "red/metrics/policy_run.hpp"
 #include "red/report/report.hpp"
 #include "red/report/timeline.hpp"
 #include "red/scenario/loader.hpp"

@@ -37,6 +37,7 @@
 #include "../support/random_scenario.hpp"
 #include "../support/recording_observer.hpp"
 #include "../support/semantics.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/report/report.hpp"
 #include "red/scenario/loader.hpp"

@@ -7,9 +7,9 @@
 #include <map>
 #include <string>
 
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
+#include "red/metrics/policy_run.hpp"
 #include "red/metrics/tally.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

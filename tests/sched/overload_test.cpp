@@ -13,6 +13,7 @@
 
 #include "../support/load_grid.hpp"
 #include "../support/size.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/builder.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sched/policy.hpp"

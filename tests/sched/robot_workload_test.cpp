@@ -27,8 +27,8 @@
 #include "../support/recording_observer.hpp"
 #include "../support/robot_workload.hpp"
 #include "../support/size.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "red/metrics/policy_run.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

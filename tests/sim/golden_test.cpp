@@ -16,6 +16,7 @@
 #include <string>
 #include <tuple>
 
+#include "red/metrics/policy_run.hpp"
 #include "red/report/report.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sim/run.hpp"

@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "../support/stg.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red {
 namespace {

@@ -17,6 +17,7 @@
 
 #include "red/core/expected.hpp"
 #include "red/metrics/metrics.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/runtime/runtime.hpp"
 #include "red/runtime/synthetic_backend.hpp"

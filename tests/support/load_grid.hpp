@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "red/analysis/bound.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
-#include "red/sim/run.hpp"
 
 namespace red::grid {
 

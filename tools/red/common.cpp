@@ -20,6 +20,7 @@
 #include "red/report/schedule_html.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/scenario/manifest.hpp"
+#include "red/sched/policy.hpp"
 
 namespace red::cli {
 
@@ -85,6 +86,7 @@ std::vector<std::string> split_list(const std::string& s) {
 Expected<Scenario> load(const ScenarioArgs& a, std::optional<ModelManifest>* manifest) {
   auto s = load_scenario(a.path);
   if (!s) return s.error();
+  if (auto e = check_policy_options(*s)) return *e;  // the scheduler section's policy options
   if (auto e = check_model(*s, manifest)) return *e;
   for (const std::string& kv : a.sets) {
     const auto eq = kv.find('=');

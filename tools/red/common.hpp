@@ -15,6 +15,7 @@
 #include <CLI/CLI.hpp>
 
 #include "red/core/expected.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/observe/progress.hpp"
 #include "red/observe/trace.hpp"
 #include "red/profile/profile.hpp"

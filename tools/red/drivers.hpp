@@ -13,8 +13,8 @@
 #include "common.hpp"
 #include "real_run.hpp"
 #include "red/metrics/metrics.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/report/html.hpp"
-#include "red/sim/run.hpp"
 #include "run_policies.hpp"
 
 namespace red::cli {

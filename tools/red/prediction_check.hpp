@@ -15,10 +15,10 @@
 
 #include "real_run.hpp"
 #include "red/core/expected.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/report/html.hpp"
 #include "red/scenario/scenario.hpp"
-#include "red/sim/run.hpp"
 
 namespace red::cli {
 

@@ -11,11 +11,11 @@
 
 #include "red/calibrate/calibrate.hpp"
 #include "red/core/expected.hpp"
+#include "red/metrics/policy_run.hpp"
 #include "red/profile/profile.hpp"
 #include "red/runtime/backend.hpp"
 #include "red/runtime/runtime.hpp"
 #include "red/scenario/scenario.hpp"
-#include "red/sim/run.hpp"
 
 namespace red::cli {
 

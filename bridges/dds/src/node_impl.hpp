@@ -17,8 +17,8 @@
 #include <vector>
 
 #include "red/core/clock.hpp"
+#include "red/core/newest.hpp"
 #include "red/dds/node.hpp"
-#include "red/metrics/newest.hpp"
 #include "red/metrics/tally.hpp"
 
 namespace red::dds {

@@ -2,7 +2,9 @@
 /// \file
 /// Reading scenario files (docs/SCENARIOS.md): YAML text in, a completely validated Scenario out.
 /// Every problem comes back as an Error naming the file, the 1-based line and what is
-/// wrong; nothing throws and no half-built scenario is ever returned.
+/// wrong; nothing throws and no half-built scenario is ever returned. The scheduler section's
+/// policy options are kept as the file writes them: check them with red::check_policy_options
+/// (red/sched/policy.hpp) after loading, as the CLI does.
 ///
 ///     Expected<Scenario> s = load_scenario("scenarios/minibench-tight.yaml");
 ///     if (!s) { std::cerr << s.error().to_string() << '\n'; return 2; }
@@ -24,6 +26,12 @@ Expected<Scenario> load_scenario(const std::string& path);
 /// Same from text; `file` labels messages and anchors relative paths (profile:, model
 /// manifest:). An empty `file` leaves relative paths as written.
 Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::string& file);
+
+/// The keys of a scenario's `scheduler:` section that the scenario itself reads (gamma_ms,
+/// estimate, level_cost, max_batch, qoe_lambda, online_costs). Every other key is kept as the
+/// file writes it (SchedulerSpec::policy_options) for the policy layer to read and check
+/// (red::check_policy_options in red/sched/policy.hpp).
+const std::vector<std::string>& scheduler_keys();
 
 /// Applies one `key=value` override (`red sweep --set`, the CLI). Keys:
 /// * `deadline_scale` (> 0): multiplies every fixed deadline (end-to-end and per-node

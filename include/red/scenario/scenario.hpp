@@ -3,7 +3,9 @@
 /// The workload model of a scenario file (docs/DESIGN.md, "Task model", docs/SCENARIOS.md), with
 /// every name resolved to an index. A Scenario is produced only by load_scenario(), which validates
 /// it completely; the scheduler and the simulator may therefore rely on every invariant documented
-/// here.
+/// here. The one exception is the policy options of the scheduler section, kept as the file writes
+/// them (SchedulerSpec::policy_options): the policy layer checks them (check_policy_options in
+/// red/sched/policy.hpp), which every command that loads a scenario file calls.
 
 #include <cstdint>
 #include <memory>
@@ -134,6 +136,17 @@ struct DeviceSpec {
   std::optional<int> queue_depth;
 };
 
+/// One `key: value` of a scenario's `scheduler:` section that is not one of its own knobs
+/// (a policy option, or a key no one takes), as the file writes it.
+struct OptionText {
+  std::string key;
+  std::string what;     ///< its path in the file, for messages: "scheduler.drop"
+  std::string value;    ///< the value's text; empty when it is not a non-empty string
+  std::string problem;  ///< why the value is not text: the whole message, path first
+  int key_line = 0;     ///< the key's line (an unknown key is named there)
+  int line = 0;         ///< the value's line (a bad value is named there)
+};
+
 /// Scheduler knobs a scenario may set; presets (docs/DESIGN.md, "Policies") fill the rest.
 struct SchedulerSpec {
   /// DynamicMerge window γ (docs/DESIGN.md, "DynamicMerge").
@@ -142,10 +155,14 @@ struct SchedulerSpec {
   LevelCost level_cost = LevelCost::Max;
   int max_batch = 4;
   double qoe_lambda = 1.0;
-  /// Policy options the scenario sets for every policy run on it ("key=value,…", keys of
-  /// red::option_keys(): graph, deadlines, reassign, … — ablations, docs/DESIGN.md, "Overload");
-  /// validated.
+  /// Policy options the scenario sets for every policy run on it ("key=value,…", as
+  /// `policy_options` writes them, in file order: graph, deadlines, reassign, … — ablations,
+  /// docs/DESIGN.md, "Overload"). The policy layer reads and checks them
+  /// (red::check_policy_options in red/sched/policy.hpp).
   std::string policy_with;
+  /// Every key of the section other than the knobs above (scheduler_keys()), as the file
+  /// writes it, in file order: what `policy_with` holds, with the lines to name in an error.
+  std::vector<OptionText> policy_options;
   /// Online cost estimates (docs/DESIGN.md, "Online costs"): unset, the driver's default
   /// (on for real runs; in the simulator only where it draws costs from another profile).
   std::optional<bool> online_costs;

@@ -14,8 +14,10 @@
 #include <string_view>
 #include <vector>
 
+#include "red/core/expected.hpp"
 #include "red/core/time.hpp"
 #include "red/graph/refine.hpp"
+#include "red/scenario/scenario.hpp"
 
 namespace red {
 
@@ -125,6 +127,15 @@ std::string set_option(PolicyOptions& o, std::string_view key, std::string_view 
 
 /// Applies "key=value,key=value" (the CLI's --with); error message or empty.
 std::string apply_options(PolicyOptions& o, std::string_view list);
+
+/// Checks the policy options of a scenario's `scheduler:` section (SchedulerSpec::policy_options,
+/// as the file writes them; SchedulerSpec::policy_with is their text), as the loader once did:
+/// first a key that is neither one of the section's own (scheduler_keys()) nor an option, at its
+/// line, naming every key the section takes; then, in option_keys() order, a value that is not
+/// text or that set_option refuses, at the value's line. Every command that loads a scenario
+/// file calls it right after loading (the CLI's scenario load). An Error{scenario file, line,
+/// message}, or nullopt when every option is good.
+std::optional<Error> check_policy_options(const Scenario& s);
 
 /// The option keys set_option accepts, in documentation order.
 const std::vector<std::string>& option_keys();

@@ -1,38 +1,19 @@
 #pragma once
 /// \file
-/// One simulated run of one policy, with metrics: what `red simulate`, `red compare`,
-/// `red sweep`, the tests and the benchmarks share.
+/// What a run of a policy on a scenario is made of: the options a preset runs with there and the
+/// profile it plans with. One simulated run with its metrics is simulate_policy
+/// (red/metrics/policy_run.hpp); real runs (the CLI's drivers) use these too.
 
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "red/core/expected.hpp"
-#include "red/metrics/metrics.hpp"
 #include "red/profile/profile.hpp"
 #include "red/scenario/scenario.hpp"
-#include "red/sim/simulator.hpp"
+#include "red/sched/policy.hpp"
 
 namespace red {
-
-/// Everything one simulated run produced.
-struct PolicyRun {
-  PolicyMetrics metrics;
-  std::vector<JobRow> jobs;
-  std::vector<UnitRow> units;
-  SimResult result;
-  double wall_s = 0.0;  ///< host time the simulation took (not in summary.json)
-};
-
-/// Simulates `policy` (a preset name) on the scenario. `extra` observers see the run too;
-/// `sync` overrides the preset's synchronization mode; `costs`, when given, is the profile
-/// whose unit costs the simulator draws while the scheduler plans with `p` (SimOptions).
-/// Error for an unknown policy name.
-Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const std::string& policy,
-                                    std::uint64_t seed, const std::vector<Observer*>& extra = {},
-                                    bool keep_units = true,
-                                    std::optional<SyncMode> sync = std::nullopt,
-                                    const Profile* costs = nullptr);
 
 /// The options a preset runs with on this scenario: the preset's (docs/DESIGN.md, "Policies"), then
 /// the scenario's `scheduler:` policy options (which include the CLI's --with), then `sync` if

@@ -1,7 +1,7 @@
 // keep_newest and newest_since: the "newest N values" window written once for the runtime's
 // recent decision times and the ROS 2 node's timing windows, latencies and decision times.
 
-#include "red/metrics/newest.hpp"
+#include "red/core/newest.hpp"
 
 #include <gtest/gtest.h>
 
