@@ -181,6 +181,7 @@ PhaseAnalysis analyze_phase(const PhaseInputs& in, const PhaseWorkload& pw, std:
 
 Expected<Analysis> analyze(const Scenario& s, const Profile& p, const AnalysisOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (auto e = check_policy_options(s)) return *e;
   const auto opts = policy_options(s, o.policy);
   if (!opts) return Error{"", 0, unknown_policy_message(o.policy)};
   Analysis a;

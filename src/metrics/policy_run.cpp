@@ -13,6 +13,8 @@ Expected<PolicyRun> simulate_policy(const Scenario& s, const Profile& p, const s
                                     std::uint64_t seed, const std::vector<Observer*>& extra,
                                     bool keep_units, std::optional<SyncMode> sync,
                                     const Profile* costs) {
+  // A scenario loaded by a library caller may not have had its policy options checked.
+  if (auto e = check_policy_options(s)) return *e;
   auto pol = make_policy(policy, policy_options(s, policy, sync));
   if (!pol) return Error{"", 0, unknown_policy_message(policy)};
   PolicyRun run;

@@ -8,8 +8,8 @@ std::optional<PolicyOptions> policy_options(const Scenario& s, const std::string
                                             std::optional<SyncMode> sync) {
   auto o = preset_options(policy);
   if (!o) return std::nullopt;
-  // Checked by check_policy_options (the CLI's load) and the CLI's --with; a bad entry would
-  // leave the preset unchanged.
+  // Checked by check_policy_options (the CLI's load, simulate_policy, analyze, the DDS node)
+  // and the CLI's --with; a bad entry would leave the preset unchanged.
   (void)apply_options(*o, s.scheduler.policy_with);
   if (sync) o->sync = *sync;
   return o;

@@ -395,6 +395,27 @@ Expected expected_outputs(const std::vector<std::uint8_t>& rgb, std::uint32_t w,
   return e;
 }
 
+// A caller that loaded the scenario itself and did not check its policy options gets the
+// located error from Node::make, before any DDS entity is made, not a node that left the
+// option out.
+TEST(DdsNodeIntake, ANodeRefusesAScenarioWithABadPolicyOption) {
+  auto s = load_scenario(RED_SOURCE_DIR "/tests/dds/data/node.yaml");
+  ASSERT_TRUE(s.has_value());
+  s->scheduler.policy_options.push_back(
+      OptionText{"admission", "scheduler.admission", "sideways", "", 7, 7});
+  auto profile = resolve_profile(*s, std::nullopt);
+  ASSERT_TRUE(profile.has_value());
+  RecordingBackend backend;
+  NodeOptions o;
+  o.domain = test_domain();
+  o.realtime = false;
+  auto node = Node::make(*s, *profile, backend, o);
+  ASSERT_FALSE(node.has_value());
+  EXPECT_EQ(node.error().line, 7);
+  EXPECT_NE(node.error().message.find("scheduler.admission: "), std::string::npos);
+  EXPECT_NE(node.error().message.find("'sideways'"), std::string::npos);
+}
+
 TEST(DdsNodeIntake, EveryOutputIsItsFramesRuleWhateverTheOrderOfHeads) {
   auto s = load_scenario(RED_SOURCE_DIR "/tests/dds/data/node.yaml");
   ASSERT_TRUE(s.has_value());

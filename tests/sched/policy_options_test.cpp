@@ -8,6 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "red/analysis/analyze.hpp"
+#include "red/metrics/policy_run.hpp"
+#include "red/profile/profile.hpp"
 #include "red/scenario/loader.hpp"
 #include "red/sched/policy.hpp"
 
@@ -87,6 +90,27 @@ TEST(PolicyOptionsOfAScenario, KeysAreCheckedBeforeValuesAndValuesInOptionOrder)
   ASSERT_TRUE(e2.has_value());
   EXPECT_EQ(e2->line, 5);
   EXPECT_EQ(e2->message, "scheduler.graph: " + refusal("graph", "round"));
+}
+
+// A library caller that loads a scenario and goes straight to the simulator or the analysis
+// (without check_policy_options) gets the same located error, not a run with the option
+// silently left out.
+TEST(PolicyOptionsOfAScenario, SimulateAndAnalyzeRefuseAScenarioWhoseOptionsWereNotChecked) {
+  const Scenario bad = with_section("  gamma_ms: 10\n  admission: sideways\n");
+  const Expected<PolicyRun> run = simulate_policy(bad, default_profile(), "red", 1);
+  ASSERT_FALSE(run.has_value());
+  EXPECT_EQ(run.error().file, "o.yaml");
+  EXPECT_EQ(run.error().line, 5);
+  EXPECT_EQ(run.error().message, "scheduler.admission: " + refusal("admission", "sideways"));
+  const Expected<Analysis> a = analyze(bad, default_profile());
+  ASSERT_FALSE(a.has_value());
+  EXPECT_EQ(a.error().line, 5);
+  EXPECT_EQ(a.error().message, run.error().message);
+
+  const Scenario good = with_section("  admission: shed\n");
+  const Expected<PolicyRun> ok = simulate_policy(good, default_profile(), "red", 1);
+  ASSERT_TRUE(ok.has_value()) << ok.error().to_string();
+  EXPECT_GT(ok->metrics.jobs, 0);
 }
 
 }  // namespace

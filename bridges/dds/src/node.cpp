@@ -186,7 +186,9 @@ RuntimeReport Node::Impl::run() {
 
 Expected<std::unique_ptr<Node>> Node::make(const Scenario& scenario, const Profile& profile,
                                            Backend& backend, NodeOptions options) {
-  // The scenario's policy options (and the CLI's --with) apply, as in red run.
+  // The scenario's policy options (and the CLI's --with) apply, as in red run; checked here
+  // too, for a caller that loaded the scenario itself.
+  if (auto e = check_policy_options(scenario)) return *e;
   auto policy = make_policy(options.policy, policy_options(scenario, options.policy));
   if (!policy) return Error{"", 0, "unknown policy '" + options.policy + "'"};
   auto impl = std::make_unique<Impl>(scenario, profile, backend, std::move(options));
