@@ -3,23 +3,9 @@
 # an unwritable --points file exits 1 naming the path, and a small sweep runs.
 # Usage: cli_test.sh PATH/TO/red_load_grid
 set -u
-grid=$1
-fails=0
-expect() {  # expect RC PATTERN ARGS...
-  local rc=$1 pattern=$2
-  shift 2
-  local out got
-  out=$("$grid" "$@" 2>&1)
-  got=$?
-  if [[ $got -ne $rc ]] || ! grep -qF -- "$pattern" <<<"$out"; then
-    echo "FAIL: red_load_grid $* -> exit $got (want $rc), output:"
-    echo "$out" | tail -3
-    echo "  (want a line containing: $pattern)"
-    fails=$((fails + 1))
-  else
-    echo "ok: red_load_grid $* -> exit $rc, '$pattern'"
-  fi
-}
+PROGRAM=$1
+# shellcheck source=bench/expect.sh
+source "$(dirname "$0")/../expect.sh"
 expect 2 "--robots: 'x' is not a number" --robots x
 expect 2 "--robots must be >= 1" --robots 0
 expect 2 "--frames must be >= 1" --robots 1 --frames 0
