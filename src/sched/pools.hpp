@@ -13,63 +13,67 @@
 namespace red {
 namespace sched_detail {
 
-class JobPool {
+/// Numbered slots of T with a free list: what JobPool and TaskPool share.
+template <class T>
+class Slots {
  public:
-  [[nodiscard]] Job& operator[](int slot) noexcept { return jobs_[static_cast<std::size_t>(slot)]; }
-  [[nodiscard]] const Job& operator[](int slot) const noexcept {
-    return jobs_[static_cast<std::size_t>(slot)];
+  [[nodiscard]] T& operator[](int slot) noexcept { return items_[static_cast<std::size_t>(slot)]; }
+  [[nodiscard]] const T& operator[](int slot) const noexcept {
+    return items_[static_cast<std::size_t>(slot)];
   }
-  [[nodiscard]] Job& operator[](std::size_t slot) noexcept { return jobs_[slot]; }
-  [[nodiscard]] const Job& operator[](std::size_t slot) const noexcept { return jobs_[slot]; }
-  /// Every slot, live (Job::live) or not.
-  [[nodiscard]] std::vector<Job>& all() noexcept { return jobs_; }
+  [[nodiscard]] T& operator[](std::size_t slot) noexcept { return items_[slot]; }
+  [[nodiscard]] const T& operator[](std::size_t slot) const noexcept { return items_[slot]; }
+  /// Every slot, live or not.
+  [[nodiscard]] std::vector<T>& all() noexcept { return items_; }
 
+ protected:
+  /// A free slot, reused as it was left, or a new one (`fresh`).
+  int take(bool& fresh) {
+    fresh = free_.empty();
+    if (fresh) {
+      items_.emplace_back();
+      return static_cast<int>(items_.size() - 1);
+    }
+    const int slot = free_.back();
+    free_.pop_back();
+    return slot;
+  }
+  void give_back(int slot) { free_.push_back(slot); }
+
+ private:
+  std::vector<T> items_;
+  std::vector<int> free_;
+};
+
+class JobPool : public Slots<Job> {
+ public:
   /// A free slot (its job as it was left: release() sets every field).
   int alloc() {
-    if (!free_.empty()) {
-      const int slot = free_.back();
-      free_.pop_back();
-      return slot;
-    }
-    jobs_.emplace_back();
-    return static_cast<int>(jobs_.size() - 1);
+    bool fresh = false;
+    return take(fresh);
   }
   /// The job in `slot` is over and nothing refers to it any more: its slot is free.
   void free(int slot) {
     (*this)[slot].live = false;
-    free_.push_back(slot);
+    give_back(slot);
   }
   /// The id of the next release (a job, or a release skipped at max_inflight).
   JobId next_id() noexcept { return next_id_++; }
 
  private:
-  std::vector<Job> jobs_;
-  std::vector<int> free_;
   JobId next_id_ = 1;
 };
 
-class TaskPool {
+class TaskPool : public Slots<Task> {
  public:
-  [[nodiscard]] Task& operator[](int t) noexcept { return tasks_[static_cast<std::size_t>(t)]; }
-  [[nodiscard]] const Task& operator[](int t) const noexcept {
-    return tasks_[static_cast<std::size_t>(t)];
-  }
-  [[nodiscard]] Task& operator[](std::size_t t) noexcept { return tasks_[t]; }
-  [[nodiscard]] const Task& operator[](std::size_t t) const noexcept { return tasks_[t]; }
   /// Task t's ranking by job deadline, kept beside the tasks (TaskRank).
   [[nodiscard]] TaskRank& rank(int t) noexcept { return ranks_[static_cast<std::size_t>(t)]; }
 
   /// A free slot, its task live with no members, not ready, not waiting.
   int alloc() {
-    int t;
-    if (!free_.empty()) {
-      t = free_.back();
-      free_.pop_back();
-    } else {
-      tasks_.emplace_back();
-      ranks_.emplace_back();
-      t = static_cast<int>(tasks_.size() - 1);
-    }
+    bool fresh = false;
+    const int t = take(fresh);
+    if (fresh) ranks_.emplace_back();
     Task& k = (*this)[t];
     k.live = true;
     k.members.clear();
@@ -83,13 +87,11 @@ class TaskPool {
   /// Task t left the ready set and every list: its slot is free.
   void free(int t) {
     (*this)[t].live = false;
-    free_.push_back(t);
+    give_back(t);
   }
 
  private:
-  std::vector<Task> tasks_;
-  std::vector<TaskRank> ranks_;  // beside tasks_
-  std::vector<int> free_;
+  std::vector<TaskRank> ranks_;  // beside the tasks, slot for slot
 };
 
 }  // namespace sched_detail

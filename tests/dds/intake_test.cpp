@@ -234,16 +234,22 @@ std::pair<std::int32_t, std::uint32_t> publish(dds_entity_t writer, const std::s
   return {img.header_.stamp_.sec_, img.header_.stamp_.nanosec_};
 }
 
+// A node's options for these tests: the test's own domain, no real-time settings, no watchdog.
+NodeOptions test_node_options() {
+  NodeOptions o;
+  o.domain = test_domain();
+  o.realtime = false;
+  o.watchdog_x = 0;
+  return o;
+}
+
 TEST(DdsNodeIntake, FramesAreReleasedUnconvertedConvertedOnceWholeAndBadOnesNeverReleased) {
   auto s = load_scenario(RED_SOURCE_DIR "/tests/dds/data/node.yaml");
   ASSERT_TRUE(s.has_value());
   auto profile = resolve_profile(*s, std::nullopt);  // as red node: the built-in one
   ASSERT_TRUE(profile.has_value());
   RecordingBackend backend;
-  NodeOptions o;
-  o.domain = test_domain();
-  o.realtime = false;
-  o.watchdog_x = 0;
+  NodeOptions o = test_node_options();
   o.diagnostics_period = std::chrono::milliseconds{200};
   auto node = Node::make(*s, *profile, backend, o);
   ASSERT_TRUE(node.has_value()) << node.error().to_string();
@@ -406,10 +412,7 @@ TEST(DdsNodeIntake, ANodeRefusesAScenarioWithABadPolicyOption) {
   auto profile = resolve_profile(*s, std::nullopt);
   ASSERT_TRUE(profile.has_value());
   RecordingBackend backend;
-  NodeOptions o;
-  o.domain = test_domain();
-  o.realtime = false;
-  auto node = Node::make(*s, *profile, backend, o);
+  auto node = Node::make(*s, *profile, backend, test_node_options());
   ASSERT_FALSE(node.has_value());
   EXPECT_EQ(node.error().line, 7);
   EXPECT_NE(node.error().message.find("scheduler.admission: "), std::string::npos);
@@ -422,10 +425,7 @@ TEST(DdsNodeIntake, EveryOutputIsItsFramesRuleWhateverTheOrderOfHeads) {
   auto profile = resolve_profile(*s, std::nullopt);
   ASSERT_TRUE(profile.has_value());
   RecordingBackend backend;
-  NodeOptions o;
-  o.domain = test_domain();
-  o.realtime = false;
-  o.watchdog_x = 0;
+  const NodeOptions o = test_node_options();
   auto node = Node::make(*s, *profile, backend, o);
   ASSERT_TRUE(node.has_value()) << node.error().to_string();
   auto dom = Domain::open(o.domain, "");
