@@ -41,6 +41,15 @@ inline bool small_enough(const Scenario& s) {
 /// Simulates `s` under two presets (fine and coarse graphs) on the built-in profile when
 /// small enough; any crash or sanitizer report is a finding.
 inline void simulate_if_small(const Scenario& s) {
+  // A scenario whose scheduler options do not check is refused where it is loaded (the CLI)
+  // and by simulate_policy alike, with the file and line: not a run.
+  if (const auto e = check_policy_options(s)) {
+    if (e->file != s.file || e->message.empty())
+      fail("policy option error without file or message");
+    if (simulate_policy(s, default_profile(), "red", s.seed, {}, false))
+      fail("simulate_policy ran a scenario whose policy options do not check");
+    return;
+  }
   if (!small_enough(s)) return;
   const Profile p = default_profile();
   if (check_profile_covers(p, s)) return;
