@@ -61,17 +61,13 @@ bool pin(int cpu) {
   return pthread_setaffinity_np(pthread_self(), sizeof(set), &set) == 0;
 }
 
-// About 5 ms of a dependency chain over 64 KiB: the core's speed alone.
-std::vector<Chunk> core_bound(Clock::time_point t0, Clock::time_point end) {
-  std::vector<float> a(16384);
-  for (std::size_t i = 0; i < a.size(); ++i) a[i] = static_cast<float>(i) * 1e-3f;
+// Times `chunk` (which returns a value to keep) back to back from now until `end`.
+template <class F>
+std::vector<Chunk> timed(Clock::time_point t0, Clock::time_point end, F chunk) {
   std::vector<Chunk> out;
   while (Clock::now() < end) {
     const auto s = Clock::now();
-    double x = 1.0;
-    for (int r = 0; r < 200; ++r)
-      for (const float v : a) x = x * 0.9999999 + v;
-    keep(x);
+    keep(chunk());
     const auto e = Clock::now();
     out.push_back({std::chrono::duration<double>(s - t0).count(),
                    std::chrono::duration<double, std::milli>(e - s).count()});
@@ -79,21 +75,27 @@ std::vector<Chunk> core_bound(Clock::time_point t0, Clock::time_point end) {
   return out;
 }
 
+// About 5 ms of a dependency chain over 64 KiB: the core's speed alone.
+std::vector<Chunk> core_bound(Clock::time_point t0, Clock::time_point end) {
+  std::vector<float> a(16384);
+  for (std::size_t i = 0; i < a.size(); ++i) a[i] = static_cast<float>(i) * 1e-3f;
+  return timed(t0, end, [&] {
+    double x = 1.0;
+    for (int r = 0; r < 200; ++r)
+      for (const float v : a) x = x * 0.9999999 + v;
+    return x;
+  });
+}
+
 // One pass over `mb` MiB, a cache line a step: the memory system's speed.
 std::vector<Chunk> memory_bound(Clock::time_point t0, Clock::time_point end, std::size_t mb) {
   std::vector<double> a(mb * 1024 * 1024 / sizeof(double));
   for (std::size_t i = 0; i < a.size(); ++i) a[i] = static_cast<double>(i) * 1e-9;
-  std::vector<Chunk> out;
-  while (Clock::now() < end) {
-    const auto s = Clock::now();
+  return timed(t0, end, [&] {
     double x = 0.0;
     for (std::size_t i = 0; i < a.size(); i += 8) x += a[i];
-    keep(x);
-    const auto e = Clock::now();
-    out.push_back({std::chrono::duration<double>(s - t0).count(),
-                   std::chrono::duration<double, std::milli>(e - s).count()});
-  }
-  return out;
+    return x;
+  });
 }
 
 struct Blocks {
@@ -165,6 +167,15 @@ int main(int argc, char** argv) {
     return rc == 0 ? 0 : 2;
   }
 
+  // Opened before the probe, so that an unwritable path does not cost the run.
+  std::ofstream f;
+  if (!csv.empty()) {
+    f.open(csv);
+    if (!f) {
+      std::fprintf(stderr, "red_host_probe: cannot write %s\n", csv.c_str());
+      return 1;
+    }
+  }
   const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
   const auto t0 = Clock::now();
   const auto end =
@@ -189,8 +200,7 @@ int main(int argc, char** argv) {
                        "share the CPUs and each other's time");
   print("core-bound", blocks(core, block_s), core.size());
   print("memory-bound", blocks(memory, block_s), memory.size());
-  if (!csv.empty()) {
-    std::ofstream f(csv);
+  if (f.is_open()) {
     f << "probe,at_s,ms\n";
     for (const Chunk& c : core) f << "core," << c.at_s << ',' << c.ms << '\n';
     for (const Chunk& c : memory) f << "memory," << c.at_s << ',' << c.ms << '\n';
